@@ -1,0 +1,159 @@
+"""The block API: ports, typed parameters and the Block base class.
+
+A block is a plain class that turns frames into frames. It never touches sockets, files or processes: the
+runtime pairs its inputs by `seq`, calls `process`, stamps and sends what it returns. Declarations are class
+attributes so that the graph validator and `carav blocks` read them without building the block.
+
+    class Scale(Block):
+        '''Multiply the payload by a gain.'''
+        inputs = (In("x", kind="samples"),)
+        outputs = (Out("y", kind="samples"),)
+        params = (Param("gain", float, 1.0, "linear gain", low=0.0),)
+
+        def process(self, x: Frame) -> Frame:
+            return x.derive(x.payload * self.gain)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, ClassVar
+
+from carav_stream.frames import Frame
+
+REQUIRED = object()   # Param default for parameters a graph must set
+
+
+@dataclass(frozen=True)
+class In:
+    """An input port. `kind` is a free label checked for compatibility ("any" accepts every kind)."""
+
+    name: str
+    kind: str = "any"
+    doc: str = ""
+    dtypes: tuple[str, ...] = ()   # accepted payload dtypes; () = any, ("none",) = header-only frames
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class Out:
+    name: str
+    kind: str = "any"
+    doc: str = ""
+    dtypes: tuple[str, ...] = ()
+
+
+_TYPE_NAMES = {int: "int", float: "float", str: "str", bool: "bool", list: "list", dict: "table"}
+
+
+@dataclass(frozen=True)
+class Param:
+    """A typed parameter. `low`/`high` bound numbers (inclusive unless `strict`), `choices` enumerates values."""
+
+    name: str
+    type: type
+    default: Any = REQUIRED
+    doc: str = ""
+    low: float | None = None
+    high: float | None = None
+    strict: bool = False
+    choices: tuple[Any, ...] | None = None
+    unit: str = ""
+
+    @property
+    def required(self) -> bool:
+        return self.default is REQUIRED
+
+    def check(self, value: Any) -> tuple[Any, str | None]:
+        """(converted value, None) or (value, problem text). Ints are accepted where floats are asked."""
+        expected = _TYPE_NAMES.get(self.type, self.type.__name__)
+        if self.type is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if self.type is not bool and isinstance(value, bool) or not isinstance(value, self.type):
+            return value, f"must be {expected}, got {type(value).__name__} {value!r}"
+        if self.choices is not None and value not in self.choices:
+            return value, f"must be one of {list(self.choices)}, got {value!r}"
+        if self.low is not None and (value < self.low or (self.strict and value == self.low)):
+            return value, f"must be {'>' if self.strict else '>='} {self.low}, got {value!r}"
+        if self.high is not None and (value > self.high or (self.strict and value == self.high)):
+            return value, f"must be {'<' if self.strict else '<='} {self.high}, got {value!r}"
+        return value, None
+
+
+class BlockError(ValueError):
+    """A block was given parameters it cannot work with."""
+
+
+class Block:
+    """Base class. Subclasses declare `inputs`, `outputs`, `params` and implement `process` (or `generate`).
+
+    Life cycle, all inside the block's own process except `__init__` and `check_params`:
+      __init__(**params)  check parameters only (no I/O)
+      start()             open resources; called once in the block's process before the first frame
+      generate(seq)       sources only (no inputs): the frame(s) for output `seq`, or None at end of stream
+      process(*frames)    one frame per input, all with the same seq; returns a Frame (single output), a dict
+                          {port: Frame}, or None (nothing this time)
+      unpaired(port, f)   a frame whose partners on the other inputs can no longer arrive; default raises
+      finish()            at end of stream; may return final frames like process
+      summary()           a dict of figures for the run summary (plain types)
+    """
+
+    inputs: ClassVar[tuple[In, ...]] = ()
+    outputs: ClassVar[tuple[Out, ...]] = ()
+    params: ClassVar[tuple[Param, ...]] = ()
+    version: ClassVar[str] = "1"
+    # False: inputs are paired by seq (process gets one frame per input). True: inputs are independent
+    # streams, merged in arrival order (process gets one frame, None for the other inputs).
+    merge_inputs: ClassVar[bool] = False
+
+    def __init__(self, **values: Any) -> None:
+        problems = self.param_problems(values)
+        if problems:
+            raise BlockError("; ".join(f"{name}: {text}" for name, text in problems))
+        for p in self.params:
+            setattr(self, p.name, p.check(values[p.name])[0] if p.name in values else p.default)
+        self.check_params()
+
+    @classmethod
+    def param_problems(cls, values: dict[str, Any]) -> list[tuple[str, str]]:
+        """Every problem with `values`, as (parameter name, text); empty when they are fine."""
+        known = {p.name: p for p in cls.params}
+        problems = [(name, f"unknown parameter; {cls.__name__} takes {sorted(known) or 'none'}")
+                    for name in values if name not in known]
+        for name, p in known.items():
+            if name in values:
+                _, problem = p.check(values[name])
+                if problem:
+                    problems.append((name, problem))
+            elif p.required:
+                problems.append((name, f"missing required parameter ({p.doc or p.type.__name__})"))
+        return problems
+
+    def check_params(self) -> None:
+        """Cross-parameter checks; raise BlockError naming the parameters."""
+
+    def start(self) -> None:
+        pass
+
+    def generate(self, seq: int) -> Frame | dict[str, Frame] | None:
+        raise NotImplementedError(f"{type(self).__name__} has no inputs and must implement generate()")
+
+    def process(self, *frames: Frame) -> Frame | dict[str, Frame] | None:
+        raise NotImplementedError(f"{type(self).__name__} must implement process()")
+
+    def unpaired(self, port: str, frame: Frame) -> Frame | dict[str, Frame] | None:
+        other = [p.name for p in self.inputs if p.name != port]
+        raise BlockError(f"frame seq {frame.seq} on input {port!r} has no partner on {other}: "
+                         "an upstream node skipped it")
+
+    def finish(self) -> Frame | dict[str, Frame] | None:
+        return None
+
+    def summary(self) -> dict[str, Any]:
+        return {}
+
+    @classmethod
+    def is_source(cls) -> bool:
+        return not cls.inputs
+
+
+BlockFactory = Callable[..., Block]

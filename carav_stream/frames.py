@@ -1,0 +1,249 @@
+"""Frames: one msgpack header plus zero or more raw numpy buffers, and their validating codec.
+
+Wire format (one ZeroMQ multipart message)::
+
+    part 0      msgpack map: the header (flat, snake_case keys)
+    part 1..n   raw little-endian C-ordered bytes of each array named in header["arrays"]
+
+Reserved header keys (the runtime stamps them; blocks set their own fields beside them):
+
+    v              int    schema version (SCHEMA_VERSION)
+    stream         str    "node.port" that sent the frame
+    seq            int    sequence number on the stream (>= 0); outputs inherit the seq of their inputs
+    cycle          int    cycle index (the source's count; carried unchanged through the graph)
+    t_created_s    float  wall-clock time the source created the cycle (Unix seconds)
+    t_sent_s       float  wall-clock time of this hop's send
+    arrays         list   [[name, dtype, shape], ...] describing parts 1..n
+    node, block, block_version   provenance of the node and block version that produced the frame
+    trail          list   ["node:block@version", ...] every hop the cycle went through
+    eos            bool   end of stream: an explicit frame, never an empty payload
+
+Decoding validates everything before any use and never builds objects from the wire: msgpack ext types are
+refused, dtypes come from a whitelist of plain numeric types, and shape, size and header types are checked.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import msgpack
+import numpy as np
+
+SCHEMA_VERSION = 1
+MAX_HEADER_BYTES = 1 << 20          # 1 MiB of msgpack header
+MAX_ARRAY_BYTES = 1 << 30           # 1 GiB per message, all arrays together
+MAX_ARRAYS = 16
+MAX_NDIM = 8
+
+# Plain numeric dtypes only, little-endian on the wire. Object, void, string and datetime dtypes are refused.
+ALLOWED_DTYPES = frozenset({
+    "bool", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64",
+    "float16", "float32", "float64", "complex64", "complex128",
+})
+
+RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "t_created_s", "t_sent_s", "arrays",
+                           "node", "block", "block_version", "trail", "eos"})
+# Keys a derived frame does not inherit: the runtime stamps them anew at every hop.
+_PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block", "block_version"})
+
+_HEADER_TYPES: dict[str, tuple[type, ...]] = {
+    "v": (int,), "stream": (str,), "seq": (int,), "cycle": (int,), "t_created_s": (float, int),
+    "t_sent_s": (float, int), "arrays": (list,), "node": (str,), "block": (str,), "block_version": (str,),
+    "trail": (list,), "eos": (bool,),
+}
+_REQUIRED_KEYS = ("v", "stream", "seq", "cycle", "arrays", "eos")
+
+
+class FrameError(ValueError):
+    """A message that is not a valid frame; the text says what is wrong and where."""
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A header dict plus named arrays (the first, usually "data", is the payload).
+
+    Frames are immutable by convention: arrays received from the wire are read-only views of the message
+    buffers, and a block must never modify an array after returning it (sends do not copy).
+    """
+
+    header: dict[str, Any] = field(default_factory=dict)
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, data: np.ndarray | None = None, **fields: Any) -> "Frame":
+        """A new frame with `data` as its payload and the block's own header fields."""
+        _check_user_fields(fields)
+        return cls(dict(fields), {} if data is None else {"data": np.asarray(data)})
+
+    @property
+    def payload(self) -> np.ndarray | None:
+        return self.arrays.get("data")
+
+    @property
+    def seq(self) -> int:
+        return self.header["seq"]
+
+    @property
+    def cycle(self) -> int:
+        return self.header.get("cycle", self.header.get("seq", 0))
+
+    @property
+    def eos(self) -> bool:
+        return bool(self.header.get("eos", False))
+
+    def derive(self, data: np.ndarray | None = None, *, keep_data: bool = False,
+               arrays: Mapping[str, np.ndarray] | None = None, **fields: Any) -> "Frame":
+        """A frame for the same cycle: inherits this header (seq, cycle, trail, block fields), sets `fields`.
+
+        The payload is `data`, or this frame's arrays with `keep_data=True`, plus any named `arrays`.
+        """
+        _check_user_fields(fields)
+        header = {k: v for k, v in self.header.items() if k not in _PER_HOP_KEYS}
+        header.update(fields)
+        new_arrays: dict[str, np.ndarray] = dict(self.arrays) if keep_data else {}
+        if data is not None:
+            new_arrays["data"] = np.asarray(data)
+        if arrays:
+            new_arrays.update({k: np.asarray(a) for k, a in arrays.items()})
+        return Frame(header, new_arrays)
+
+    def with_header(self, **fields: Any) -> "Frame":
+        """The same arrays with extra header fields."""
+        return self.derive(keep_data=True, **fields)
+
+
+def end_of_stream(seq: int, **fields: Any) -> Frame:
+    return Frame({"seq": seq, "cycle": seq, "eos": True, **fields}, {})
+
+
+def _check_user_fields(fields: Mapping[str, Any]) -> None:
+    bad = sorted(set(fields) & (RESERVED_KEYS - {"cycle", "t_created_s"}))
+    if bad:
+        raise FrameError(f"header fields {bad} are reserved for the runtime; choose other names")
+
+
+def _pack_default(obj: Any) -> Any:
+    # numpy scalars in headers are common (q = np.max(...)): store them as plain numbers.
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray) and obj.size <= 64:
+        return obj.tolist()
+    raise TypeError(f"header value {obj!r} of type {type(obj).__name__} cannot go in a frame header; "
+                    "use plain numbers, strings, lists or dicts, and put arrays in the payload")
+
+
+def encode(frame: Frame, **stamp: Any) -> list[Any]:
+    """The multipart message for `frame`: [header bytes, buffer, ...]; buffers are not copied when contiguous.
+
+    `stamp` adds runtime fields (stream, node, block, ...) to the header; "v" and "arrays" are set here.
+    """
+    header = dict(frame.header)
+    header.update(stamp)
+    header["v"] = SCHEMA_VERSION
+    header.setdefault("eos", False)
+    header.setdefault("cycle", header.get("seq", 0))
+    specs, buffers = [], []
+    for name, array in frame.arrays.items():
+        array = np.asarray(array)
+        dtype = array.dtype
+        if dtype.name not in ALLOWED_DTYPES:
+            raise FrameError(f"array {name!r}: dtype {dtype} is not allowed on the wire; "
+                             f"expected one of {sorted(ALLOWED_DTYPES)}")
+        if dtype.byteorder == ">":
+            array = array.astype(dtype.newbyteorder("<"))
+        if not array.flags.c_contiguous:
+            array = np.ascontiguousarray(array)  # the one copy a non-contiguous view needs
+        specs.append([name, dtype.name, list(array.shape)])
+        buffers.append(memoryview(array.reshape(-1).view(np.uint8)) if array.size else b"")
+    header["arrays"] = specs
+    try:
+        head = msgpack.packb(header, use_bin_type=True, default=_pack_default)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise FrameError(f"header cannot be encoded: {exc}") from exc
+    return [head, *buffers]
+
+
+def _reject_ext(code: int, data: bytes) -> Any:
+    raise FrameError(f"header contains msgpack extension type {code}; extension types are refused")
+
+
+def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame:
+    """Validate and decode a multipart message (bytes or zmq.Frame parts); arrays are read-only views."""
+    if not parts:
+        raise FrameError("empty message: expected a header part")
+    head = _as_buffer(parts[0])
+    if len(head) > MAX_HEADER_BYTES:
+        raise FrameError(f"header of {len(head)} bytes exceeds the limit of {MAX_HEADER_BYTES}")
+    try:
+        header = msgpack.unpackb(head, raw=False, strict_map_key=True, ext_hook=_reject_ext,
+                                 use_list=True)
+    except FrameError:
+        raise
+    except Exception as exc:  # msgpack raises several unrelated types for truncated or garbled input
+        raise FrameError(f"header is not valid msgpack ({type(exc).__name__}: {exc})") from exc
+    if not isinstance(header, dict):
+        raise FrameError(f"header must be a msgpack map, got {type(header).__name__}")
+    _check_header(header)
+    specs = header["arrays"]
+    if len(parts) - 1 != len(specs):
+        raise FrameError(f"header announces {len(specs)} array(s) but the message has {len(parts) - 1} "
+                         "buffer part(s)")
+    arrays: dict[str, np.ndarray] = {}
+    total = 0
+    for i, spec in enumerate(specs):
+        name, dtype, shape = _check_spec(i, spec)
+        nbytes = dtype.itemsize * math.prod(shape)
+        total += nbytes
+        if total > max_array_bytes:
+            raise FrameError(f"arrays total more than the limit of {max_array_bytes} bytes")
+        buf = _as_buffer(parts[i + 1])
+        if len(buf) != nbytes:
+            raise FrameError(f"array {name!r}: shape {tuple(shape)} of {dtype.name} needs {nbytes} bytes, "
+                             f"buffer has {len(buf)}")
+        arr = np.frombuffer(buf, dtype=dtype).reshape(shape) if nbytes else np.zeros(shape, dtype)
+        arr.flags.writeable = False
+        arrays[name] = arr
+    return Frame(header, arrays)
+
+
+def _as_buffer(part: Any) -> memoryview:
+    if isinstance(part, (bytes, bytearray, memoryview)):
+        return memoryview(part)
+    buffer = getattr(part, "buffer", None)   # zmq.Frame received with copy=False
+    if buffer is None:
+        raise FrameError(f"message part of type {type(part).__name__} is not a byte buffer")
+    return buffer
+
+
+def _check_header(header: dict) -> None:
+    for key in _REQUIRED_KEYS:
+        if key not in header:
+            raise FrameError(f"header lacks required key {key!r}")
+    for key, types in _HEADER_TYPES.items():
+        if key in header and (not isinstance(header[key], types) or
+                              (bool not in types and isinstance(header[key], bool))):
+            raise FrameError(f"header key {key!r} must be {'/'.join(t.__name__ for t in types)}, "
+                             f"got {type(header[key]).__name__}")
+    if header["v"] != SCHEMA_VERSION:
+        raise FrameError(f"schema version {header['v']} is not supported; expected {SCHEMA_VERSION}")
+    if header["seq"] < 0:
+        raise FrameError(f"seq must be >= 0, got {header['seq']}")
+    if len(header["arrays"]) > MAX_ARRAYS:
+        raise FrameError(f"{len(header['arrays'])} arrays exceed the limit of {MAX_ARRAYS}")
+    if "trail" in header and not all(isinstance(t, str) for t in header["trail"]):
+        raise FrameError("header key 'trail' must be a list of strings")
+
+
+def _check_spec(i: int, spec: Any) -> tuple[str, np.dtype, list[int]]:
+    if not (isinstance(spec, list) and len(spec) == 3 and isinstance(spec[0], str) and isinstance(spec[1], str)
+            and isinstance(spec[2], list)):
+        raise FrameError(f"arrays[{i}] must be [name, dtype, shape], got {spec!r}")
+    name, dtype_name, shape = spec
+    if dtype_name not in ALLOWED_DTYPES:
+        raise FrameError(f"array {name!r}: dtype {dtype_name!r} is not allowed; expected one of "
+                         f"{sorted(ALLOWED_DTYPES)}")
+    if len(shape) > MAX_NDIM or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0
+                                        for n in shape):
+        raise FrameError(f"array {name!r}: shape {shape!r} must be at most {MAX_NDIM} non-negative integers")
+    return name, np.dtype(dtype_name).newbyteorder("<"), shape

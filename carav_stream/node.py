@@ -1,0 +1,379 @@
+"""One node of a graph, in its own OS process: `python -m carav_stream.node SPEC_FILE`.
+
+The node opens its sockets inside its own process, builds its block, says "ready" to the supervisor, and then
+receives, validates, pairs by seq, processes and sends frames until every input delivered end of stream (or,
+for a source, until it generated its cycles or was told to stop). Control messages (go, stop, swap, eos) and
+heartbeats travel on a DEALER socket to the supervisor's ROUTER. A block exception ends the process with the
+block's traceback reported to the supervisor; a bad message is rejected, counted and reported, and the node
+keeps running.
+"""
+from __future__ import annotations
+
+import collections
+import os
+import signal
+import sys
+import time
+import traceback
+from typing import Any
+
+import msgpack
+import zmq
+
+from carav_stream import transport
+from carav_stream.block import Block
+from carav_stream.frames import Frame, FrameError, decode, encode
+from carav_stream.registry import Registry
+
+HEARTBEAT_S = 0.5
+MAX_REPORTED_REJECTS = 20
+
+
+def _set_parent_death_signal() -> None:
+    """Die with the supervisor even if it is SIGKILLed (Linux prctl PR_SET_PDEATHSIG); no orphans."""
+    try:
+        import ctypes
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGKILL)   # PR_SET_PDEATHSIG = 1
+    except (OSError, AttributeError):
+        pass
+
+
+class Stop(Exception):
+    """The supervisor asked this node to end now."""
+
+
+class NodeRunner:
+    def __init__(self, spec: dict[str, Any]) -> None:
+        self.spec = spec
+        self.name: str = spec["name"]
+        self.ctx = zmq.Context()
+        self.control = self.ctx.socket(zmq.DEALER)
+        self.control.identity = self.name.encode()
+        self.control.linger = 2000
+        self.control.connect(spec["control"])
+        self.registry = Registry(spec.get("block_paths", []))
+        self.generation = spec.get("generation", 0)
+        self.block_type = spec["type"]
+        self.block: Block = self.registry.get(self.block_type).cls(**spec["params"])
+        self.cls = type(self.block)
+        sec = spec.get("security") or {}
+        self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
+                                     sec["curve_authorized"]) if sec else None
+        hwm = spec["queue_frames"]
+        self.in_ports: list[str] = [p.name for p in self.cls.inputs if p.name in spec["inputs"]]
+        self.inputs = {p: transport.bind_input(self.ctx, spec["inputs"][p], hwm, self.curve) for p in self.in_ports}
+        self.outputs: dict[str, list[tuple[str, zmq.Socket]]] = {
+            port: [(e["edge"], transport.connect_output(self.ctx, e["connect"], hwm, self.curve,
+                                                        int(spec["drain_timeout_s"] * 1000)))
+                   for e in edges]
+            for port, edges in spec["outputs"].items()}
+        self.buffers = {p: collections.deque() for p in self.in_ports}
+        self.eos: dict[str, int | None] = {}          # port -> announced count (None: upstream gone)
+        self.last_seq: dict[str, int] = {}
+        self.c_in = collections.Counter()
+        self.c_out = collections.Counter()
+        self.c_sent = collections.Counter()              # per edge
+        self.c_rejected = collections.Counter()
+        self.c_unpaired = collections.Counter()
+        self.c_undeliverable = collections.Counter()     # per edge cut because its consumer died for good
+        self.cut: set[str] = set()
+        self.n_reports = 0
+        self.processed = 0
+        self.consumed = 0                                # input frames handed to the block
+        self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
+        self.first_seq_of_block = None
+        self.go = not self.cls.is_source()
+        self.released = False
+        self.stopping = False
+        self.pending_swap: dict[str, Any] | None = None
+        self.next_hb = 0.0
+        self.seq = spec.get("start_seq", 0)
+
+    # -- control plane -------------------------------------------------------------------------------------
+    def tell(self, kind: str, **fields: Any) -> None:
+        self.control.send(msgpack.packb({"type": kind, "node": self.name, "pid": os.getpid(), **fields},
+                                        use_bin_type=True))
+
+    def counters(self) -> dict[str, Any]:
+        return {"in": dict(self.c_in), "out": dict(self.c_out), "sent": dict(self.c_sent),
+                "rejected": dict(self.c_rejected), "unpaired": dict(self.c_unpaired),
+                "undeliverable": dict(self.c_undeliverable),
+                "processed": self.processed, "consumed": self.consumed, "block": self.block_type, "generation": self.generation}
+
+    def idle(self) -> None:
+        """Serve control messages and heartbeats; called between frames and while blocked."""
+        now = time.monotonic()
+        if now >= self.next_hb:
+            self.tell("hb", counters=self.counters())
+            self.next_hb = now + HEARTBEAT_S
+        while self.control.poll(0):
+            msg = msgpack.unpackb(self.control.recv(), raw=False, strict_map_key=True)
+            kind = msg.get("type")
+            if kind == "go":
+                self.go = True
+            elif kind == "stop":
+                self.stopping = True
+            elif kind == "abort":
+                raise Stop()
+            elif kind == "exit":
+                self.released = True
+            elif kind == "swap":
+                self.pending_swap = msg
+            elif kind == "eos":                 # an upstream node died for good: its input ends here
+                for port in msg.get("ports", []):
+                    self.eos.setdefault(port, None)
+            elif kind == "cut":                 # a downstream node died for good: stop feeding it
+                self.cut.update(msg.get("edges", []))
+
+    def apply_swap(self) -> None:
+        msg, self.pending_swap = self.pending_swap, None
+        try:
+            new = self.registry.get(msg["block"]).cls(**msg.get("params", {}))
+            new.start()
+        except Exception as exc:   # the old block keeps running; the supervisor tells the user why
+            self.tell("swap_failed", id=msg.get("id"), error=f"{type(exc).__name__}: {exc}")
+            return
+        self.close_block(next_seq=self.seq)
+        self.block, self.cls, self.block_type = new, type(new), msg["block"]
+        self.generation += 1
+        self.first_seq_of_block = None
+        self.tell("swapped", id=msg.get("id"), block=self.block_type, version=self.cls.version,
+                  generation=self.generation, next_seq=self.seq)
+
+    def close_block(self, next_seq: int) -> None:
+        self.history.append({"block": self.block_type, "version": self.cls.version, "generation": self.generation,
+                             "first_seq": self.first_seq_of_block, "next_seq": next_seq,
+                             "summary": self.block.summary()})
+
+    # -- data plane ----------------------------------------------------------------------------------------
+    def reject(self, port: str, reason: str) -> None:
+        self.c_rejected[port] += 1
+        if self.n_reports < MAX_REPORTED_REJECTS:
+            self.n_reports += 1
+            self.tell("reject", port=port, reason=reason, count=self.c_rejected[port])
+
+    def receive(self, port: str) -> None:
+        sock = self.inputs[port]
+        for _ in range(64):                  # drain a burst, then let the others speak
+            try:
+                parts = sock.recv_multipart(flags=zmq.NOBLOCK, copy=False)
+            except zmq.Again:
+                return
+            try:
+                frame = decode(parts)
+            except FrameError as exc:
+                self.reject(port, str(exc))
+                continue
+            if frame.eos:
+                self.eos[port] = frame.header.get("count")
+                return
+            seq = frame.seq
+            if port in self.last_seq and seq <= self.last_seq[port]:
+                self.reject(port, f"seq {seq} after {self.last_seq[port]}: duplicate or out of order")
+                continue
+            self.last_seq[port] = seq
+            self.c_in[port] += 1
+            self.buffers[port].append(frame)
+
+    def emit(self, result: Any, context: Frame | None) -> None:
+        if result is None:
+            return
+        if isinstance(result, Frame):
+            if len(self.cls.outputs) != 1:
+                raise TypeError(f"{self.cls.__name__}.process returned one Frame but the block has "
+                                f"{len(self.cls.outputs)} outputs; return a dict {{port: Frame}}")
+            result = {self.cls.outputs[0].name: result}
+        for port, frame in result.items():
+            if frame is None:
+                continue
+            if port not in {p.name for p in self.cls.outputs}:
+                raise KeyError(f"{self.cls.__name__} returned a frame for unknown output {port!r}")
+            self.send(port, frame, context)
+
+    def send(self, port: str, frame: Frame, context: Frame | None) -> None:
+        h = frame.header
+        if context is not None:
+            seq, cycle = context.seq, context.cycle
+            trail = list(h.get("trail", context.header.get("trail", [])))
+            t_created = h.get("t_created_s", context.header.get("t_created_s", time.time()))
+        else:
+            seq, cycle, trail, t_created = self.seq, h.get("cycle", self.seq), [], h.get("t_created_s", time.time())
+        if self.first_seq_of_block is None:
+            self.first_seq_of_block = seq
+        hop = f"{self.name}:{self.block_type}@{self.cls.version}#{self.generation}"
+        parts = encode(frame, stream=f"{self.name}.{port}", seq=seq, cycle=cycle, t_created_s=t_created,
+                       t_sent_s=time.time(), node=self.name, block=self.block_type,
+                       block_version=f"{self.cls.version}#{self.generation}", trail=trail + [hop])
+        self.c_out[port] += 1
+        for edge, sock in self.outputs.get(port, []):
+            if edge not in self.cut and transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut):
+                self.c_sent[edge] += 1
+            else:
+                self.c_undeliverable[edge] += 1
+
+    def send_eos(self) -> None:
+        for port, edges in self.outputs.items():
+            for edge, sock in edges:
+                parts = encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
+                               stream=f"{self.name}.{port}", node=self.name, block=self.block_type)
+                if edge not in self.cut:
+                    transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut)
+
+    def pump(self) -> None:
+        """Process every frame set that is complete (all inputs at the same seq) or can never complete."""
+        ports = self.in_ports
+        while True:
+            if self.pending_swap:
+                self.apply_swap()
+            heads = {p: self.buffers[p][0] for p in ports if self.buffers[p]}
+            if not heads:
+                return
+            if self.cls.merge_inputs:
+                port = next(iter(heads))
+                self.run_block("process", [self.buffers[port].popleft()], port)
+                continue
+            if len(heads) == len(ports):
+                seqs = {f.seq for f in heads.values()}
+                if len(seqs) == 1:
+                    frames = [self.buffers[p].popleft() for p in ports]
+                    self.run_block("process", frames)
+                    continue
+                top = max(seqs)
+                port = next(p for p, f in heads.items() if f.seq < top)
+            else:
+                finished = [p for p in ports if not self.buffers[p] and p in self.eos]
+                if not finished:
+                    return
+                port = min(heads, key=lambda p: heads[p].seq)
+            frame = self.buffers[port].popleft()
+            self.c_unpaired[port] += 1
+            self.run_block("unpaired", [frame], port)
+
+    def run_block(self, what: str, frames: list[Frame], port: str | None = None) -> None:
+        context = frames[0]
+        self.seq = context.seq
+        if what == "process":
+            full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
+            args = [full.get(p.name) for p in self.cls.inputs]
+            result = self.block.process(*args)
+        else:
+            result = self.block.unpaired(port, context)
+        self.processed += 1
+        self.consumed += len(frames)
+        self.emit(result, context)
+        self.seq = context.seq + 1
+        self.idle()
+
+    # -- main loops ----------------------------------------------------------------------------------------
+    def run_source(self) -> None:
+        max_cycles = self.spec.get("max_cycles", 0)
+        while not self.go:
+            self.control.poll(100)
+            self.idle()
+        while not self.stopping and (not max_cycles or self.seq < max_cycles):
+            if self.pending_swap:
+                self.apply_swap()
+            result = self.block.generate(self.seq)
+            if result is None:
+                break
+            self.processed += 1
+            self.emit(result, None)
+            self.seq += 1
+            self.idle()
+
+    def run_filter(self) -> None:
+        poller = zmq.Poller()
+        poller.register(self.control, zmq.POLLIN)
+        limit = max(4, 4 * self.spec["queue_frames"])
+        while True:
+            self.idle()
+            self.pump()
+            if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
+                return
+            for p, sock in self.inputs.items():
+                want = p not in self.eos and len(self.buffers[p]) < limit
+                if want and sock not in poller:
+                    poller.register(sock, zmq.POLLIN)
+                elif not want and sock in poller:
+                    poller.unregister(sock)
+            events = dict(poller.poll(HEARTBEAT_S * 1000))
+            for p, sock in self.inputs.items():
+                if sock in events:
+                    self.receive(p)
+
+    def run(self) -> int:
+        self.block.start()
+        self.tell("ready", block=self.block_type, version=self.cls.version)
+        try:
+            if self.cls.is_source():
+                self.run_source()
+            else:
+                self.run_filter()
+            self.emit(self.block.finish(), None if not self.in_ports else Frame({"seq": self.seq}))
+        except Stop:
+            return 2
+        self.send_eos()
+        self.close_block(next_seq=self.seq)
+        lost = {p: n - self.c_in[p] for p, n in self.eos.items() if n is not None and n != self.c_in[p]}
+        self.tell("done", counters=self.counters(), history=self.history, lost=lost,
+                  upstream_gone=sorted(p for p, n in self.eos.items() if n is None))
+        # Stay alive until the supervisor releases every node: ZeroMQ drops the frames still buffered in a
+        # connection when the sending process exits while its consumer's queue is full (linger does not help).
+        deadline = time.monotonic() + self.spec["drain_timeout_s"]
+        while not self.released and time.monotonic() < deadline:
+            self.control.poll(HEARTBEAT_S * 1000)
+            self.idle()
+        return 0
+
+
+def main(argv: list[str]) -> int:
+    _set_parent_death_signal()
+    # Ctrl-C and a group-wide SIGTERM go to the supervisor too, which stops the nodes in order; a node dies
+    # with its supervisor through the parent-death signal, and the supervisor kills with SIGKILL.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    with open(argv[0], "rb") as fh:
+        spec = msgpack.unpackb(fh.read(), raw=False, strict_map_key=True)
+    runner = None
+    try:
+        runner = NodeRunner(spec)
+        code = runner.run()
+    except BaseException as exc:  # report, with the traceback, then fail: the supervisor decides what next
+        tb = traceback.format_exc()
+        print(tb, file=sys.stderr, flush=True)
+        try:
+            ctx = runner.ctx if runner else zmq.Context()
+            if runner:
+                for sock in [*runner.inputs.values(), *(s for e in runner.outputs.values() for _, s in e)]:
+                    sock.close(linger=0)   # a crashed node must not hang on undelivered frames
+                if runner.curve:
+                    runner.curve.close()
+                ctl = runner.control
+            else:
+                ctl = ctx.socket(zmq.DEALER)
+                ctl.identity = spec["name"].encode()
+                ctl.connect(spec["control"])
+            ctl.send(msgpack.packb({"type": "error", "node": spec["name"], "pid": os.getpid(),
+                                    "error": f"{type(exc).__name__}: {exc}", "traceback": tb,
+                                    "counters": runner.counters() if runner else {}}, use_bin_type=True))
+            ctl.close(linger=2000)
+            ctx.term()                     # flushes the report to the supervisor
+        except Exception:
+            pass
+        os._exit(1)
+    if runner is not None:
+        for edges in runner.outputs.values():
+            for edge, sock in edges:   # linger: queued frames still leave, except towards a dead consumer
+                sock.close(linger=0 if edge in runner.cut else None)
+        for sock in runner.inputs.values():
+            sock.close(linger=0)
+        runner.control.close(linger=2000)
+        if runner.curve:
+            runner.curve.close()
+        runner.ctx.term()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

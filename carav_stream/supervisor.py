@@ -1,0 +1,448 @@
+"""The supervisor: start every node of a graph in its own process, watch them, stop them in order.
+
+Run directory: `$CARAV_RUN_DIR` (else the system temp folder) / `carav-<uid>/<run id>/`, mode 0700, holding
+the ipc endpoints, the node specs, each node's log and `run.json` (how `carav status|stop|swap` find the
+run). It is removed when the run ends, whatever the way it ends.
+
+Stop order: sources are told to stop, end of stream flows down the graph behind the last frames, and each
+node exits once it has drained; the sinks end last. A second Ctrl-C (or the drain deadline) kills what is left.
+"""
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import msgpack
+import zmq
+
+from carav_stream import transport
+from carav_stream.graph import LOCAL_HOST, Graph, swap_problems
+
+
+def run_root() -> Path:
+    base = Path(os.environ.get("CARAV_RUN_DIR") or tempfile.gettempdir())
+    root = base / f"carav-{os.getuid()}"
+    root.mkdir(mode=0o700, parents=True, exist_ok=True)
+    return root
+
+
+@dataclass
+class NodeState:
+    name: str
+    spec: dict[str, Any]
+    proc: subprocess.Popen | None = None
+    ready: bool = False
+    done: bool = False
+    failed: bool = False
+    last_seen: float = 0.0
+    counters: dict[str, Any] = field(default_factory=dict)
+    dead_counters: list[dict[str, Any]] = field(default_factory=list)   # of crashed incarnations
+    restarts: int = 0
+    history: list[dict[str, Any]] = field(default_factory=list)
+    lost: dict[str, int] = field(default_factory=dict)
+    rejects: list[str] = field(default_factory=list)
+    error: str | None = None
+
+
+class Supervisor:
+    def __init__(self, graph: Graph, *, host: str | None = None, cycles: int | None = None,
+                 progress: bool | None = None, log: Callable[[str], None] | None = None) -> None:
+        self.graph = graph
+        self.host = host
+        self.cycles = graph.run["cycles"] if cycles is None else cycles
+        self.progress = sys.stderr.isatty() if progress is None else progress
+        self.log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+        self.run_id = f"{graph.path.stem[:24]}-{secrets.token_hex(3)}"
+        self.run_dir = run_root() / self.run_id
+        self.nodes: dict[str, NodeState] = {}
+        self.failures: list[str] = []
+        self.swaps: list[dict[str, Any]] = []
+        self.signals = 0
+        self.pending_admin: dict[str, Any] | None = None
+        self.t_go = self.t_end = 0.0
+
+    # -- planning ------------------------------------------------------------------------------------------
+    def local_nodes(self) -> list[str]:
+        if self.host is None:
+            return list(self.graph.nodes)
+        return [n for n, node in self.graph.nodes.items() if node.host == self.host]
+
+    def plan(self) -> None:
+        g = self.graph
+        endpoints: dict[tuple[str, str], tuple[str, str]] = {}   # input -> (bind, connect)
+        cross_ports: dict[str, int] = {}
+        for e in sorted(g.edges, key=lambda e: (e.dst, e.dst_port)):
+            dst_host = g.hosts[g.nodes[e.dst].host]
+            if g.nodes[e.src].host == g.nodes[e.dst].host:
+                ep = transport.ipc_endpoint(self.run_dir, f"{e.dst}.{e.dst_port}")
+                endpoints[(e.dst, e.dst_port)] = (ep, ep)
+            else:
+                if not dst_host.port_base:
+                    raise ValueError(f"{g.path.name}: edge '{e}' crosses hosts; set hosts.{dst_host.name}.port_base")
+                port = dst_host.port_base + cross_ports.setdefault(dst_host.name, 0)
+                cross_ports[dst_host.name] += 1
+                endpoints[(e.dst, e.dst_port)] = (f"tcp://{dst_host.bind}:{port}", f"tcp://{dst_host.address}:{port}")
+        control = transport.ipc_endpoint(self.run_dir, "control")
+        for name in self.local_nodes():
+            node = g.nodes[name]
+            outputs: dict[str, list[dict[str, str]]] = {}
+            for e in g.edges_from(name):
+                outputs.setdefault(e.src_port, []).append({"edge": str(e), "connect": endpoints[(e.dst, e.dst_port)][1]})
+            spec = {
+                "name": name, "type": node.type, "params": node.params, "control": control,
+                "inputs": {e.dst_port: endpoints[(e.dst, e.dst_port)][0] for e in g.edges_into(name)},
+                "outputs": outputs, "queue_frames": int(g.run["queue_frames"]),
+                "drain_timeout_s": float(g.run["drain_timeout_s"]),
+                "max_cycles": int(self.cycles or 0) if not g.edges_into(name) else 0,
+                "block_paths": [str(p) for p in g.registry.paths[1:]],
+                "security": {k: str(v) for k, v in g.security.items()},
+            }
+            self.nodes[name] = NodeState(name, spec)
+
+    # -- process management --------------------------------------------------------------------------------
+    def spawn(self, st: NodeState) -> None:
+        spec_path = self.run_dir / f"{st.name}.spec"
+        spec_path.write_bytes(msgpack.packb(st.spec, use_bin_type=True))
+        logf = open(self.run_dir / f"{st.name}.log", "ab")
+        st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.node", str(spec_path)],
+                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf)
+        logf.close()
+        st.ready = st.done = st.failed = False
+        st.last_seen = time.monotonic()
+
+    def send(self, name: str, kind: str, **fields: Any) -> None:
+        self.router.send_multipart([name.encode(), msgpack.packb({"type": kind, **fields}, use_bin_type=True)])
+
+    def log_tail(self, name: str, n: int = 25) -> str:
+        try:
+            lines = (self.run_dir / f"{name}.log").read_text(errors="replace").splitlines()
+        except OSError:
+            return ""
+        return "\n".join(lines[-n:])
+
+    # -- messages ------------------------------------------------------------------------------------------
+    def drain_router(self) -> None:
+        while True:
+            try:
+                ident, body = self.router.recv_multipart(flags=zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            self.on_node_message(ident.decode(), msgpack.unpackb(body, raw=False, strict_map_key=True))
+
+    def on_node_message(self, name: str, msg: dict[str, Any]) -> None:
+        st = self.nodes.get(name)
+        if st is None:
+            return
+        if st.proc is not None and msg.get("pid") not in (None, st.proc.pid):
+            return        # a message from a dead incarnation
+        st.last_seen = time.monotonic()
+        kind = msg.get("type")
+        if "counters" in msg:
+            st.counters = msg["counters"]
+        if kind == "ready":
+            st.ready = True
+        elif kind == "done":
+            st.done = True
+            st.history = msg.get("history", [])
+            st.lost = msg.get("lost", {})
+        elif kind == "error":
+            st.error = msg.get("traceback") or msg.get("error")
+        elif kind == "reject":
+            text = f"node {name!r} input {msg['port']!r}: rejected frame #{msg['count']}: {msg['reason']}"
+            st.rejects.append(text)
+            self.log(f"carav: {text}")
+        elif kind in ("swapped", "swap_failed"):
+            if kind == "swapped":
+                st.spec["type"] = msg["block"]
+                st.spec["params"] = (self.pending_admin or {}).get("params", st.spec["params"])
+                st.spec["generation"] = msg["generation"]
+                self.swaps.append({"node": name, "block": msg["block"], "version": msg["version"],
+                                   "generation": msg["generation"], "first_seq": msg["next_seq"]})
+                self.log(f"carav: swapped {name} to {msg['block']} from seq {msg['next_seq']}")
+            self.reply_admin({"ok": kind == "swapped", **{k: v for k, v in msg.items() if k != "type"}})
+
+    def on_admin(self, req: dict[str, Any]) -> None:
+        cmd = req.get("cmd")
+        if cmd == "status":
+            self.admin.send(msgpack.packb(self.status(), use_bin_type=True))
+        elif cmd == "stop":
+            self.request_stop("carav stop")
+            self.admin.send(msgpack.packb({"ok": True}, use_bin_type=True))
+        elif cmd == "swap" and self.pending_admin is None:
+            node, block, params = req.get("node"), req.get("block"), req.get("params", {})
+            problems = swap_problems(self.graph, node, block, params)
+            if not problems and node not in self.nodes:
+                problems = [f"node {node!r} does not run on this host"]
+            if problems:
+                self.admin.send(msgpack.packb({"ok": False, "error": "; ".join(problems)}, use_bin_type=True))
+                return
+            self.pending_admin = {**req, "deadline": time.monotonic() + 30}
+            self.send(node, "swap", block=block, params=params, id=1)
+        else:
+            self.admin.send(msgpack.packb({"ok": False, "error": f"unknown or busy command {cmd!r}"},
+                                          use_bin_type=True))
+
+    def reply_admin(self, reply: dict[str, Any]) -> None:
+        if self.pending_admin is not None:
+            self.pending_admin = None
+            self.admin.send(msgpack.packb(reply, use_bin_type=True))
+
+    def status(self) -> dict[str, Any]:
+        elapsed = max(time.monotonic() - self.t_go, 1e-9) if self.t_go else 0.0
+        return {"run": self.run_id, "graph": str(self.graph.path), "pid": os.getpid(), "elapsed_s": elapsed,
+                "cycles": self.cycles_done(),
+                "nodes": {n: {"pid": st.proc.pid if st.proc else None, "alive": bool(st.proc and st.proc.poll() is None),
+                              "restarts": st.restarts, "counters": st.counters,
+                              "rate_per_s": st.counters.get("processed", 0) / elapsed if elapsed else 0.0}
+                          for n, st in self.nodes.items()}}
+
+    def cycles_done(self) -> int:
+        sources = [n for n in self.nodes if not self.graph.edges_into(n)]
+        return max((self.nodes[n].counters.get("processed", 0) + sum(c.get("processed", 0) for c in self.nodes[n].dead_counters)
+                    for n in sources), default=0)
+
+    # -- failure handling ----------------------------------------------------------------------------------
+    def check_processes(self) -> None:
+        self.drain_router()   # a dead node's last words (its error and final counters) come first
+        now = time.monotonic()
+        for st in self.nodes.values():
+            if st.proc is None or st.done or st.failed:
+                continue
+            code = st.proc.poll()
+            hung = code is None and st.ready and now - st.last_seen > self.graph.run["heartbeat_timeout_s"]
+            if code is None and not hung:
+                continue
+            if code is not None and st.error is None and now - st.last_seen < 1.0 and not getattr(st, "grace", False):
+                st.grace = True      # its last report may still be on the way: look again next round
+                continue
+            if code == 0:   # a node exits 0 only after "done", which may still be in flight
+                if now - st.last_seen > 5:
+                    st.done = True
+                continue
+            if hung:
+                st.proc.kill()
+                st.proc.wait()
+                reason = f"no heartbeat for {self.graph.run['heartbeat_timeout_s']:.0f} s (hung); killed"
+            else:
+                reason = f"exited with {'signal ' + signal.Signals(-code).name if code < 0 else 'status ' + str(code)}"
+            self.node_failed(st, reason)
+
+    def node_failed(self, st: NodeState, reason: str) -> None:
+        detail = st.error or self.log_tail(st.name)
+        self.log(f"carav: node {st.name!r} ({st.spec['type']}) failed: {reason}\n{_indent(detail)}")
+        st.grace = False
+        st.dead_counters.append(st.counters)
+        st.counters = {}
+        policy = self.graph.nodes[st.name].restart
+        if policy.policy == "on-failure" and st.restarts < policy.max_restarts and not self.signals:
+            st.restarts += 1
+            st.error = None
+            st.spec["start_seq"] = st.dead_counters[-1].get("processed", 0) if not self.graph.edges_into(st.name) else 0
+            self.log(f"carav: restarting {st.name!r} ({st.restarts}/{policy.max_restarts})")
+            self.spawn(st)
+            self.pending_go.add(st.name)
+            return
+        st.failed = True
+        self.failures.append(f"node {st.name!r} ({st.spec['type']}) failed: {reason}")
+        # its consumers will get no end of stream from it: tell them their inputs end here; its producers
+        # must stop waiting on it (what they cannot deliver is counted lost, edge by edge)
+        for e in self.graph.edges_from(st.name):
+            if e.dst in self.nodes:
+                self.send(e.dst, "eos", ports=[e.dst_port])
+        for e in self.graph.edges_into(st.name):
+            if e.src in self.nodes:
+                self.send(e.src, "cut", edges=[str(e)])
+        self.request_stop(f"node {st.name!r} failed")
+
+    def request_stop(self, why: str) -> None:
+        if not getattr(self, "stop_requested", None):
+            self.stop_requested = why
+            self.stop_deadline = time.monotonic() + self.graph.run["drain_timeout_s"]
+            for n in self.nodes:
+                if not self.graph.edges_into(n):
+                    self.send(n, "stop")
+
+    def on_signal(self, signum, frame) -> None:
+        self.signals += 1
+        if self.signals >= 2:
+            self.kill_all()
+
+    def kill_all(self) -> None:
+        for st in self.nodes.values():
+            if st.proc and st.proc.poll() is None:
+                st.proc.kill()
+
+    # -- main ----------------------------------------------------------------------------------------------
+    def run(self) -> dict[str, Any]:
+        self.run_dir.mkdir(mode=0o700)
+        self.stop_requested = None
+        self.pending_go: set[str] = set()
+        old = {s: signal.signal(s, self.on_signal) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+        self.ctx = zmq.Context()
+        try:
+            self.router = self.ctx.socket(zmq.ROUTER)
+            self.router.linger = 0
+            self.router.bind(transport.ipc_endpoint(self.run_dir, "control"))
+            self.admin = self.ctx.socket(zmq.REP)
+            self.admin.linger = 0
+            self.admin.bind(transport.ipc_endpoint(self.run_dir, "admin"))
+            self.plan()
+            (self.run_dir / "run.json").write_text(json.dumps({
+                "run": self.run_id, "pid": os.getpid(), "graph": str(self.graph.path.resolve()),
+                "host": self.host or LOCAL_HOST, "started": time.time(),
+                "admin": transport.ipc_endpoint(self.run_dir, "admin")}))
+            for st in self.nodes.values():
+                self.spawn(st)
+            self.loop()
+        finally:
+            deadline = time.monotonic() + 10
+            for st in self.nodes.values():   # released nodes exit by themselves; kill what does not
+                if st.proc and st.done:
+                    try:
+                        st.proc.wait(max(0.0, deadline - time.monotonic()))
+                    except subprocess.TimeoutExpired:
+                        pass
+            self.kill_all()
+            for st in self.nodes.values():
+                if st.proc:
+                    st.proc.wait()
+            self.ctx.destroy(linger=0)
+            for s, h in old.items():
+                signal.signal(s, h)
+            if not os.environ.get("CARAV_KEEP_RUN_DIR"):   # debugging aid: keep node logs and specs
+                shutil.rmtree(self.run_dir, ignore_errors=True)
+        return self.summary()
+
+    def loop(self) -> None:
+        poller = zmq.Poller()
+        poller.register(self.router, zmq.POLLIN)
+        poller.register(self.admin, zmq.POLLIN)
+        ready_deadline = time.monotonic() + self.graph.run["ready_timeout_s"]
+        started = False
+        next_progress = 0.0
+        while True:
+            for sock, _ in poller.poll(100):
+                if sock is self.router:
+                    self.drain_router()
+                else:
+                    self.on_admin(msgpack.unpackb(self.admin.recv(), raw=False, strict_map_key=True))
+            if self.signals and not self.stop_requested:
+                self.request_stop("signal")
+            self.check_processes()
+            if not started:
+                if all(st.ready or st.failed for st in self.nodes.values()):
+                    started = True
+                    self.t_go = time.monotonic()
+                    for n in self.nodes:
+                        self.send(n, "go")
+                elif time.monotonic() > ready_deadline:
+                    late = [n for n, st in self.nodes.items() if not st.ready]
+                    self.failures.append(f"nodes not ready after {self.graph.run['ready_timeout_s']:.0f} s: {late}")
+                    for n in late:
+                        self.log(f"carav: node {n!r} not ready; its log:\n{_indent(self.log_tail(n))}")
+                    break
+            for n in list(self.pending_go):
+                if self.nodes[n].ready:
+                    self.send(n, "go")
+                    if self.stop_requested and not self.graph.edges_into(n):
+                        self.send(n, "stop")
+                    self.pending_go.discard(n)
+            if self.pending_admin and time.monotonic() > self.pending_admin["deadline"]:
+                self.reply_admin({"ok": False, "error": "the node did not confirm the swap within 30 s"})
+            if all(st.done or st.failed for st in self.nodes.values()):
+                for n, st in self.nodes.items():
+                    if st.done:
+                        self.send(n, "exit")
+                break
+            if not self.stop_requested and started and all(
+                    self.nodes[n].done or self.nodes[n].failed for n in self.nodes if not self.graph.edges_into(n)):
+                # the sources have finished: what is still in flight must drain within the deadline
+                self.stop_requested = "end of stream"
+                self.stop_deadline = time.monotonic() + self.graph.run["drain_timeout_s"]
+            if self.stop_requested and time.monotonic() > self.stop_deadline:
+                late = [n for n, st in self.nodes.items() if not (st.done or st.failed)]
+                self.failures.append(f"drain deadline of {self.graph.run['drain_timeout_s']:.0f} s passed; killed {late}")
+                break
+            if self.signals >= 2:
+                self.failures.append("killed by a second interrupt")
+                break
+            if self.progress and time.monotonic() >= next_progress and started:
+                next_progress = time.monotonic() + 0.5
+                self.draw_progress()
+        self.t_end = time.monotonic()
+        if self.progress:
+            print(file=sys.stderr)
+
+    def draw_progress(self) -> None:
+        elapsed = max(time.monotonic() - self.t_go, 1e-9)
+        n = self.cycles_done()
+        total = f"/{self.cycles}" if self.cycles else ""
+        rejected = sum(sum(st.counters.get("rejected", {}).values()) for st in self.nodes.values())
+        print(f"\r[carav] {n}{total} cycles  {n / elapsed:8.1f} cycles/s  rejected {rejected}  "
+              f"restarts {sum(st.restarts for st in self.nodes.values())}   ", end="", file=sys.stderr, flush=True)
+
+    # -- summary -------------------------------------------------------------------------------------------
+    def summary(self) -> dict[str, Any]:
+        wall = max(self.t_end - self.t_go, 1e-9) if self.t_go else 0.0
+        per_node: dict[str, Any] = {}
+        for n, st in self.nodes.items():
+            incarnations = [*st.dead_counters, st.counters]
+            def total(key: str) -> dict[str, int]:
+                out: dict[str, int] = {}
+                for c in incarnations:
+                    for k, v in c.get(key, {}).items():
+                        out[k] = out.get(k, 0) + v
+                return out
+            per_node[n] = {"block": st.spec["type"], "in": total("in"), "out": total("out"), "sent": total("sent"),
+                           "rejected": total("rejected"), "unpaired": total("unpaired"),
+                           "undeliverable": total("undeliverable"),
+                           "processed": sum(c.get("processed", 0) for c in incarnations), "restarts": st.restarts,
+                           "failed": st.failed, "history": st.history}
+        lost = 0
+        edge_loss = {}
+        for e in self.graph.edges:
+            if e.src in per_node and e.dst in per_node:
+                sent = per_node[e.src]["sent"].get(str(e), 0)
+                got = per_node[e.dst]["in"].get(e.dst_port, 0) + per_node[e.dst]["rejected"].get(e.dst_port, 0)
+                missed = sent - got + per_node[e.src]["undeliverable"].get(str(e), 0)
+                if missed:
+                    edge_loss[str(e)] = missed
+                    lost += max(0, missed)
+        # frames a crashed incarnation had received but not finished died with it
+        for n, st in self.nodes.items():
+            if self.graph.edges_into(n):
+                for c in st.dead_counters:
+                    died = sum(c.get("in", {}).values()) - c.get("consumed", 0)
+                    if died > 0:
+                        edge_loss[f"inside {n} (crashed)"] = edge_loss.get(f"inside {n} (crashed)", 0) + died
+                        lost += died
+        cycles = self.cycles_done()
+        result: dict[str, Any] = {
+            "graph": str(self.graph.path), "run": self.run_id, "host": self.host or LOCAL_HOST,
+            "cycles": cycles, "lost": lost, "lost_by_edge": edge_loss,
+            "rejected": sum(sum(p["rejected"].values()) for p in per_node.values()),
+            "unpaired": sum(sum(p["unpaired"].values()) for p in per_node.values()),
+            "restarts": sum(st.restarts for st in self.nodes.values()),
+            "failures": self.failures, "swaps": self.swaps, "stopped_by": self.stop_requested,
+            "wall_s": wall, "throughput_cycles_per_s": cycles / wall if wall else 0.0, "per_node": per_node,
+        }
+        # Blocks may contribute run-level figures: a summary() key "run" is merged into the top level.
+        for n, st in self.nodes.items():
+            for h in st.history:
+                for k, v in (h.get("summary") or {}).get("run", {}).items():
+                    result.setdefault(k, v)
+        return result
+
+
+def _indent(text: str) -> str:
+    return "\n".join("    " + line for line in text.splitlines())

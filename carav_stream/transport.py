@@ -1,0 +1,109 @@
+"""ZeroMQ plumbing: one PULL socket bound per input port, one PUSH socket per edge connected to it.
+
+Every input port binds its own endpoint (`ipc://RUNDIR/node.port`, or `tcp://bind:port` for an edge that
+crosses hosts), so a producer with several edges on one output port sends each frame to each edge in order.
+High-water marks bound every queue and sends block when a queue is full: a slow consumer slows its
+producers and nothing is dropped. On tcp edges ZeroMQ's CURVE mechanism authenticates and encrypts: the
+binding side is the CURVE server (its ZAP handler admits only the public keys in `curve_authorized`), the
+connecting side a client that also checks the server's key, so a peer without the right keys gets nothing in
+and nothing out.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import zmq
+
+MAX_MESSAGE_BYTES = (1 << 30) + (1 << 21)   # arrays limit plus header room: zmq drops the peer beyond this
+
+
+class Curve:
+    """CURVE keys for one process, loaded from the graph's certificate files (zmq.auth format)."""
+
+    def __init__(self, server_cert: str, client_cert: str, authorized: str) -> None:
+        import zmq.auth
+        self.server_public, self.server_secret = zmq.auth.load_certificate(server_cert)
+        self.client_public, self.client_secret = zmq.auth.load_certificate(client_cert)
+        if not self.server_secret or not self.client_secret:
+            raise ValueError(f"CURVE certificates {server_cert} and {client_cert} must be secret-key files")
+        self.authorized = authorized
+        self._auth = None
+
+    def serve(self, ctx: zmq.Context, sock: zmq.Socket) -> None:
+        if self._auth is None:
+            from zmq.auth.thread import ThreadAuthenticator
+            self._auth = ThreadAuthenticator(ctx)
+            self._auth.start()
+            self._auth.configure_curve(domain="*", location=self.authorized)
+        sock.curve_secretkey = self.server_secret
+        sock.curve_publickey = self.server_public
+        sock.curve_server = True
+
+    def connect_as_client(self, sock: zmq.Socket) -> None:
+        sock.curve_secretkey = self.client_secret
+        sock.curve_publickey = self.client_public
+        sock.curve_serverkey = self.server_public
+
+    def close(self) -> None:
+        if self._auth is not None:
+            self._auth.stop()
+            self._auth = None
+
+
+def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None) -> zmq.Socket:
+    sock = ctx.socket(zmq.PULL)
+    sock.rcvhwm = hwm
+    sock.maxmsgsize = MAX_MESSAGE_BYTES
+    sock.linger = 0
+    if curve is not None and endpoint.startswith("tcp://"):
+        curve.serve(ctx, sock)
+    sock.bind(endpoint)
+    return sock
+
+
+def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None,
+                   linger_ms: int = 30_000) -> zmq.Socket:
+    sock = ctx.socket(zmq.PUSH)
+    sock.sndhwm = hwm
+    sock.linger = linger_ms          # a clean exit waits for queued frames to leave
+    if curve is not None and endpoint.startswith("tcp://"):
+        curve.connect_as_client(sock)
+    sock.connect(endpoint)
+    return sock
+
+
+def send_blocking(sock: zmq.Socket, parts: list[Any], idle: Callable[[], None],
+                  cancelled: Callable[[], bool] = lambda: False, tick_s: float = 0.2) -> bool:
+    """Send a multipart message, blocking while the peer's queue is full but calling `idle()` every tick
+    (heartbeats and control stay alive). Returns True once ZeroMQ took the message, False only if
+    `cancelled()` became true first (the caller counts that frame as undeliverable)."""
+    poller = zmq.Poller()
+    poller.register(sock, zmq.POLLOUT)
+    while True:
+        try:
+            sock.send_multipart(parts, flags=zmq.NOBLOCK, copy=False)
+            return True
+        except zmq.Again:
+            poller.poll(tick_s * 1000)
+            idle()
+            if cancelled():
+                return False
+
+
+def ipc_endpoint(run_dir: Path, name: str) -> str:
+    path = run_dir / name
+    if len(str(path)) > 100:   # sockaddr_un holds 107 bytes
+        raise ValueError(f"ipc endpoint path {path} is too long for a Unix socket; set CARAV_RUN_DIR to a "
+                         "shorter folder")
+    return f"ipc://{path}"
+
+
+def wait_for(predicate: Callable[[], bool], timeout_s: float, interval_s: float = 0.05) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(interval_s)
+    return predicate()

@@ -1,0 +1,217 @@
+"""Real graphs of real processes: counts, order, back-pressure, swap, crash and restart, clean shutdown."""
+import json
+import signal
+import time
+
+import msgpack
+import numpy as np
+import pytest
+import zmq
+
+from carav_stream.frames import Frame, encode
+from tests.integration.conftest import read_jsonl, wait_until
+
+pytestmark = pytest.mark.integration
+
+CHAIN = """
+connections = ["src.out -> t.inp", "t.out -> add.a", "src.out -> add.b", "add.out -> log.inp"]
+[run]
+cycles = {cycles}
+[blocks]
+src = {{ type = "counter_source" }}
+t = {{ type = "tagger", tag = "x", offset = 1.0, delay_s = {delay} }}
+add = {{ type = "adder" }}
+log = {{ type = "jsonl_sink", path = "out.jsonl" }}
+"""
+
+
+def test_fan_out_and_pairing_deliver_every_frame_once_in_order(carav):
+    n = 3000
+    run = carav.run(carav.graph(CHAIN.format(cycles=n, delay=0.0)))
+    assert run.wait(60) == 0, run.stderr()
+    lines = read_jsonl(carav.workdir / "out.jsonl")
+    assert [l["seq"] for l in lines] == list(range(n))
+    assert all(l["data"] == [2.0 * l["seq"] + 1.0] * 4 for l in lines)
+    assert lines[5]["trail"] == ["src:counter_source@1#0", "t:tagger@1#0", "add:adder@1#0"]
+    s = run.summary()
+    assert s["cycles"] == n and s["lost"] == 0 and s["rejected"] == 0 and s["unpaired"] == 0
+    assert s["per_node"]["add"]["in"] == {"a": n, "b": n} and s["per_node"]["log"]["in"] == {"inp": n}
+    assert s["per_node"]["src"]["sent"] == {"src.out -> t.inp": n, "src.out -> add.b": n}
+    assert s["throughput_cycles_per_s"] > 0 and s["per_node"]["log"]["history"][0]["summary"] == {"lines": n}
+
+
+def test_slow_consumer_slows_the_producer_and_nothing_is_dropped(carav):
+    n = 300
+    body = """
+connections = ["src.out -> t.inp", "t.out -> log.inp"]
+[run]
+cycles = %d
+queue_frames = 2
+[blocks]
+src = { type = "counter_source", rows = 64, n_values = 1100 }
+t = { type = "tagger", delay_s = 0.01 }
+log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
+""" % n
+    run = carav.run(carav.graph(body))
+    gaps = []
+
+    def sample():
+        st = carav.cli("status", "--json", timeout_s=10)
+        if st.returncode == 0 and st.stdout.strip().startswith("["):
+            for s in json.loads(st.stdout):
+                nodes = s["nodes"]
+                made = sum(nodes["src"]["counters"].get("out", {}).values())
+                done = sum(nodes["log"]["counters"].get("in", {}).values())
+                if made:
+                    gaps.append(made - done)
+        return run.proc.poll() is not None or len(gaps) >= 5
+    wait_until(sample, 30, "status samples")
+    assert run.wait(60) == 0, run.stderr()
+    assert len(read_jsonl(carav.workdir / "out.jsonl")) == n and run.summary()["lost"] == 0
+    # 300 frames at >= 10 ms each take >= 3 s; a producer without back-pressure would be done at once.
+    # With queues of 2 frames the source stays within a bounded distance of the sink.
+    assert gaps and max(gaps) < 60, gaps
+
+
+def test_live_swaps_lose_duplicate_and_reorder_nothing(carav):
+    body = """
+connections = ["src.out -> t.inp", "t.out -> log.inp"]
+[blocks]
+src = { type = "counter_source", n_values = 1 }
+t = { type = "tagger", tag = "first", offset = 0.5, delay_s = 0.001 }
+log = { type = "jsonl_sink", path = "out.jsonl" }
+"""
+    run = carav.run(carav.graph(body))   # runs until stopped: the swaps happen mid-stream whatever the load
+    out = carav.workdir / "out.jsonl"
+    swaps = [("tagger_b", ["factor=3.0", "delay_s=0.001"]), ("tagger", ["tag=again", "offset=7", "delay_s=0.001"]),
+             ("tagger_b", ["factor=-1"])]
+    for i, (block, sets) in enumerate(swaps):
+        wait_until(lambda: len(read_jsonl(out)) > (i + 1) * 500, 30, f"frames before swap {i}")
+        res = carav.cli("swap", "t", block, *sum((["--set", s] for s in sets), []), timeout_s=40)
+        assert res.returncode == 0, res.stderr
+        assert f"now {block}" in res.stdout
+    refused = carav.cli("swap", "t", "adder")
+    assert refused.returncode == 1 and "has no input 'inp'" in refused.stderr
+    wait_until(lambda: len(read_jsonl(out)) > 2500, 30, "frames after the last swap")
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(60) == 0, run.stderr()
+    lines = read_jsonl(out)
+    n = run.summary()["cycles"]
+    assert [l["seq"] for l in lines] == list(range(n))          # none lost, duplicated or reordered
+    gens = [int(l["trail"][1].rsplit("#", 1)[1]) for l in lines]
+    assert gens == sorted(gens) and set(gens) == {0, 1, 2, 3}
+    expected = {0: lambda v: v + 0.5, 1: lambda v: v * 3.0, 2: lambda v: v + 7.0, 3: lambda v: -v}
+    for l, g in zip(lines, gens):
+        assert l["data"] == [expected[g](float(l["seq"]))], l   # each frame handled by the block its trail names
+    blocks = [l["trail"][1].split("@")[0] for l in lines]
+    assert {blocks[gens.index(g)] for g in (1, 3)} == {"t:tagger_b"}
+    s = run.summary()
+    assert [sw["block"] for sw in s["swaps"]] == ["tagger_b", "tagger", "tagger_b"]
+    assert [sw["first_seq"] for sw in s["swaps"]] == [gens.index(1), gens.index(2), gens.index(3)]
+    assert s["lost"] == 0
+
+
+CRASH = """
+connections = ["src.out -> c.inp", "c.out -> log.inp"]
+[run]
+cycles = 400
+[blocks]
+src = { type = "counter_source", n_values = 1 }
+c = { type = "crasher", at_seq = 50, marker = "%s" %s }
+log = { type = "jsonl_sink", path = "out.jsonl" }
+"""
+
+
+def test_crashed_block_is_named_with_its_traceback_and_the_run_fails(carav):
+    run = carav.run(carav.graph(CRASH % ("", "")))
+    assert run.wait(60) == 1
+    err = run.stderr()
+    assert "node 'c' (crasher) failed" in err and "Traceback" in err
+    assert "RuntimeError: deliberate crash at seq 50" in err
+    s = run.summary()
+    assert s["failures"] and "node 'c' (crasher) failed" in s["failures"][0]
+    assert [l["seq"] for l in read_jsonl(carav.workdir / "out.jsonl")] == list(range(50))
+    wait_until(lambda: not run.group_alive() or run.proc.poll() is not None, 10, "process group to end")
+
+
+def test_crashed_block_restarts_by_policy_and_the_loss_is_accounted(carav):
+    marker = carav.workdir / "crashed-once"
+    run = carav.run(carav.graph(CRASH % (marker, ', restart = "on-failure"')))
+    code = run.wait(60)
+    err = run.stderr()
+    assert "node 'c' (crasher) failed" in err and "restarting 'c' (1/3)" in err
+    s = run.summary()
+    got = [l["seq"] for l in read_jsonl(carav.workdir / "out.jsonl")]
+    assert s["restarts"] == 1 and got[-1] == 399 and got == sorted(set(got))
+    assert got[:50] == list(range(50))
+    # every cycle is either delivered or counted lost: none vanishes silently
+    assert len(got) + s["lost"] == 400, (len(got), s["lost"], s["lost_by_edge"])
+    assert code == (3 if s["lost"] else 0)
+
+
+def test_sigint_drains_in_order_and_leaves_no_process_or_endpoint(carav):
+    run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 200, 30, "frames to flow")
+    run_dirs = list(carav.run_root.glob("carav-*/*"))
+    assert len(run_dirs) == 1 and oct(run_dirs[0].stat().st_mode & 0o777) == "0o700"
+    run.proc.send_signal(signal.SIGINT)
+    assert run.wait(30) == 0, run.stderr()
+    s = run.summary()
+    lines = read_jsonl(carav.workdir / "out.jsonl")
+    assert s["lost"] == 0 and s["stopped_by"] == "signal"
+    assert [l["seq"] for l in lines] == list(range(s["cycles"]))   # sources stopped first, all drained
+    assert not run_dirs[0].exists()
+    wait_until(lambda: not run.group_alive(), 10, "no orphan in the process group")
+
+
+def test_status_and_stop_commands_reach_the_running_graph(carav):
+    run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
+    st = carav.cli("status")
+    assert st.returncode == 0 and "add" in st.stdout and "tagger" in st.stdout and "/s" in st.stdout
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(30) == 0
+    assert run.summary()["lost"] == 0 and run.summary()["stopped_by"] == "carav stop"
+    assert "no running graphs" in carav.cli("status").stdout
+
+
+def test_bad_messages_are_rejected_counted_and_named_while_the_graph_runs_on(carav):
+    run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
+    (endpoint,) = carav.run_root.glob("carav-*/*/t.inp")
+    ctx = zmq.Context()
+    rogue = ctx.socket(zmq.PUSH)
+    rogue.linger = 2000
+    rogue.connect(f"ipc://{endpoint}")
+    bad = [
+        [b"\xc1not msgpack"],
+        [msgpack.packb({"v": 1, "stream": "x.y", "seq": 10**9, "cycle": 0, "eos": False,
+                        "arrays": [["data", "float64", [1000]]]}), b"\x00" * 16],      # truncated payload
+        [msgpack.packb({"v": 1, "stream": "x.y", "seq": 10**9, "cycle": 0, "eos": False,
+                        "arrays": [["data", "object", [1]]]}), b"\x00" * 8],           # forbidden dtype
+        encode(Frame.of(np.zeros(4)), seq=0, stream="x.y"),                            # replayed old seq
+    ]
+    for parts in bad:
+        rogue.send_multipart(parts)
+    rogue.close()
+    ctx.term()
+    wait_until(lambda: "rejected frame #4" in run.stderr(), 20, "four rejections reported")
+    n_before = len(read_jsonl(carav.workdir / "out.jsonl"))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > n_before + 100, 20, "graph still running")
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(30) == 0
+    err = run.stderr()
+    assert "node 't' input 'inp': rejected frame #1: header is not valid msgpack" in err
+    assert "needs 8000 bytes, buffer has 16" in err and "dtype 'object' is not allowed" in err
+    assert "duplicate or out of order" in err
+    s = run.summary()
+    assert s["rejected"] == 4 and s["per_node"]["t"]["rejected"] == {"inp": 4}
+    lines = read_jsonl(carav.workdir / "out.jsonl")
+    assert [l["seq"] for l in lines] == list(range(s["cycles"]))
+
+
+def test_invalid_graph_starts_nothing_and_names_the_problem(carav):
+    run = carav.run(carav.graph(CHAIN.format(cycles=5, delay=0.0).replace('"adder"', '"addr"')))
+    assert run.wait(30) == 2
+    assert "blocks.add.type: unknown block type 'addr'" in run.stderr()
+    assert not list(carav.run_root.glob("carav-*/*"))

@@ -1,0 +1,134 @@
+import msgpack
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from carav_stream.frames import (ALLOWED_DTYPES, MAX_HEADER_BYTES, SCHEMA_VERSION, Frame, FrameError, decode,
+                                 encode, end_of_stream)
+
+header_values = st.recursive(
+    st.none() | st.booleans() | st.integers(-2**63, 2**63 - 1) | st.floats(allow_nan=False) | st.text(max_size=20),
+    lambda children: st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=8), children, max_size=4),
+    max_leaves=10)
+user_headers = st.dictionaries(st.from_regex(r"[a-z][a-z_]{0,10}", fullmatch=True).filter(
+    lambda k: k not in {"v", "stream", "seq", "arrays", "node", "block", "block_version", "trail", "eos",
+                        "t_sent_s", "cycle", "t_created_s"}), header_values, max_size=5)
+dtypes = st.sampled_from(sorted(ALLOWED_DTYPES))
+
+
+@settings(max_examples=60)
+@given(dtype=dtypes, shape=hnp.array_shapes(min_dims=0, max_dims=4, min_side=0, max_side=6), header=user_headers,
+       seq=st.integers(0, 2**40), data=st.data())
+def test_round_trip_preserves_array_and_header_for_any_dtype_and_shape(dtype, shape, header, seq, data):
+    array = data.draw(hnp.arrays(np.dtype(dtype), shape))
+    frame = Frame.of(array, **header)
+    out = decode(encode(frame, seq=seq, stream="n.p"))
+    assert out.payload.dtype == array.dtype and out.payload.shape == array.shape
+    np.testing.assert_array_equal(out.payload, array)
+    assert out.seq == seq and out.header["v"] == SCHEMA_VERSION
+    for k, v in header.items():
+        assert out.header[k] == v
+
+
+@settings(max_examples=30)
+@given(arr=hnp.arrays(np.complex64, (6, 8)), step=st.integers(1, 3), transpose=st.booleans())
+def test_round_trip_of_non_contiguous_views(arr, step, transpose):
+    view = arr[::step, ::2]
+    if transpose:
+        view = view.T
+    out = decode(encode(Frame.of(view), seq=0, stream="n.p"))
+    np.testing.assert_array_equal(out.payload, view)
+
+
+def test_big_endian_arrays_arrive_with_their_values():
+    arr = np.arange(5, dtype=">f8")
+    out = decode(encode(Frame.of(arr), seq=0, stream="s.p"))
+    np.testing.assert_array_equal(out.payload, arr)
+    assert out.payload.dtype == np.dtype("<f8")
+
+
+def test_decoded_arrays_are_read_only_views_of_the_message():
+    parts = encode(Frame.of(np.ones(1000)), seq=3, stream="s.p")
+    out = decode([bytes(p) for p in parts])
+    assert not out.payload.flags.writeable
+    with pytest.raises(ValueError):
+        out.payload[0] = 2
+
+
+def test_encode_does_not_copy_contiguous_payloads():
+    arr = np.arange(10000, dtype=np.float32)
+    parts = encode(Frame.of(arr), seq=0, stream="s.p")
+    assert np.shares_memory(np.frombuffer(parts[1], dtype=np.float32), arr)
+
+
+def good_parts(**override):
+    header = {"v": SCHEMA_VERSION, "stream": "a.b", "seq": 1, "cycle": 1, "eos": False,
+              "arrays": [["data", "float32", [2, 3]]]}
+    header.update(override)
+    return [msgpack.packb(header), np.zeros((2, 3), np.float32).tobytes()]
+
+
+@pytest.mark.parametrize("parts, reason", [
+    ([], "empty message"),
+    ([b"\xc1garbage"], "not valid msgpack"),
+    ([msgpack.packb([1, 2])], "must be a msgpack map"),
+    (good_parts(v=99), "schema version 99"),
+    (good_parts(seq="1"), "'seq' must be int"),
+    (good_parts(seq=-4), "seq must be >= 0"),
+    (good_parts(eos=1), "'eos' must be bool"),
+    (good_parts(arrays=[["data", "object", [2, 3]]]), "dtype 'object' is not allowed"),
+    (good_parts(arrays=[["data", "float32", [2, -3]]]), "non-negative integers"),
+    (good_parts(arrays=[["data", "float32", [2, 4]]]), "needs 32 bytes, buffer has 24"),
+    (good_parts(arrays=[["data", "float32", [2, 3]], ["x", "int8", [1]]]), "announces 2 array(s)"),
+    (good_parts()[:1], "announces 1 array(s) but the message has 0"),
+    ([good_parts()[0], b"\x00" * 23], "buffer has 23"),
+])
+def test_decoder_rejects_bad_messages_with_the_reason(parts, reason):
+    with pytest.raises(FrameError, match=None) as info:
+        decode(parts)
+    assert reason in str(info.value)
+
+
+def test_decoder_refuses_msgpack_extension_types():
+    head = msgpack.packb({"v": 1, "stream": "a.b", "seq": 0, "cycle": 0, "eos": False, "arrays": [],
+                          "evil": msgpack.ExtType(42, b"payload")})
+    with pytest.raises(FrameError, match="extension type 42"):
+        decode([head])
+
+
+def test_decoder_enforces_size_limits():
+    with pytest.raises(FrameError, match="exceeds the limit"):
+        decode([b"\x00" * (MAX_HEADER_BYTES + 1)])
+    parts = good_parts(arrays=[["data", "float64", [1 << 20]]])
+    with pytest.raises(FrameError, match="limit of 1000 bytes"):
+        decode(parts, max_array_bytes=1000)
+
+
+def test_header_with_non_plain_value_is_refused_at_encode():
+    with pytest.raises(FrameError, match="cannot be encoded"):
+        encode(Frame.of(None, when=object()), seq=0, stream="a.b")
+
+
+def test_numpy_scalars_in_headers_become_plain_numbers():
+    out = decode(encode(Frame.of(None, q=np.float32(1.5), n=np.int64(3)), seq=0, stream="a.b"))
+    assert out.header["q"] == 1.5 and out.header["n"] == 3
+
+
+def test_blocks_cannot_set_reserved_header_fields():
+    with pytest.raises(FrameError, match="reserved"):
+        Frame.of(np.zeros(2), seq=5)
+
+
+def test_derive_inherits_cycle_fields_but_not_per_hop_provenance():
+    f = decode(encode(Frame.of(np.zeros(3), rms_dbfs=-3.0), seq=7, stream="a.b", node="a", trail=["a:x@1#0"]))
+    g = f.derive(np.ones(3), q=1.2)
+    assert g.header["seq"] == 7 and g.header["rms_dbfs"] == -3.0 and g.header["q"] == 1.2
+    assert "node" not in g.header and g.header["trail"] == ["a:x@1#0"]
+    assert f.with_header(alarm=True).payload is f.payload
+
+
+def test_end_of_stream_is_an_explicit_frame():
+    out = decode(encode(end_of_stream(12), stream="a.b"))
+    assert out.eos and out.seq == 12 and out.payload is None
