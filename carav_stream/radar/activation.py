@@ -1,0 +1,134 @@
+"""Radar activation sequences (Algorithm 1, steps 1-2): every cycle exactly n_chirps/2 active chirps.
+
+Sources (``ActivationSource(kind, seed, taps)``):
+
+``secure`` (default)
+    Draws from the operating system's cryptographically secure generator (``os.urandom``, the same
+    source as Python's ``secrets``): 64 random bits per chirp, and the n/2 chirps with the smallest
+    keys are active. Every balanced pattern is equally likely (ties have probability < n^2 / 2^64).
+    Not reproducible, by design: this is what the firmware should use.
+``seeded``
+    A numpy ``Generator(PCG64(seed))`` stream: uniformly random balanced rows, reproducible.
+    **Simulation only**: anyone who learns the seed predicts every future cycle.
+``lfsr``
+    A maximal-length Fibonacci LFSR, s[n] = XOR of s[n - t] for t in ``taps`` (default (16, 15, 13, 4),
+    period 2^16 - 1), balanced by Manchester coding: bit b_j of the stream drives the chirp pair
+    (2j, 2j + 1) as (b_j, 1 - b_j). It exists to show why the paper warns against LFSRs: the bits are
+    on the air, and :func:`berlekamp_massey` recovers the register from 2L of them.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+DEFAULT_TAPS = (16, 15, 13, 4)
+KINDS = ("secure", "seeded", "lfsr")
+
+
+class ActivationSource:
+    """Stateful generator of activation rows; ``next`` continues the stream where it stopped."""
+
+    def __init__(self, kind: str = "secure", seed: int | None = None, taps: tuple[int, ...] | None = None):
+        if kind not in KINDS:
+            raise ValueError(f"activation source kind: unknown {kind!r}, expected one of {', '.join(KINDS)}")
+        if kind == "seeded" and seed is None:
+            raise ValueError("activation source 'seeded' needs seed=<int> (simulation only)")
+        if kind == "secure" and seed is not None:
+            raise ValueError("activation source 'secure' takes no seed (it reads os.urandom); "
+                             "use kind='seeded' for a reproducible simulation")
+        self.kind = kind
+        self.seed = seed
+        self.taps = tuple(int(t) for t in (taps or DEFAULT_TAPS))
+        if kind == "lfsr":
+            if min(self.taps) < 1:
+                raise ValueError(f"lfsr taps must be >= 1, got {self.taps}")
+            degree = max(self.taps)
+            init = seed if seed is not None else 1
+            state = [(init >> i) & 1 for i in range(degree)]
+            if not any(state):
+                raise ValueError(f"lfsr seed {seed} gives the all-zero state, which never leaves zero")
+            self._lfsr_state = state  # the last `degree` output bits, oldest first
+        if kind == "seeded":
+            self._rng = np.random.Generator(np.random.PCG64(seed))
+
+    def next(self, n_cycles: int, n_chirps: int) -> np.ndarray:
+        """The next ``n_cycles`` activation rows: bool (n_cycles, n_chirps), n_chirps/2 True per row."""
+        if n_chirps < 2 or n_chirps % 2:
+            raise ValueError(f"n_chirps must be even and >= 2, got {n_chirps}")
+        if n_cycles < 0:
+            raise ValueError(f"n_cycles must be >= 0, got {n_cycles}")
+        if self.kind == "lfsr":
+            bits = self.lfsr_bits(n_cycles * n_chirps // 2).reshape(n_cycles, n_chirps // 2)
+            rho = np.empty((n_cycles, n_chirps), dtype=bool)
+            rho[:, 0::2] = bits
+            rho[:, 1::2] = ~bits
+            return rho
+        if self.kind == "secure":
+            keys = np.frombuffer(os.urandom(8 * n_cycles * n_chirps), dtype=np.uint64)
+            keys = keys.reshape(n_cycles, n_chirps)
+        else:
+            keys = self._rng.random((n_cycles, n_chirps))
+        order = np.argsort(keys, axis=1, kind="stable")
+        rho = np.zeros((n_cycles, n_chirps), dtype=bool)
+        np.put_along_axis(rho, order[:, : n_chirps // 2], True, axis=1)
+        return rho
+
+    def lfsr_bits(self, n_bits: int) -> np.ndarray:
+        """The next ``n_bits`` output bits of the LFSR (bool)."""
+        state = self._lfsr_state
+        out = np.empty(n_bits, dtype=bool)
+        taps = self.taps
+        for i in range(n_bits):
+            bit = 0
+            for t in taps:
+                bit ^= state[-t]
+            state.append(bit)
+            out[i] = bit
+        del state[: len(state) - max(taps)]
+        return out
+
+
+def berlekamp_massey(bits) -> tuple[int, tuple[int, ...]]:
+    """Shortest LFSR generating ``bits`` over GF(2).
+
+    Returns ``(length, taps)`` such that s[n] = XOR of s[n - t] for t in taps, for every n >= length.
+    With at least 2 * length observed bits the LFSR is unique. Same tap convention as
+    ``ActivationSource(kind="lfsr", taps=...)``.
+    """
+    s = np.asarray(bits, dtype=np.uint8).ravel() & 1
+    n = s.size
+    c = np.zeros(n + 1, dtype=np.uint8)
+    b = np.zeros(n + 1, dtype=np.uint8)
+    c[0] = b[0] = 1
+    length, m = 0, 1
+    for i in range(n):
+        # discrepancy d = s[i] + sum_{j=1..L} c[j] s[i-j]
+        d = s[i] ^ (int(np.dot(c[1: length + 1], s[i - length: i][::-1])) & 1 if length else 0)
+        if d == 0:
+            m += 1
+            continue
+        if 2 * length <= i:
+            t = c.copy()
+            c[m:] ^= b[: n + 1 - m]
+            length, b, m = i + 1 - length, t, 1
+        else:
+            c[m:] ^= b[: n + 1 - m]
+            m += 1
+    taps = tuple(int(j) for j in np.flatnonzero(c[1: length + 1]) + 1)
+    return length, taps
+
+
+def lfsr_continue(history, taps: tuple[int, ...], n_bits: int) -> np.ndarray:
+    """Extend a bit history with the recurrence s[n] = XOR s[n - t] (predict the next ``n_bits``)."""
+    h = [int(x) for x in np.asarray(history, dtype=np.uint8).ravel()]
+    if taps and len(h) < max(taps):
+        raise ValueError(f"need at least {max(taps)} bits of history for taps {taps}, got {len(h)}")
+    out = np.empty(n_bits, dtype=bool)
+    for i in range(n_bits):
+        bit = 0
+        for t in taps:
+            bit ^= h[-t]
+        h.append(bit)
+        out[i] = bit
+    return out

@@ -1,0 +1,203 @@
+"""Signal physics shared by the channel and the attackers: dechirped echoes in both fidelities.
+
+Dechirp convention (MATLAB ``dechirp``): y = x_ref * conj(x_rx). For an emitter whose signal reaches
+the receiver with delay tau(t) = tau0 + alpha * t (alpha = 2 rdot / c for an echo, rdot / c one way),
+the dechirped sample during the sweep is
+
+    y(t) = A exp(j [2 pi fc tau + 2 pi S t' tau - pi S tau^2]),    t' = fast time in the chirp,
+
+so the beat is S tau - f_D with f_D = -2 rdot / lambda (positive when closing): the beat is positive and
+the Doppler enters with a minus sign. t = k t_chirp + t' is the time since the cycle start, which gives
+the chirp-to-chirp phase progression 2 pi fc alpha t_chirp and the range migration (range-Doppler
+coupling) for free. An I-only receiver digitises Re(y) (the I branch).
+
+``beat`` fidelity evaluates that closed form at the ADC instants. ``waveform`` fidelity builds the
+baseband signals themselves on a grid ``waveform_oversample`` times finer than the ADC: the reference
+chirp (which keeps sweeping on silent chirps), the emission as it left the emitter at t - tau(t) (gated
+by the emitter's own on/off schedule: the victim's previous chirp arrives first, then the current
+one), mixes them, low-pass filters with a linear-phase FIR (``if_filter``) and decimates to fs.
+Mixer products beyond +-oversample*fs/2 alias on that grid: raise ``waveform_oversample`` for
+interferers whose slope differs a lot from the victim's.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import scipy.signal
+
+from carav_stream.radar.scene import C_MPS, Scene, Target
+
+TWO_PI = 2.0 * np.pi
+IQ_CENTRE = 0.4               # centre of the I/Q IF band, in units of fs
+
+
+def fast_time_s(scene: Scene) -> np.ndarray:
+    """ADC sampling instants within a chirp, float64 (n_samples,), seconds from the chirp start."""
+    return scene.t_adc_start_s + np.arange(scene.n_samples) / scene.fs_hz
+
+
+def chirp_start_s(scene: Scene) -> np.ndarray:
+    """Start of each chirp since the cycle start, float64 (n_chirps,)."""
+    return np.arange(scene.n_chirps) * scene.t_chirp_s
+
+
+def echo_amplitude(scene: Scene, target: Target) -> float:
+    """Amplitude A of the dechirped complex echo (A^2 = two-way received power, radar equation)."""
+    p_w = scene.echo_power_w(target)
+    return float(np.sqrt(p_w if scene.iq else 2.0 * p_w))
+
+
+def beat_samples(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
+                 gate_from_s: float | None = None) -> np.ndarray:
+    """Closed-form dechirped samples of one delayed replica of the victim's chirp, for every chirp.
+
+    tau(t) = tau0_s + alpha * t, t since the cycle start. ``gate_from_s``: samples with fast time
+    below it are zero (a repeater that starts late). Returns complex128 (n_chirps, n_samples), or
+    float64 Re(.) for an I-only scene (the quadrature part is never computed).
+    """
+    tf = fast_time_s(scene)[None, :]
+    tau = tau0_s + alpha * (chirp_start_s(scene)[:, None] + tf)
+    s = scene.slope_hz_per_s
+    phase = TWO_PI * scene.fc_hz * tau + TWO_PI * s * tf * tau - np.pi * s * tau * tau
+    y = amplitude * (np.exp(1j * phase) if scene.iq else np.cos(phase))
+    if gate_from_s is not None:
+        y[:, tf[0] < gate_from_s] = 0
+    return y
+
+
+# ---------------------------------------------------------------------------------------------
+# waveform fidelity
+
+@dataclass(frozen=True)
+class WaveformGrid:
+    """Oversampled fast-time grid around the ADC window, and the IF filter that brings it to fs."""
+
+    t_fast_s: np.ndarray        # float64 (n_grid,), seconds since the chirp start (may be < 0)
+    t_cycle_s: np.ndarray       # float64 (n_chirps, n_grid), seconds since the cycle start
+    ref_phase: np.ndarray       # float64 (n_grid,), reference baseband phase theta(t')
+    taps: np.ndarray            # float64 or complex128 (n_taps,), IF filter
+    oversample: int
+
+
+def sweep_phase(scene: Scene, u_s: np.ndarray) -> np.ndarray:
+    """Baseband phase of the victim's chirp u_s seconds after a chirp start (LO parked at fc after
+    the sweep). ``u_s`` must be in [0, t_chirp)."""
+    s = scene.slope_hz_per_s
+    return np.pi * s * np.minimum(u_s, scene.t_sweep_s) ** 2
+
+
+@lru_cache(maxsize=16)
+def waveform_grid(scene: Scene) -> WaveformGrid:
+    r = scene.waveform_oversample
+    fs_sim = r * scene.fs_hz
+    n_taps = 32 * r + 1          # Hamming: transition about +-0.05 fs around each edge
+    # I-only: real low-pass, -6 dB at fs/2. I/Q: complex band-pass [-0.1 fs, 0.9 fs] (-6 dB edges): one
+    # fs wide, so nothing it passes aliases, and positive beats up to 0.9 fs stay unambiguous (as the
+    # complex 1x IF mode of TI's AWR parts, whose IF bandwidth is 0.9 fs).
+    lp = scipy.signal.firwin(n_taps, scene.fs_hz / 2, fs=fs_sim)
+    if scene.iq:
+        n = np.arange(n_taps) - (n_taps - 1) / 2
+        taps = lp * np.exp(2j * np.pi * IQ_CENTRE * scene.fs_hz * n / fs_sim)
+    else:
+        taps = lp
+    half = (n_taps - 1) // 2
+    i = np.arange(-half, r * (scene.n_samples - 1) + half + 1)
+    t_fast = scene.t_adc_start_s + i / fs_sim
+    t_cycle = chirp_start_s(scene)[:, None] + t_fast[None, :]
+    u = np.mod(t_fast, scene.t_chirp_s)
+    for a in (t_fast, t_cycle):
+        a.setflags(write=False)
+    return WaveformGrid(t_fast, t_cycle, sweep_phase(scene, u), taps, r)
+
+
+def filter_decimate(scene: Scene, y: np.ndarray) -> np.ndarray:
+    """IF filter then ADC sampling: (..., n_grid) -> (..., n_samples), same kind (real/complex)."""
+    g = waveform_grid(scene)
+    out = scipy.signal.oaconvolve(y, g.taps.reshape((1,) * (y.ndim - 1) + (-1,)), mode="valid", axes=-1)
+    return out[..., :: g.oversample]
+
+
+def mix(scene: Scene, emitted_phase: np.ndarray, carrier_phase: np.ndarray, amplitude: np.ndarray | float,
+        gate: np.ndarray) -> np.ndarray:
+    """Mixer output ref * conj(rx) on the grid: A gate exp(j (theta_ref + carrier - theta_emitted)).
+
+    ``carrier_phase`` is 2 pi fc tau (+ any carrier offset of the emitter). Real part only for I-only.
+    """
+    g = waveform_grid(scene)
+    phase = g.ref_phase + carrier_phase - emitted_phase
+    y = np.cos(phase) if not scene.iq else np.exp(1j * phase)
+    y *= amplitude
+    y *= gate
+    return y
+
+
+def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
+                     gate_from_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Waveform-fidelity samples of a delayed replica of the victim's chirp (echo or spoof).
+
+    Returns (main, tail), each (n_chirps, n_samples) complex128 (float64 I-only): ``main`` is what
+    chirp k's own emission contributes, ``tail`` what chirp k-1's emission still contributes (its
+    end arrives at the start of chirp k). The cycle's signal is rho[k] main[k] + rho[k-1] tail[k].
+    """
+    g = waveform_grid(scene)
+    tau = tau0_s + alpha * g.t_cycle_s
+    carrier = TWO_PI * scene.fc_hz * tau
+    u_main = g.t_fast_s[None, :] - tau
+    u_tail = u_main + scene.t_chirp_s
+    gate_main = (u_main >= 0) & (u_main < scene.t_sweep_s)
+    gate_tail = (u_main < 0) & (u_tail >= 0) & (u_tail < scene.t_sweep_s)
+    if gate_from_s is not None:
+        late = g.t_fast_s[None, :] >= gate_from_s
+        gate_main &= late
+        gate_tail &= late
+    s = scene.slope_hz_per_s
+    main = mix(scene, np.pi * s * np.clip(u_main, 0, None) ** 2, carrier, amplitude, gate_main)
+    tail = mix(scene, np.pi * s * np.clip(u_tail, 0, None) ** 2, carrier, amplitude, gate_tail)
+    return filter_decimate(scene, main), filter_decimate(scene, tail)
+
+
+# ---------------------------------------------------------------------------------------------
+# target echoes, cached per (scene, fidelity)
+
+@dataclass(frozen=True)
+class EchoTemplates:
+    """Noise-free echo of every target for a fully active cycle, at unit RCS fluctuation.
+
+    main[t], tail[t]: complex64 (n_chirps, n_samples) (float32 I-only); ``tail`` is None in beat
+    fidelity. main_sum / tail_sum: sum over targets (used when no target fluctuates).
+    """
+
+    main: tuple[np.ndarray, ...]
+    tail: tuple[np.ndarray, ...] | None
+    main_sum: np.ndarray
+    tail_sum: np.ndarray | None
+
+
+def target_delay(scene: Scene, target: Target) -> tuple[float, float]:
+    """(tau0_s, alpha) of a target echo: tau(t) = 2 (R0 + rdot t) / c."""
+    return 2.0 * target.range_m / C_MPS, 2.0 * scene.range_rate_mps(target) / C_MPS
+
+
+@lru_cache(maxsize=16)
+def echo_templates(scene: Scene, fidelity: str) -> EchoTemplates:
+    dtype = np.complex64 if scene.iq else np.float32
+    shape = (scene.n_chirps, scene.n_samples)
+    mains, tails = [], []
+    for t in scene.targets:
+        tau0, alpha = target_delay(scene, t)
+        amp = echo_amplitude(scene, t)
+        if fidelity == "beat":
+            mains.append(beat_samples(scene, tau0, alpha, amp).astype(dtype))
+        else:
+            m, tl = waveform_replica(scene, tau0, alpha, amp)
+            mains.append(m.astype(dtype))
+            tails.append(tl.astype(dtype))
+    main_sum = np.sum(mains, axis=0, dtype=dtype) if mains else np.zeros(shape, dtype)
+    tail_sum = None
+    if fidelity != "beat":
+        tail_sum = np.sum(tails, axis=0, dtype=dtype) if tails else np.zeros(shape, dtype)
+    for a in (*mains, *tails, main_sum) + ((tail_sum,) if tail_sum is not None else ()):
+        a.setflags(write=False)
+    return EchoTemplates(tuple(mains), tuple(tails) if fidelity != "beat" else None, main_sum, tail_sum)

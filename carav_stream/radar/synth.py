@@ -1,0 +1,256 @@
+"""Synthesis of ADC frames, cycle-batched: transmit -> channel -> attacker -> ADC.
+
+    R_k[m] = n_k[m] + rho(k) x_k[m] + a_k[m]            (paper, Section IV; quantised by the ADC)
+
+Each stage is a pure function of its inputs and one ``numpy.random.Generator`` per stage, drawing in
+cycle order, so running N cycles at once gives bit for bit what N one-cycle calls give (the
+streaming pipeline runs the stages in separate processes, one cycle at a time):
+
+    tx = transmit(scene, rho, cycle0, fidelity)              # what goes on the air
+    rx = channel(scene, tx, rng_noise, cycle0)               # echoes + receiver noise (ADC input)
+    rx, active = attacker.apply(rx, cycle0, rng_attack, observe(tx), fidelity=tx.fidelity)
+    frames, clipped = adc(scene, rx)
+
+``simulate_cycles`` is exactly that composition. Frames: float32 (I-only) or complex64 (I/Q), shape
+(n_cycles, n_chirps, n_samples), in sqrt(W) at the ADC (1 ohm), quantised.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from carav_stream.radar.noise import gaussian
+from carav_stream.radar.physics import echo_templates
+from carav_stream.radar.scene import Scene
+
+FIDELITIES = ("auto", "beat", "waveform")
+CHUNK_BYTES = 2 << 20
+
+
+@dataclass(frozen=True)
+class Transmission:
+    """What the victim put on the air for a batch of cycles.
+
+    rho: bool (n_cycles, n_chirps), chirp k of cycle cycle0 + i was transmitted iff rho[i, k].
+    fidelity: "beat" or "waveform" (resolved, never "auto").
+    """
+
+    rho: np.ndarray
+    cycle0: int
+    fidelity: str
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What an attacker can physically observe of the victim: the on-air emission.
+
+    Attackers must only use row i of ``emission`` when emitting for cycles after cycle0 + i (they
+    listen to a cycle, then act on later ones); the reactive repeater may use the current row, but
+    only through a reaction latency (its output in a chirp starts L after that chirp reached it).
+    The activation sequence itself is never given to an attacker.
+    """
+
+    emission: np.ndarray   # bool (n_cycles, n_chirps), as heard on the air
+    cycle0: int
+
+
+@dataclass(frozen=True)
+class Cycles:
+    """Result of :func:`simulate_cycles` for cycles cycle0 .. cycle0 + n_cycles - 1.
+
+    frames: float32 | complex64 (n_cycles, n_chirps, n_samples), after the ADC.
+    clean_echo: same dtype and shape, noise-free rho * x (ADC input, unquantised), or None.
+    clipped: int64 (n_cycles,), samples per cycle at the ADC rails (I or Q).
+    attack_active: bool (n_cycles,), the attacker emitted something in the cycle.
+    """
+
+    frames: np.ndarray
+    clean_echo: np.ndarray | None
+    clipped: np.ndarray
+    attack_active: np.ndarray
+    fidelity: str
+    rho: np.ndarray
+    cycle0: int
+
+
+def resolve_fidelity(fidelity: str, attacker=None) -> str:
+    """``auto`` -> ``waveform`` if the attacker transmits its own waveform, else ``beat``."""
+    if fidelity not in FIDELITIES:
+        raise ValueError(f"fidelity: unknown {fidelity!r}, expected one of {', '.join(FIDELITIES)}")
+    if fidelity != "auto":
+        if fidelity == "beat" and attacker is not None and attacker.needs_waveform:
+            raise ValueError(f"fidelity 'beat' cannot render attacker {attacker.kind!r}, which transmits its "
+                             f"own waveform: use 'waveform' or 'auto'")
+        return fidelity
+    return "waveform" if attacker is not None and attacker.needs_waveform else "beat"
+
+
+def transmit(scene: Scene, rho: np.ndarray, cycle0: int = 0, fidelity: str = "beat") -> Transmission:
+    """Check the activation rows and put them on the air. ``fidelity`` must be resolved already."""
+    rho = np.asarray(rho)
+    if rho.dtype != np.bool_:
+        raise TypeError(f"rho: expected a bool array, got dtype {rho.dtype}")
+    if rho.ndim != 2 or rho.shape[1] != scene.n_chirps:
+        raise ValueError(f"rho: expected shape (n_cycles, {scene.n_chirps}), got {rho.shape}")
+    if fidelity not in ("beat", "waveform"):
+        raise ValueError(f"transmit: fidelity must be 'beat' or 'waveform' (resolve 'auto' first), got {fidelity!r}")
+    rho = rho.copy()
+    rho.setflags(write=False)
+    return Transmission(rho, int(cycle0), fidelity)
+
+
+def observe(tx: Transmission) -> Observation:
+    """The on-air emission an attacker can listen to (the same bits, but the attacker's only view)."""
+    return Observation(tx.rho, tx.cycle0)
+
+
+def draw_noise(scene: Scene, rng: np.random.Generator, n_cycles: int) -> np.ndarray:
+    """Receiver noise, i.i.d. N(0, sigma_n^2) per sample (circular complex for I/Q: sigma_n^2/2 per
+    component). float32 / complex64 (n_cycles, n_chirps, n_samples). One block of the generator's
+    stream per cycle (carav_stream.radar.noise), so batches equal one-cycle calls."""
+    return gaussian(rng, (n_cycles, scene.n_chirps, scene.n_samples), scene.sigma_n, scene.iq)
+
+
+def swerling_gains(scene: Scene, rng: np.random.Generator) -> np.ndarray:
+    """Amplitude factors sqrt(sigma / mean sigma) of every target for one cycle: float32 (n_targets,
+    n_chirps). Swerling 1, 3: one draw per cycle (scan to scan); 2, 4: one per chirp; 1, 2: sigma
+    exponential (chi^2, 2 dof); 3, 4: chi^2 with 4 dof; 0: constant. Targets are drawn in order."""
+    n = scene.n_chirps
+    gains = np.ones((len(scene.targets), n), dtype=np.float32)
+    for i, t in enumerate(scene.targets):
+        if t.swerling == 0:
+            continue
+        size = 1 if t.swerling in (1, 3) else n
+        shape_k = 1.0 if t.swerling in (1, 2) else 2.0
+        gains[i] = np.sqrt(rng.gamma(shape_k, 1.0 / shape_k, size=size))
+    return gains
+
+
+def _add_echo(scene: Scene, rx: np.ndarray, rho: np.ndarray, fidelity: str,
+              gains: np.ndarray | None = None) -> None:
+    """rx += sum_t g_t[k] (rho[k] main_t[k] + rho[k-1] tail_t[k]), in place, for one or more cycles."""
+    tpl = echo_templates(scene, fidelity)
+    rho_prev = np.zeros_like(rho)
+    rho_prev[:, 1:] = rho[:, :-1]      # the chirp before chirp 0 (previous cycle) is taken as silent
+    if gains is None:
+        np.add(rx, tpl.main_sum, out=rx, where=rho[:, :, None])
+        if tpl.tail_sum is not None:
+            np.add(rx, tpl.tail_sum, out=rx, where=rho_prev[:, :, None])
+        return
+    for t in range(len(scene.targets)):
+        g = gains[t]
+        rx += (g * rho)[:, :, None] * tpl.main[t]
+        if tpl.tail is not None:
+            g_prev = np.concatenate([np.zeros(1, np.float32), g[:-1]])
+            rx += (g_prev * rho_prev)[:, :, None] * tpl.tail[t]
+
+
+def channel(scene: Scene, tx: Transmission, rng_noise: np.random.Generator, cycle0: int = 0, *,
+            return_clean: bool = False):
+    """Echoes of the transmitted chirps plus receiver noise: the signal at the ADC input.
+
+    Draws from ``rng_noise``, per cycle in order: the Swerling factors of fluctuating targets, then
+    the noise. Returns rx (float32 | complex64, (n_cycles, n_chirps, n_samples)), or (rx, clean)
+    with ``return_clean`` (clean = the noise-free echo part).
+    """
+    if cycle0 != tx.cycle0:
+        raise ValueError(f"channel: cycle0 {cycle0} does not match the transmission's cycle0 {tx.cycle0}")
+    n_cycles = tx.rho.shape[0]
+    fluctuating = any(t.swerling for t in scene.targets)
+    if not fluctuating:
+        rx = draw_noise(scene, rng_noise, n_cycles)
+        _add_echo(scene, rx, tx.rho, tx.fidelity)
+        clean = None
+        if return_clean:
+            clean = np.zeros_like(rx)
+            _add_echo(scene, clean, tx.rho, tx.fidelity)
+        return (rx, clean) if return_clean else rx
+    dtype = np.complex64 if scene.iq else np.float32
+    rx = np.empty((n_cycles, scene.n_chirps, scene.n_samples), dtype)
+    clean = np.zeros_like(rx) if return_clean else None
+    for i in range(n_cycles):
+        gains = swerling_gains(scene, rng_noise)
+        rx[i] = draw_noise(scene, rng_noise, 1)[0]
+        echo = np.zeros((1,) + rx.shape[1:], dtype)
+        _add_echo(scene, echo, tx.rho[i: i + 1], tx.fidelity, gains)
+        rx[i] += echo[0]
+        if clean is not None:
+            clean[i] = echo[0]
+    return (rx, clean) if return_clean else rx
+
+
+def adc(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Quantise to ``adc_bits`` over +-``adc_full_scale`` (mid-tread, saturating); I and Q separately.
+
+    Returns (frames, clipped): frames same dtype and shape as rx, values on the ADC grid in the
+    same units; clipped int64 (n_cycles,) = samples whose I or Q hit a rail. ``adc_bits = 0`` is an
+    ideal ADC (a copy, no clipping).
+    """
+    n_cycles = rx.shape[0]
+    if scene.adc_bits == 0:
+        return rx.copy(), np.zeros(n_cycles, dtype=np.int64)
+    lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
+    hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
+    lo = np.float32(-(2 ** (scene.adc_bits - 1)))
+    re = rx.view(np.float32)                      # complex64 -> interleaved I, Q
+    codes = np.multiply(re, np.float32(1.0 / lsb))
+    np.rint(codes, out=codes)
+    over = (codes > hi) | (codes < lo)
+    if scene.iq:
+        over = over.view(np.uint16)               # a sample's I and Q flags share two bytes: any -> != 0
+    clipped = np.count_nonzero(over.reshape(n_cycles, -1), axis=1).astype(np.int64)
+    np.clip(codes, lo, hi, out=codes)
+    codes *= np.float32(lsb)
+    return codes.view(rx.dtype).reshape(rx.shape), clipped
+
+
+def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generator, *, attacker=None,
+                    rng_attack: np.random.Generator | None = None, fidelity: str = "auto", cycle0: int = 0,
+                    return_clean: bool = False) -> Cycles:
+    """Simulate ADC frames for the activation rows ``rho`` (bool (n_cycles, n_chirps)).
+
+    ``attacker``: an object from :func:`carav_stream.radar.attackers.make_attacker` (stateful: keep
+    using the same one for consecutive batches) or None. ``rng_attack`` is required when the attacker
+    draws random numbers. Equal, bit for bit, to running transmit/channel/apply/adc per cycle.
+    """
+    fid = resolve_fidelity(fidelity, attacker)
+    rho = transmit(scene, rho, cycle0, fid).rho
+    n_cycles = rho.shape[0]
+    dtype = np.complex64 if scene.iq else np.float32
+    frames = np.empty((n_cycles, scene.n_chirps, scene.n_samples), dtype)
+    clean = np.empty_like(frames) if return_clean else None
+    clipped = np.zeros(n_cycles, dtype=np.int64)
+    active = np.zeros(n_cycles, dtype=bool)
+    # Stages run on chunks of about 2 MB: the same numbers (every stage draws cycle by cycle), but the
+    # intermediate arrays stay in cache, which makes large batches as fast per cycle as small ones.
+    step = max(1, CHUNK_BYTES // (scene.n_chirps * scene.n_samples * np.dtype(dtype).itemsize))
+    for i in range(0, n_cycles, step):
+        j = min(i + step, n_cycles)
+        tx = transmit(scene, rho[i:j], cycle0 + i, fid)
+        out = channel(scene, tx, rng_noise, cycle0 + i, return_clean=return_clean)
+        rx = out[0] if return_clean else out
+        if return_clean:
+            clean[i:j] = out[1]
+        if attacker is not None:
+            rx, active[i:j] = attacker.apply(rx, cycle0 + i, rng_attack, observe(tx), fidelity=fid)
+        frames[i:j], clipped[i:j] = adc(scene, rx)
+    return Cycles(frames, clean, clipped, active, fid, rho, cycle0)
+
+
+def echo_energy_per_chirp(scene: Scene, rho: np.ndarray, fidelity: str = "beat") -> np.ndarray:
+    """Noise-free echo energy sum_m |rho(k) x_k[m]|^2 per chirp, float64 (n_cycles, n_chirps), at the
+    mean RCS (Swerling factors = 1). W * samples, ADC input, unquantised."""
+    tpl = echo_templates(scene, fidelity)
+    rho = np.asarray(rho, dtype=bool)
+    e_main = np.sum(np.abs(tpl.main_sum.astype(np.complex128)) ** 2, axis=1)
+    if tpl.tail_sum is None:
+        return rho * e_main[None, :]
+    # main and tail overlap little; sum the exact energy of each combination present
+    rho_prev = np.zeros_like(rho)
+    rho_prev[:, 1:] = rho[:, :-1]
+    m = tpl.main_sum.astype(np.complex128)
+    t = tpl.tail_sum.astype(np.complex128)
+    e_tail = np.sum(np.abs(t) ** 2, axis=1)
+    e_both = np.sum(np.abs(m + t) ** 2, axis=1)
+    return np.where(rho & rho_prev, e_both, rho * e_main + rho_prev * e_tail)
