@@ -89,6 +89,12 @@ class Graph:
     security: dict[str, Path]
     block_paths: list[Path]
     registry: Registry
+    params: dict[str, Any] = field(default_factory=dict)   # graph-wide parameters
+
+    def params_for(self, block_type: str, explicit: dict[str, Any]) -> dict[str, Any]:
+        """A block's parameters: the graph-wide ones it declares, overridden by `explicit`."""
+        declared = {p.name for p in self.registry.get(block_type).cls.params}
+        return {**{k: v for k, v in self.params.items() if k in declared}, **explicit}
 
     def block_class(self, node: str) -> type[Block]:
         return self.registry.get(self.nodes[node].type).cls
@@ -169,7 +175,8 @@ def load_graph(path: str | Path, overrides: list[str] = (), extra_block_paths: l
     security = _security(data.get("security", {}), path, where, problems)
     if problems:
         raise GraphError(problems)
-    return Graph(path, str(data.get("description", "")), nodes, edges, run, hosts, security, block_paths, registry)
+    return Graph(path, str(data.get("description", "")), nodes, edges, run, hosts, security, block_paths, registry,
+                 graph_params)
 
 
 def _list_of_str(value: Any, where: str, key: str, problems: list[str]) -> list[str]:
@@ -392,7 +399,8 @@ def _security(spec: Any, path: Path, where: str, problems: list[str]) -> dict[st
 
 
 def swap_problems(graph: Graph, node: str, block_type: str, params: dict[str, Any]) -> list[str]:
-    """Why `node` cannot be replaced by `block_type(**params)` while running; empty when it can."""
+    """Why `node` cannot be replaced by `block_type(**params)` while running; empty when it can.
+    `params` are complete (graph-wide ones applied with Graph.params_for)."""
     if node not in graph.nodes:
         return [f"unknown node {node!r}; nodes are {sorted(graph.nodes)}"]
     try:

@@ -81,6 +81,7 @@ class NodeRunner:
         self.n_reports = 0
         self.processed = 0
         self.consumed = 0                                # input frames handed to the block
+        self.busy_s = 0.0                                # time spent inside the block's own code
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
         self.go = not self.cls.is_source()
@@ -99,7 +100,7 @@ class NodeRunner:
         return {"in": dict(self.c_in), "out": dict(self.c_out), "sent": dict(self.c_sent),
                 "rejected": dict(self.c_rejected), "unpaired": dict(self.c_unpaired),
                 "undeliverable": dict(self.c_undeliverable),
-                "processed": self.processed, "consumed": self.consumed, "block": self.block_type, "generation": self.generation}
+                "processed": self.processed, "consumed": self.consumed, "busy_s": self.busy_s, "block": self.block_type, "generation": self.generation}
 
     def idle(self) -> None:
         """Serve control messages and heartbeats; called between frames and while blocked."""
@@ -253,12 +254,14 @@ class NodeRunner:
     def run_block(self, what: str, frames: list[Frame], port: str | None = None) -> None:
         context = frames[0]
         self.seq = context.seq
+        t0 = time.perf_counter()
         if what == "process":
             full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
             args = [full.get(p.name) for p in self.cls.inputs]
             result = self.block.process(*args)
         else:
             result = self.block.unpaired(port, context)
+        self.busy_s += time.perf_counter() - t0
         self.processed += 1
         self.consumed += len(frames)
         self.emit(result, context)
@@ -274,7 +277,9 @@ class NodeRunner:
         while not self.stopping and (not max_cycles or self.seq < max_cycles):
             if self.pending_swap:
                 self.apply_swap()
+            t0 = time.perf_counter()
             result = self.block.generate(self.seq)
+            self.busy_s += time.perf_counter() - t0
             if result is None:
                 break
             self.processed += 1

@@ -179,14 +179,20 @@ class Supervisor:
             self.request_stop("carav stop")
             self.admin.send(msgpack.packb({"ok": True}, use_bin_type=True))
         elif cmd == "swap" and self.pending_admin is None:
-            node, block, params = req.get("node"), req.get("block"), req.get("params", {})
-            problems = swap_problems(self.graph, node, block, params)
+            node, block = req.get("node"), req.get("block")
+            try:
+                params = self.graph.params_for(block, req.get("params", {}))
+            except LookupError as exc:
+                params = {}
+                problems = [str(exc)]
+            else:
+                problems = swap_problems(self.graph, node, block, params)
             if not problems and node not in self.nodes:
                 problems = [f"node {node!r} does not run on this host"]
             if problems:
                 self.admin.send(msgpack.packb({"ok": False, "error": "; ".join(problems)}, use_bin_type=True))
                 return
-            self.pending_admin = {**req, "deadline": time.monotonic() + 30}
+            self.pending_admin = {**req, "params": params, "deadline": time.monotonic() + 30}
             self.send(node, "swap", block=block, params=params, id=1)
         else:
             self.admin.send(msgpack.packb({"ok": False, "error": f"unknown or busy command {cmd!r}"},
@@ -207,9 +213,15 @@ class Supervisor:
                           for n, st in self.nodes.items()}}
 
     def cycles_done(self) -> int:
+        """Frames the local sources generated; on a host without sources, frames that arrived from others."""
+        def total(n: str, key: str, port: str | None = None) -> int:
+            st = self.nodes[n]
+            return sum((c.get(key, {}).get(port, 0) if port else c.get(key, 0)) for c in [*st.dead_counters, st.counters])
         sources = [n for n in self.nodes if not self.graph.edges_into(n)]
-        return max((self.nodes[n].counters.get("processed", 0) + sum(c.get("processed", 0) for c in self.nodes[n].dead_counters)
-                    for n in sources), default=0)
+        if sources:
+            return max(total(n, "processed") for n in sources)
+        remote = [(e.dst, e.dst_port) for e in self.graph.edges if e.dst in self.nodes and e.src not in self.nodes]
+        return max((total(n, "in", port) for n, port in remote), default=0)
 
     # -- failure handling ----------------------------------------------------------------------------------
     def check_processes(self) -> None:
@@ -406,7 +418,8 @@ class Supervisor:
             per_node[n] = {"block": st.spec["type"], "in": total("in"), "out": total("out"), "sent": total("sent"),
                            "rejected": total("rejected"), "unpaired": total("unpaired"),
                            "undeliverable": total("undeliverable"),
-                           "processed": sum(c.get("processed", 0) for c in incarnations), "restarts": st.restarts,
+                           "processed": sum(c.get("processed", 0) for c in incarnations),
+                           "busy_s": sum(c.get("busy_s", 0.0) for c in incarnations), "restarts": st.restarts,
                            "failed": st.failed, "history": st.history}
         lost = 0
         edge_loss = {}

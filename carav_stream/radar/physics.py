@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-import scipy.signal
 
 from carav_stream.radar.scene import C_MPS, Scene, Target
 
@@ -96,6 +95,7 @@ def waveform_grid(scene: Scene) -> WaveformGrid:
     # I-only: real low-pass, -6 dB at fs/2. I/Q: complex band-pass [-0.1 fs, 0.9 fs] (-6 dB edges): one
     # fs wide, so nothing it passes aliases, and positive beats up to 0.9 fs stay unambiguous (as the
     # complex 1x IF mode of TI's AWR parts, whose IF bandwidth is 0.9 fs).
+    import scipy.signal   # lazily: it costs ~1 s per process and only the waveform fidelity needs it
     lp = scipy.signal.firwin(n_taps, scene.fs_hz / 2, fs=fs_sim)
     if scene.iq:
         n = np.arange(n_taps) - (n_taps - 1) / 2
@@ -115,6 +115,7 @@ def waveform_grid(scene: Scene) -> WaveformGrid:
 def filter_decimate(scene: Scene, y: np.ndarray) -> np.ndarray:
     """IF filter then ADC sampling: (..., n_grid) -> (..., n_samples), same kind (real/complex)."""
     g = waveform_grid(scene)
+    import scipy.signal
     out = scipy.signal.oaconvolve(y, g.taps.reshape((1,) * (y.ndim - 1) + (-1,)), mode="valid", axes=-1)
     return out[..., :: g.oversample]
 

@@ -1,0 +1,43 @@
+"""The random streams of a run and scene lookup, shared by the pipeline blocks and carav_stream.chain.
+
+With a seed, SeedSequence(seed) spawns three independent streams (activation, noise, attack), each drawn in
+cycle order by the block that owns it, so a pipeline and the in-process chain give the same numbers bit for
+bit. Without a seed (NO_SEED) the activation sequence comes from the OS's secure generator.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from carav_stream.radar.activation import ActivationSource
+from carav_stream.radar.scene import Scene, load_scene
+
+NO_SEED = -1
+
+
+@dataclass
+class Streams:
+    activation: ActivationSource
+    noise: np.random.Generator
+    attack: np.random.Generator
+
+
+def seed_streams(seed: int | None, activation: str = "auto") -> Streams:
+    """The three random streams of a run. seed None/-1: secure activation, OS-seeded noise and attack."""
+    if seed is None or seed == NO_SEED:
+        if activation not in ("auto", "secure"):
+            raise ValueError(f"activation {activation!r} needs a seed (simulation only)")
+        return Streams(ActivationSource("secure"), np.random.default_rng(), np.random.default_rng())
+    s_act, s_noise, s_attack = np.random.SeedSequence(seed).spawn(3)
+    kind = "seeded" if activation == "auto" else activation
+    act_seed = int(s_act.generate_state(1, np.uint32)[0]) | 1   # odd: never the LFSR's all-zero state
+    return Streams(ActivationSource(kind, seed=act_seed), np.random.default_rng(s_noise),
+                   np.random.default_rng(s_attack))
+
+
+@lru_cache(maxsize=16)
+def scene_of(name_or_path: str) -> Scene:
+    """A preset or scene file, loaded once per process (scenes are immutable)."""
+    return load_scene(name_or_path)
