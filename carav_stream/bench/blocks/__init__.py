@@ -1,0 +1,1 @@
+"""Block files of the transport benchmark (loaded through a graph's block_paths; `_`-files are helpers)."""
