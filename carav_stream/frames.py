@@ -42,6 +42,10 @@ ALLOWED_DTYPES = frozenset({
     "float16", "float32", "float64", "complex64", "complex128",
 })
 
+# dtype -> wire name and wire name -> little-endian dtype, looked up instead of computed on every message
+_NAME_OF = {np.dtype(n).newbyteorder(o): n for n in ALLOWED_DTYPES for o in "<>="}
+_WIRE_DTYPE = {n: np.dtype(n).newbyteorder("<") for n in ALLOWED_DTYPES}
+
 RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "t_created_s", "t_sent_s", "arrays",
                            "node", "block", "block_version", "trail", "eos"})
 # Keys a derived frame does not inherit: the runtime stamps them anew at every hop.
@@ -69,6 +73,8 @@ class Frame:
 
     header: dict[str, Any] = field(default_factory=dict)
     arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    # name -> (array, received message part): an array forwarded unchanged is sent as the part it arrived in
+    wire: dict[str, tuple[np.ndarray, Any]] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def of(cls, data: np.ndarray | None = None, **fields: Any) -> "Frame":
@@ -106,7 +112,8 @@ class Frame:
             new_arrays["data"] = np.asarray(data)
         if arrays:
             new_arrays.update({k: np.asarray(a) for k, a in arrays.items()})
-        return Frame(header, new_arrays)
+        wire = {k: w for k, w in self.wire.items() if new_arrays.get(k) is w[0]}
+        return Frame(header, new_arrays, wire)
 
     def with_header(self, **fields: Any) -> "Frame":
         """The same arrays with extra header fields."""
@@ -145,16 +152,21 @@ def encode(frame: Frame, **stamp: Any) -> list[Any]:
     header.setdefault("cycle", header.get("seq", 0))
     specs, buffers = [], []
     for name, array in frame.arrays.items():
+        received = frame.wire.get(name)
+        if received is not None and received[0] is array:   # forwarded unchanged: resend the received part
+            specs.append([name, _NAME_OF[array.dtype], list(array.shape)])
+            buffers.append(received[1])
+            continue
         array = np.asarray(array)
-        dtype = array.dtype
-        if dtype.name not in ALLOWED_DTYPES:
-            raise FrameError(f"array {name!r}: dtype {dtype} is not allowed on the wire; "
+        dtype_name = _NAME_OF.get(array.dtype)
+        if dtype_name is None:
+            raise FrameError(f"array {name!r}: dtype {array.dtype} is not allowed on the wire; "
                              f"expected one of {sorted(ALLOWED_DTYPES)}")
-        if dtype.byteorder == ">":
-            array = array.astype(dtype.newbyteorder("<"))
+        if array.dtype.byteorder == ">":
+            array = array.astype(_WIRE_DTYPE[dtype_name])
         if not array.flags.c_contiguous:
             array = np.ascontiguousarray(array)  # the one copy a non-contiguous view needs
-        specs.append([name, dtype.name, list(array.shape)])
+        specs.append([name, dtype_name, list(array.shape)])
         buffers.append(memoryview(array.reshape(-1).view(np.uint8)) if array.size else b"")
     header["arrays"] = specs
     try:
@@ -190,6 +202,7 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
         raise FrameError(f"header announces {len(specs)} array(s) but the message has {len(parts) - 1} "
                          "buffer part(s)")
     arrays: dict[str, np.ndarray] = {}
+    wire: dict[str, tuple[np.ndarray, Any]] = {}
     total = 0
     for i, spec in enumerate(specs):
         name, dtype, shape = _check_spec(i, spec)
@@ -204,7 +217,9 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
         arr = np.frombuffer(buf, dtype=dtype).reshape(shape) if nbytes else np.zeros(shape, dtype)
         arr.flags.writeable = False
         arrays[name] = arr
-    return Frame(header, arrays)
+        if nbytes and not isinstance(parts[i + 1], (bytes, bytearray, memoryview)):
+            wire[name] = (arr, parts[i + 1])
+    return Frame(header, arrays, wire)
 
 
 def _as_buffer(part: Any) -> memoryview:
@@ -246,4 +261,4 @@ def _check_spec(i: int, spec: Any) -> tuple[str, np.dtype, list[int]]:
     if len(shape) > MAX_NDIM or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0
                                         for n in shape):
         raise FrameError(f"array {name!r}: shape {shape!r} must be at most {MAX_NDIM} non-negative integers")
-    return name, np.dtype(dtype_name).newbyteorder("<"), shape
+    return name, _WIRE_DTYPE[dtype_name], shape

@@ -108,7 +108,7 @@ class NodeRunner:
         if now >= self.next_hb:
             self.tell("hb", counters=self.counters())
             self.next_hb = now + HEARTBEAT_S
-        while self.control.poll(0):
+        while self.control.get(zmq.EVENTS) & zmq.POLLIN:
             msg = msgpack.unpackb(self.control.recv(), raw=False, strict_map_key=True)
             kind = msg.get("type")
             if kind == "go":
@@ -157,10 +157,9 @@ class NodeRunner:
     def receive(self, port: str) -> None:
         sock = self.inputs[port]
         for _ in range(64):                  # drain a burst, then let the others speak
-            try:
-                parts = sock.recv_multipart(flags=zmq.NOBLOCK, copy=False)
-            except zmq.Again:
+            if not sock.get(zmq.EVENTS) & zmq.POLLIN:
                 return
+            parts = sock.recv_multipart(flags=zmq.NOBLOCK, copy=False)
             try:
                 frame = decode(parts)
             except FrameError as exc:
@@ -188,7 +187,7 @@ class NodeRunner:
         for port, frame in result.items():
             if frame is None:
                 continue
-            if port not in {p.name for p in self.cls.outputs}:
+            if port not in self.outputs and port not in {p.name for p in self.cls.outputs}:
                 raise KeyError(f"{self.cls.__name__} returned a frame for unknown output {port!r}")
             self.send(port, frame, context)
 
@@ -254,6 +253,8 @@ class NodeRunner:
     def run_block(self, what: str, frames: list[Frame], port: str | None = None) -> None:
         context = frames[0]
         self.seq = context.seq
+        if self.first_seq_of_block is None:
+            self.first_seq_of_block = context.seq
         t0 = time.perf_counter()
         if what == "process":
             full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
@@ -296,16 +297,21 @@ class NodeRunner:
             self.pump()
             if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
                 return
+            ready = False
             for p, sock in self.inputs.items():
                 want = p not in self.eos and len(self.buffers[p]) < limit
                 if want and sock not in poller:
                     poller.register(sock, zmq.POLLIN)
                 elif not want and sock in poller:
                     poller.unregister(sock)
-            events = dict(poller.poll(HEARTBEAT_S * 1000))
-            for p, sock in self.inputs.items():
-                if sock in events:
+                if want and sock.get(zmq.EVENTS) & zmq.POLLIN:   # busy: skip the poll system call
                     self.receive(p)
+                    ready = True
+            if not ready:
+                events = dict(poller.poll(HEARTBEAT_S * 1000))
+                for p, sock in self.inputs.items():
+                    if sock in events:
+                        self.receive(p)
 
     def run(self) -> int:
         self.block.start()
