@@ -1,0 +1,110 @@
+"""carav bench pipeline: cycles/s of the multi-process radar graph against the same chain in one process.
+
+For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mode:
+  pipeline       the 8-node graph of graphs/demo.toml (smart attacker from cycle 0 off, i.e. half the run
+                 attacked), one process per node, run by the supervisor; cycles/s from go to the last sink
+  fused          carav_stream.chain.run_chain in this process, one cycle at a time (the same work per cycle)
+  fused_batched  run_chain with 64-cycle batches (what vectorisation buys on one core)
+Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
+rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time.
+Noise and attacks are fresh and i.i.d. in every cycle and every cycle is processed in full.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from carav_stream.chain import run_chain, scene_of
+from carav_stream.graph import load_graph
+from carav_stream.supervisor import Supervisor
+
+CASES = (("table1", "beat", 2000), ("table1", "waveform", 200), ("awr1642", "beat", 1000))
+GRAPH = """
+seed = 5
+scene = "{preset}"
+fidelity = "{fidelity}"
+connections = [
+  "source.tx -> channel.tx", "channel.rx -> attacker.rx", "attacker.rx -> adc.rx",
+  "adc.frames -> detector.frames", "source.rho -> detector.rho",
+  "adc.frames -> gate.frames", "detector.verdict -> gate.verdict",
+  "gate.clean -> ranging.frames", "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms",
+]
+[blocks]
+source   = {{ type = "chirp_source" }}
+channel  = {{ type = "channel" }}
+attacker = {{ type = "attacker", model = "smart", rarms = 3.0, start_cycle = {half} }}
+adc      = {{ type = "adc_framer" }}
+detector = {{ type = "rms_detector", eta = 1.5 }}
+gate     = {{ type = "gate" }}
+ranging  = {{ type = "range_estimator", method = "{method}" }}
+summary  = {{ type = "run_summary" }}
+"""
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", type=Path, metavar="FILE", help="write the records as JSON")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per case and mode (median reported)")
+    parser.add_argument("--scale", type=float, default=1.0, help="multiply the cycles of every case")
+    parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
+    parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
+
+
+def _pipeline(preset: str, fidelity: str, n: int, method: str, folder: Path) -> tuple[float, dict]:
+    path = folder / f"bench-{preset}-{fidelity}.toml"
+    path.write_text(GRAPH.format(preset=preset, fidelity=fidelity, half=n // 2, method=method))
+    summary = Supervisor(load_graph(path), cycles=n, progress=False, log=lambda text: None).run()
+    if summary["failures"] or summary["lost"] or summary["cycles_judged"] != n:
+        raise RuntimeError(f"pipeline run of {preset}/{fidelity} failed: {summary['failures']} lost {summary['lost']}")
+    busy = {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
+    return summary["throughput_cycles_per_s"], busy
+
+
+def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> float:
+    scene = scene_of(preset)
+    t0 = time.perf_counter()
+    run_chain(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
+              method=method, fidelity=fidelity, batch=batch)
+    return n / (time.perf_counter() - t0)
+
+
+def run(args: argparse.Namespace) -> int:
+    wanted = None if args.cases == "all" else {tuple(c.split(":")) for c in args.cases.split(",")}
+    records = []
+    with tempfile.TemporaryDirectory() as folder:
+        for preset, fidelity, n in CASES:
+            if wanted and (preset, fidelity) not in wanted:
+                continue
+            n = max(20, int(n * args.scale))
+            rate_radar = scene_of(preset).cycles_per_s
+            runs = {"pipeline": [], "fused": [], "fused_batched": []}
+            busy_runs = []
+            for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
+                rate, busy = _pipeline(preset, fidelity, n, args.method, Path(folder))
+                runs["pipeline"].append(rate)
+                busy_runs.append(busy)
+                runs["fused"].append(_fused(preset, fidelity, n, args.method, 1))
+                runs["fused_batched"].append(_fused(preset, fidelity, n, args.method, 64))
+            busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
+            bottleneck = max(busy, key=busy.get)
+            fused = statistics.median(runs["fused"])
+            for mode, rates in runs.items():
+                rate = statistics.median(rates)
+                rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "cycles": n, "repeats": args.repeats,
+                       "method": args.method, "cycles_per_s": rate, "runs_cycles_per_s": rates,
+                       "real_time_factor": rate / rate_radar, "radar_cycles_per_s": rate_radar,
+                       "speedup_over_fused": rate / fused}
+                if mode == "pipeline":
+                    rec["bottleneck_node"] = bottleneck
+                    rec["busy_us_per_cycle"] = busy
+                records.append(rec)
+                print(f"{preset:<8} {fidelity:<8} {mode:<13} {rate:9.1f} cycles/s  real-time x{rate / rate_radar:6.3f}"
+                      f"  vs fused x{rate / fused:5.2f}" + (f"  bottleneck {bottleneck} "
+                                                           f"({busy[bottleneck]:.0f} us/cycle)" if mode == "pipeline" else ""),
+                      flush=True)
+    if args.json:
+        args.json.write_text(json.dumps(records, indent=2))
+    return 0

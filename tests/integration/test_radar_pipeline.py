@@ -1,0 +1,206 @@
+"""Algorithm 1 as a graph of real processes: the guarantees of the radar pipeline."""
+import os
+import signal
+
+import numpy as np
+import pytest
+
+from carav_stream.chain import run_chain, scene_of
+from tests.integration.conftest import read_jsonl, wait_until
+
+pytestmark = pytest.mark.integration
+
+CHAIN = """
+seed = {seed}
+scene = "table1"
+fidelity = "{fidelity}"
+connections = [
+  "source.tx -> channel.tx", "channel.rx -> attacker.rx", "channel.air -> attacker.air", "attacker.rx -> adc.rx",
+  "adc.frames -> detector.frames", "source.rho -> detector.rho",
+  "adc.frames -> gate.frames", "detector.verdict -> gate.verdict",
+  "gate.clean -> ranging.frames", "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms",
+  "detector.verdict -> vlog.inp", "ranging.estimates -> elog.inp", "gate.alarms -> elog.extra",
+  "channel.rx -> alog.inp", "channel.air -> alog.extra", "source.rho -> rlog.inp",
+]
+[run]
+cycles = {cycles}
+[blocks]
+source   = {{ type = "chirp_source" }}
+channel  = {{ type = "channel" }}
+attacker = {{ type = "attacker", {attacker} }}
+adc      = {{ type = "adc_framer" }}
+detector = {{ type = "rms_detector", eta = 1.5 {detector} }}
+gate     = {{ type = "gate" }}
+ranging  = {{ type = "range_estimator", method = "ml" }}
+summary  = {{ type = "run_summary" }}
+vlog     = {{ type = "jsonl_sink", path = "verdicts.jsonl", max_values = 64 }}
+elog     = {{ type = "jsonl_sink", path = "judged.jsonl" }}
+alog     = {{ type = "jsonl_sink", path = "attacker_inputs.jsonl", max_values = 64 }}
+rlog     = {{ type = "jsonl_sink", path = "rho.jsonl", max_values = 64 }}
+"""
+
+
+def graph(carav, cycles, attacker, seed=21, fidelity="beat", detector=""):
+    return carav.graph(CHAIN.format(cycles=cycles, attacker=attacker, seed=seed, fidelity=fidelity, detector=detector))
+
+
+def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
+    n = 120
+    run = carav.run(graph(carav, n, 'model = "smart", rarms = 3.0, start_cycle = 60'))
+    assert run.wait(120) == 0, run.stderr()
+    lib = run_chain(scene_of("table1"), n, seed=21, attack="smart", attack_params={"rarms": 3.0, "start_cycle": 60})
+    verdicts = read_jsonl(carav.workdir / "verdicts.jsonl")
+    assert [v["seq"] for v in verdicts] == list(range(n))
+    np.testing.assert_array_equal([v["q"] for v in verdicts], lib.q)            # bit for bit
+    np.testing.assert_array_equal([v["alarm"] for v in verdicts], lib.alarm)
+    np.testing.assert_array_equal([v["data"] for v in verdicts], lib.rho)
+    est = {e["seq"]: e for e in read_jsonl(carav.workdir / "judged.jsonl") if e["port"] == "inp"}
+    assert sorted(est) == [c for c in range(n) if not lib.alarm[c]]
+    np.testing.assert_array_equal([est[c]["range_m"][0] for c in sorted(est)], lib.range_m[~lib.alarm, 0])
+    np.testing.assert_array_equal([est[c]["velocity_mps"][0] for c in sorted(est)], lib.velocity_mps[~lib.alarm, 0])
+    s = run.summary()
+    assert s["lost"] == 0 and s["cycles_judged"] == n and s["attacked_cycles"] == 60
+    assert s["detected"] == int(lib.alarm[60:].sum()) and s["false_alarms"] == int(lib.alarm[:60].sum())
+
+
+def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
+    n = 40
+    run = carav.run(graph(carav, n, 'model = "lfsr_predictor", rarms = 3.0'))
+    assert run.wait(120) == 0, run.stderr()
+    rho = {r["seq"]: r["data"] for r in read_jsonl(carav.workdir / "rho.jsonl")}
+    seen = read_jsonl(carav.workdir / "attacker_inputs.jsonl")   # exactly the frames sent to the attacker
+    assert len(seen) == 2 * n
+    forbidden = {"rho", "activation", "tx", "active_chirps"}
+    for frame in seen:
+        assert not forbidden & set(frame), frame.keys()
+        assert [a[0] for a in frame["arrays"]] == ["data"]
+    air = {f["seq"]: f for f in seen if f["port"] == "extra"}
+    assert air[0]["data"] == [False] * 64 and air[0]["air_cycle"] == -1
+    for c in range(1, n):
+        assert air[c]["air_cycle"] == c - 1 and air[c]["data"] == rho[c - 1]   # one cycle late, never current
+    rx = [f for f in seen if f["port"] == "inp"]
+    assert all("data" not in f and f["arrays"][0][2] == [64, 1100] for f in rx)
+
+
+def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector_dies(carav):
+    body = CHAIN.format(cycles=0, attacker='model = "none"', seed=22, fidelity="beat",
+                        detector=', restart = "on-failure"')
+    run = carav.run(carav.graph(body))
+    judged = carav.workdir / "judged.jsonl"
+    wait_until(lambda: len(read_jsonl(judged)) > 60, 60, "cycles to be judged")
+    pid = int(wait_until(lambda: _pid_of(carav, run, "detector"), 20, "detector pid"))
+    os.kill(pid, signal.SIGKILL)
+    wait_until(lambda: "restarting 'detector'" in run.stderr(), 30, "the supervisor to restart the detector")
+    n_at_restart = len(read_jsonl(judged))
+    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 60, 60, "cycles after the restart")
+    assert carav.cli("stop").returncode == 0
+    run.wait(60)
+    err = run.stderr()
+    assert "node 'detector' (rms_detector) failed: exited with signal SIGKILL" in err
+    verdicts = {v["seq"]: v for v in read_jsonl(carav.workdir / "verdicts.jsonl")}
+    records = read_jsonl(judged)
+    estimates = [r for r in records if r["port"] == "inp"]
+    alarms = [r for r in records if r["port"] == "extra"]
+    assert estimates and all(r["seq"] in verdicts and verdicts[r["seq"]]["alarm"] is False for r in estimates)
+    assert all(r["verdict"] == "clean" for r in estimates)
+    # frames the dead detector never judged (if any were in flight) are refused as no_verdict, never passed
+    assert all(a["seq"] not in verdicts for a in alarms if a["reason"] == "no_verdict")
+    s = run.summary()
+    assert s["restarts"] == 1
+    # every generated cycle is judged exactly once: estimated on a clean verdict, or refused with a reason
+    assert sorted(r["seq"] for r in records) == list(range(s["cycles"]))
+
+
+def _pid_of(carav, run, node):
+    st = carav.cli("status", "--json", timeout_s=10)
+    if st.returncode != 0 or not st.stdout.strip().startswith("["):
+        return None
+    for s in __import__("json").loads(st.stdout):
+        pid = s["nodes"].get(node, {}).get("pid")
+        if pid:
+            return pid
+    return None
+
+
+def test_live_attacker_swaps_keep_every_cycle_and_change_the_verdicts(carav):
+    run = carav.run(graph(carav, 0, 'model = "none"', seed=23, fidelity="waveform"))
+    judged = carav.workdir / "judged.jsonl"
+    swaps = [("smart", ["rarms=4.0"]),
+             ("secondary_antenna", ["range_m=30.0", "velocity_mps=13.89", "tx_power_w=0.1"])]
+    for i, (model, sets) in enumerate(swaps):
+        wait_until(lambda: len(read_jsonl(judged)) > 30 * (i + 1), 90, f"cycles before swap {i}")
+        res = carav.cli("swap", "attacker", "attacker", "--set", f"model={model}",
+                        *sum((["--set", s] for s in sets), []), timeout_s=60)
+        assert res.returncode == 0, res.stderr
+    wait_until(lambda: len(read_jsonl(judged)) > 100, 90, "cycles after the last swap")
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(90) == 0, run.stderr()
+    s = run.summary()
+    records = sorted(read_jsonl(judged), key=lambda r: r["seq"])
+    assert [r["seq"] for r in records] == list(range(s["cycles"]))     # none lost, duplicated or reordered
+    assert s["lost"] == 0
+    models = [r.get("attack_model") for r in records]
+    firsts = [sw["first_seq"] for sw in s["swaps"]]
+    assert models == ["none"] * firsts[0] + ["smart"] * (firsts[1] - firsts[0]) + \
+        ["secondary_antenna"] * (s["cycles"] - firsts[1])
+    alarmed = [r["port"] == "extra" for r in records]
+    assert not any(alarmed[:firsts[0]])                                   # clean before the first swap
+    assert all(alarmed[firsts[0]:])                                       # every attacked cycle alarms
+
+
+GRAPHS = sorted((__import__("pathlib").Path(__file__).resolve().parents[2] / "graphs").glob("*.toml"))
+
+
+def test_every_committed_graph_validates():
+    from carav_stream.graph import load_graph
+    names = {g.stem for g in GRAPHS}
+    assert {"demo", "table1_random", "table1_smart", "awr1642_smart", "secondary_antenna", "no_attack",
+            "two_hosts"} <= names
+    for g in GRAPHS:
+        load_graph(g)
+
+
+def test_demo_graph_runs_and_reports_detection_figures(carav):
+    run = carav.run(GRAPHS[[g.stem for g in GRAPHS].index("demo")], "--cycles", "200")
+    assert run.wait(120) == 0, run.stderr()
+    s = run.summary()
+    assert s["cycles"] == 200 and s["lost"] == 0 and s["cycles_judged"] == 200
+    assert s["attacked_cycles"] == 50 and s["detected"] == 50 and s["false_alarms"] == 0
+    assert s["range_error_m"]["n"] == 150 and s["range_error_m"]["rmse"] < 0.05
+    out = run.stdout()
+    assert "detection_rate: 1.0" in out and "lost 0" in out
+
+
+def _free_port_base() -> int:
+    import socket
+    for _ in range(50):
+        with socket.socket() as a:
+            a.bind(("127.0.0.1", 0))
+            base = a.getsockname()[1]
+        if 1024 <= base <= 64000:
+            ok = True
+            for p in range(base, base + 4):
+                with socket.socket() as b:
+                    try:
+                        b.bind(("127.0.0.1", p))
+                    except OSError:
+                        ok = False
+            if ok:
+                return base
+    raise RuntimeError("no free port range")
+
+
+def test_two_hosts_over_tcp_as_two_supervisors(carav):
+    text = GRAPHS[[g.stem for g in GRAPHS].index("two_hosts")].read_text()
+    text = text.replace("port_base = 47100", f"port_base = {_free_port_base()}")
+    text = text.replace("port_base = 47200", f"port_base = {_free_port_base()}")
+    path = carav.workdir / "two.toml"
+    path.write_text(text)
+    back = carav.run(path, "--host", "back", "--cycles", "200")
+    front = carav.run(path, "--host", "front", "--cycles", "200")
+    assert front.wait(120) == 0, front.stderr()
+    assert back.wait(120) == 0, back.stderr()
+    sb, sf = back.summary(), front.summary()
+    assert sf["cycles"] == 200 and set(sf["per_node"]) == {"source", "channel", "attacker", "adc"}
+    assert sb["cycles"] == 200 and sb["cycles_judged"] == 200 and sb["lost"] == 0
+    assert sb["attacked_cycles"] == 50 and sb["detected"] == 50 and sb["false_alarms"] == 0
