@@ -26,6 +26,7 @@ from carav_stream.frames import Frame, FrameError, decode, encode
 from carav_stream.registry import Registry
 
 HEARTBEAT_S = 0.5
+RECOVERY_STALL_S = 2.0   # after a crash: how long a full input buffer waits for a partner before giving up
 MAX_REPORTED_REJECTS = 20
 
 
@@ -63,11 +64,15 @@ class NodeRunner:
         hwm = spec["queue_frames"]
         self.in_ports: list[str] = [p.name for p in self.cls.inputs if p.name in spec["inputs"]]
         self.inputs = {p: transport.bind_input(self.ctx, spec["inputs"][p], hwm, self.curve) for p in self.in_ports}
+        self.endpoints = {e["edge"]: e["connect"] for edges in spec["outputs"].values() for e in edges}
         self.outputs: dict[str, list[tuple[str, zmq.Socket]]] = {
-            port: [(e["edge"], transport.connect_output(self.ctx, e["connect"], hwm, self.curve,
-                                                        int(spec["drain_timeout_s"] * 1000)))
-                   for e in edges]
-            for port, edges in spec["outputs"].items()}
+            port: [(e["edge"], self.connect(e["edge"])) for e in edges] for port, edges in spec["outputs"].items()}
+        self.reconnect: set[str] = set()                 # edges whose consumer was restarted
+        self.limit = max(4, 4 * spec["queue_frames"])    # frames buffered per input while pairing
+        # After a crash, partners lost with the dead node can never arrive: a node restarted, or fed by a
+        # restarted node, must not hold frames for them forever (its full buffer would stall the graph).
+        self.recovering = bool(spec.get("recovering"))
+        self.stalled_since: float | None = None
         self.buffers = {p: collections.deque() for p in self.in_ports}
         self.eos: dict[str, int | None] = {}          # port -> announced count (None: upstream gone)
         self.last_seq: dict[str, int] = {}
@@ -90,6 +95,20 @@ class NodeRunner:
         self.pending_swap: dict[str, Any] | None = None
         self.next_hb = 0.0
         self.seq = spec.get("start_seq", 0)
+
+    def connect(self, edge: str) -> zmq.Socket:
+        return transport.connect_output(self.ctx, self.endpoints[edge], self.spec["queue_frames"], self.curve,
+                                        int(self.spec["drain_timeout_s"] * 1000))
+
+    def renew(self, port: str, i: int) -> zmq.Socket:
+        """A fresh connection for edge i of `port`: a connection to a consumer that died may never recover.
+        What the old socket still held is lost with it, and the counters show it as lost on that edge."""
+        edge, old = self.outputs[port][i]
+        old.close(linger=0)
+        sock = self.connect(edge)
+        self.outputs[port][i] = (edge, sock)
+        self.reconnect.discard(edge)
+        return sock
 
     # -- control plane -------------------------------------------------------------------------------------
     def tell(self, kind: str, **fields: Any) -> None:
@@ -126,6 +145,10 @@ class NodeRunner:
                     self.eos.setdefault(port, None)
             elif kind == "cut":                 # a downstream node died for good: stop feeding it
                 self.cut.update(msg.get("edges", []))
+            elif kind == "reconnect":           # a downstream node was restarted: connect afresh
+                self.reconnect.update(msg.get("edges", []))
+            elif kind == "recover":             # an upstream node was restarted: partners may be lost
+                self.recovering = True
 
     def apply_swap(self) -> None:
         msg, self.pending_swap = self.pending_swap, None
@@ -157,9 +180,10 @@ class NodeRunner:
     def receive(self, port: str) -> None:
         sock = self.inputs[port]
         for _ in range(64):                  # drain a burst, then let the others speak
-            if not sock.get(zmq.EVENTS) & zmq.POLLIN:
+            try:
+                parts = sock.recv_multipart(flags=zmq.NOBLOCK, copy=False)
+            except zmq.Again:
                 return
-            parts = sock.recv_multipart(flags=zmq.NOBLOCK, copy=False)
             try:
                 frame = decode(parts)
             except FrameError as exc:
@@ -206,11 +230,16 @@ class NodeRunner:
                        t_sent_s=time.time(), node=self.name, block=self.block_type,
                        block_version=f"{self.cls.version}#{self.generation}", trail=trail + [hop])
         self.c_out[port] += 1
-        for edge, sock in self.outputs.get(port, []):
-            if edge not in self.cut and transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut):
-                self.c_sent[edge] += 1
-            else:
-                self.c_undeliverable[edge] += 1
+        for i, (edge, sock) in enumerate(self.outputs.get(port, [])):
+            while True:
+                if edge in self.cut:
+                    self.c_undeliverable[edge] += 1
+                    break
+                if edge in self.reconnect:
+                    sock = self.renew(port, i)
+                if transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut or edge in self.reconnect):
+                    self.c_sent[edge] += 1
+                    break
 
     def send_eos(self) -> None:
         for port, edges in self.outputs.items():
@@ -237,18 +266,30 @@ class NodeRunner:
                 seqs = {f.seq for f in heads.values()}
                 if len(seqs) == 1:
                     frames = [self.buffers[p].popleft() for p in ports]
+                    self.stalled_since = None
                     self.run_block("process", frames)
                     continue
                 top = max(seqs)
                 port = next(p for p, f in heads.items() if f.seq < top)
             else:
                 finished = [p for p in ports if not self.buffers[p] and p in self.eos]
-                if not finished:
+                if not finished and not self.given_up():
                     return
                 port = min(heads, key=lambda p: heads[p].seq)
             frame = self.buffers[port].popleft()
             self.c_unpaired[port] += 1
             self.run_block("unpaired", [frame], port)
+
+    def given_up(self) -> bool:
+        """In recovery only: a full buffer has waited RECOVERY_STALL_S for an empty partner input, which in a
+        graph that lost frames with a crashed node means the partner is gone (and the graph is stalled)."""
+        if not (self.recovering and any(len(b) >= self.limit for b in self.buffers.values())):
+            self.stalled_since = None
+            return False
+        now = time.monotonic()
+        if self.stalled_since is None:
+            self.stalled_since = now
+        return now - self.stalled_since >= RECOVERY_STALL_S
 
     def run_block(self, what: str, frames: list[Frame], port: str | None = None) -> None:
         context = frames[0]
@@ -291,27 +332,21 @@ class NodeRunner:
     def run_filter(self) -> None:
         poller = zmq.Poller()
         poller.register(self.control, zmq.POLLIN)
-        limit = max(4, 4 * self.spec["queue_frames"])
         while True:
             self.idle()
             self.pump()
             if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
                 return
-            ready = False
             for p, sock in self.inputs.items():
-                want = p not in self.eos and len(self.buffers[p]) < limit
+                want = p not in self.eos and len(self.buffers[p]) < self.limit
                 if want and sock not in poller:
                     poller.register(sock, zmq.POLLIN)
                 elif not want and sock in poller:
                     poller.unregister(sock)
-                if want and sock.get(zmq.EVENTS) & zmq.POLLIN:   # busy: skip the poll system call
+            events = dict(poller.poll(HEARTBEAT_S * 1000))
+            for p, sock in self.inputs.items():
+                if sock in events:
                     self.receive(p)
-                    ready = True
-            if not ready:
-                events = dict(poller.poll(HEARTBEAT_S * 1000))
-                for p, sock in self.inputs.items():
-                    if sock in events:
-                        self.receive(p)
 
     def run(self) -> int:
         self.block.start()

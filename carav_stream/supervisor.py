@@ -260,9 +260,16 @@ class Supervisor:
             st.restarts += 1
             st.error = None
             st.spec["start_seq"] = st.dead_counters[-1].get("processed", 0) if not self.graph.edges_into(st.name) else 0
+            st.spec["recovering"] = True
             self.log(f"carav: restarting {st.name!r} ({st.restarts}/{policy.max_restarts})")
             self.spawn(st)
             self.pending_go.add(st.name)
+            for e in self.graph.edges_into(st.name):   # producers connect afresh to the new incarnation
+                if e.src in self.nodes:
+                    self.send(e.src, "reconnect", edges=[str(e)])
+            for e in self.graph.edges_from(st.name):   # consumers: what it held is lost, do not wait for it
+                if e.dst in self.nodes:
+                    self.send(e.dst, "recover")
             return
         st.failed = True
         self.failures.append(f"node {st.name!r} ({st.spec['type']}) failed: {reason}")

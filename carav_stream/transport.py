@@ -80,13 +80,14 @@ def send_blocking(sock: zmq.Socket, parts: list[Any], idle: Callable[[], None],
     (heartbeats and control stay alive). Returns True once ZeroMQ took the message, False only if
     `cancelled()` became true first (the caller counts that frame as undeliverable)."""
     while True:
-        if sock.get(zmq.EVENTS) & zmq.POLLOUT:     # room in the queue: send without an exception round trip
+        try:
             sock.send_multipart(parts, flags=zmq.NOBLOCK, copy=False)
             return True
-        sock.poll(tick_s * 1000, zmq.POLLOUT)
-        idle()
-        if cancelled():
-            return False
+        except zmq.Again:
+            sock.poll(tick_s * 1000, zmq.POLLOUT)
+            idle()
+            if cancelled():
+                return False
 
 
 def ipc_endpoint(run_dir: Path, name: str) -> str:
