@@ -16,6 +16,7 @@ import numpy as np
 from carav_stream.block import Block, BlockError, In, Out, Param
 from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
 from carav_stream.frames import Frame
+from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.synth import channel, transmit
 
 
@@ -35,6 +36,7 @@ class Channel(Block):
 
     def start(self) -> None:
         self.rng = seed_streams(self.seed).noise
+        echo_templates(self.scene_obj, self.fidelity)   # built once (cached) before the first cycle
         self.heard = np.zeros(self.scene_obj.n_chirps, dtype=bool)
 
     def process(self, tx: Frame) -> dict[str, Frame]:

@@ -86,7 +86,7 @@ class NodeRunner:
         self.n_reports = 0
         self.processed = 0
         self.consumed = 0                                # input frames handed to the block
-        self.busy_s = 0.0                                # time spent inside the block's own code
+        self.busy_s = 0.0                                # CPU time spent inside the block's own code
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
         self.go = not self.cls.is_source()
@@ -296,14 +296,14 @@ class NodeRunner:
         self.seq = context.seq
         if self.first_seq_of_block is None:
             self.first_seq_of_block = context.seq
-        t0 = time.perf_counter()
+        t0 = time.thread_time()
         if what == "process":
             full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
             args = [full.get(p.name) for p in self.cls.inputs]
             result = self.block.process(*args)
         else:
             result = self.block.unpaired(port, context)
-        self.busy_s += time.perf_counter() - t0
+        self.busy_s += time.thread_time() - t0
         self.processed += 1
         self.consumed += len(frames)
         self.emit(result, context)
@@ -319,9 +319,9 @@ class NodeRunner:
         while not self.stopping and (not max_cycles or self.seq < max_cycles):
             if self.pending_swap:
                 self.apply_swap()
-            t0 = time.perf_counter()
+            t0 = time.thread_time()
             result = self.block.generate(self.seq)
-            self.busy_s += time.perf_counter() - t0
+            self.busy_s += time.thread_time() - t0
             if result is None:
                 break
             self.processed += 1
