@@ -391,8 +391,11 @@ def main(argv: list[str]) -> int:
         try:
             ctx = runner.ctx if runner else zmq.Context()
             if runner:
-                for sock in [*runner.inputs.values(), *(s for e in runner.outputs.values() for _, s in e)]:
-                    sock.close(linger=0)   # a crashed node must not hang on undelivered frames
+                for sock in runner.inputs.values():
+                    sock.close(linger=0)
+                for edges in runner.outputs.values():   # what it already sent is valid: 1 s to leave,
+                    for _, sock in edges:                # but a crashed node must not hang on a full queue
+                        sock.close(linger=1000)
                 if runner.curve:
                     runner.curve.close()
                 ctl = runner.control

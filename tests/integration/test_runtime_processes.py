@@ -130,7 +130,10 @@ def test_crashed_block_is_named_with_its_traceback_and_the_run_fails(carav):
     assert "RuntimeError: deliberate crash at seq 50" in err
     s = run.summary()
     assert s["failures"] and "node 'c' (crasher) failed" in s["failures"][0]
-    assert [l["seq"] for l in read_jsonl(carav.workdir / "out.jsonl")] == list(range(50))
+    got = [l["seq"] for l in read_jsonl(carav.workdir / "out.jsonl")]
+    assert got == list(range(len(got))) and len(got) <= 50
+    # c sent seq 0..49 before it raised; whatever did not reach the sink is counted lost on that edge
+    assert s["lost_by_edge"].get("c.out -> log.inp", 0) == 50 - len(got)
     wait_until(lambda: not run.group_alive() or run.proc.poll() is not None, 10, "process group to end")
 
 
