@@ -21,9 +21,10 @@ class CaravProcess:
     """One `carav run` in its own session (process group), with output in files."""
 
     def __init__(self, workdir: Path, env: dict[str, str], graph: Path, args: list[str]) -> None:
-        self.summary_path = workdir / f"summary-{time.monotonic_ns()}.json"
-        self.out = open(workdir / "stdout.txt", "w+")
-        self.err = open(workdir / "stderr.txt", "w+")
+        tag = time.monotonic_ns()              # several runs in one test keep their own files
+        self.summary_path = workdir / f"summary-{tag}.json"
+        self.out = open(workdir / f"stdout-{tag}.txt", "w+")
+        self.err = open(workdir / f"stderr-{tag}.txt", "w+")
         self.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "run", str(graph),
                                       "--json", str(self.summary_path), "--no-progress", *args],
                                      cwd=workdir, env=env, stdout=self.out, stderr=self.err,

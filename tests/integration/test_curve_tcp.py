@@ -9,13 +9,8 @@ server key). Each rogue check has a control with the right key that shows the ch
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import signal
 import socket
-import subprocess
-import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -84,60 +79,6 @@ def two_ports() -> tuple[int, int]:
     return a, b
 
 
-class Carav:
-    """A `carav run` in its own session; killed with its whole process group at teardown."""
-
-    def __init__(self, workdir: Path, run_dir: Path, graph: Path, *args: str) -> None:
-        self.summary_path = workdir / f"summary-{time.monotonic_ns()}.json"
-        self.log = open(workdir / f"carav-{time.monotonic_ns()}.log", "w+")
-        env = {**os.environ, "CARAV_RUN_DIR": str(run_dir), "PYTHONPATH": str(ROOT)}
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "carav_stream.cli", "run", str(graph), "--json", str(self.summary_path),
-             "--no-progress", *args],
-            cwd=workdir, env=env, stdin=subprocess.DEVNULL, stdout=self.log, stderr=subprocess.STDOUT,
-            start_new_session=True)
-
-    def wait(self, timeout_s: float = 20.0) -> int:
-        return self.proc.wait(timeout_s)
-
-    def output(self) -> str:
-        self.log.flush()
-        return Path(self.log.name).read_text()
-
-    def summary(self) -> dict:
-        return json.loads(self.summary_path.read_text())
-
-    def kill(self) -> None:
-        try:
-            os.killpg(self.proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        try:
-            self.proc.wait(10)
-        except subprocess.TimeoutExpired:
-            pass
-        self.log.close()
-
-
-@pytest.fixture
-def runs(tmp_path):
-    """runs.start(graph, *args) -> Carav; every process group is killed and the run folder removed after."""
-    run_dir = Path(tempfile.mkdtemp(prefix="ct", dir="/tmp"))    # short: ipc paths hold 107 bytes
-    started: list[Carav] = []
-
-    class Api:
-        @staticmethod
-        def start(graph: Path, *args: str) -> Carav:
-            c = Carav(tmp_path, run_dir, graph, *args)
-            started.append(c)
-            return c
-
-    yield Api
-    for c in started:
-        c.kill()
-    shutil.rmtree(run_dir, ignore_errors=True)
-
-
 @pytest.fixture
 def keys(tmp_path):
     """CURVE certificates in tmp_path: certs/{server,client}.key[_secret], authorized/client.key."""
@@ -186,23 +127,23 @@ def rogue_frame(seq: int) -> list:
 
 
 # -- host placement over tcp ---------------------------------------------------------------------------------
-def test_two_host_graph_in_one_supervisor_delivers_every_frame_in_order_over_tcp(tmp_path, runs):
+def test_two_host_graph_in_one_supervisor_delivers_every_frame_in_order_over_tcp(tmp_path, carav):
     n = 400
-    run = runs.start(write_graph(tmp_path, cycles=n, ports=two_ports(), curve=False))
-    assert run.wait(20) == 0, run.output()
+    run = carav.run(write_graph(tmp_path, cycles=n, ports=two_ports(), curve=False))
+    assert run.wait(20) == 0, run.stderr()
     assert sink_seqs(tmp_path) == list(range(n))
     s = run.summary()
     assert s["lost"] == 0 and s["rejected"] == 0
     assert s["per_node"]["t"]["in"] == {"inp": n} and s["per_node"]["log"]["in"] == {"inp": n}
 
 
-def test_two_host_graph_as_two_carav_processes_delivers_every_frame_in_order(tmp_path, runs):
+def test_two_host_graph_as_two_carav_processes_delivers_every_frame_in_order(tmp_path, carav):
     n = 400
     graph = write_graph(tmp_path, cycles=n, ports=two_ports(), curve=False)
-    host_b = runs.start(graph, "--host", "b")
-    host_a = runs.start(graph, "--host", "a")
-    assert host_a.wait(25) == 0, host_a.output()
-    assert host_b.wait(25) == 0, host_b.output()
+    host_b = carav.run(graph, "--host", "b")
+    host_a = carav.run(graph, "--host", "a")
+    assert host_a.wait(25) == 0, host_a.stderr()
+    assert host_b.wait(25) == 0, host_b.stderr()
     assert sink_seqs(tmp_path) == list(range(n))
     a, b = host_a.summary(), host_b.summary()
     assert sorted(a["per_node"]) == ["log", "src"] and sorted(b["per_node"]) == ["t"]
@@ -211,22 +152,22 @@ def test_two_host_graph_as_two_carav_processes_delivers_every_frame_in_order(tmp
 
 
 # -- CURVE -------------------------------------------------------------------------------------------------
-def test_curve_graph_with_the_right_keys_delivers_every_frame_in_order(tmp_path, runs, keys):
+def test_curve_graph_with_the_right_keys_delivers_every_frame_in_order(tmp_path, carav, keys):
     n = 300
-    run = runs.start(write_graph(tmp_path, cycles=n, ports=two_ports(), curve=True))
-    assert run.wait(20) == 0, run.output()
+    run = carav.run(write_graph(tmp_path, cycles=n, ports=two_ports(), curve=True))
+    assert run.wait(20) == 0, run.stderr()
     assert sink_seqs(tmp_path) == list(range(n))
     assert run.summary()["lost"] == 0
 
 
 @pytest.mark.parametrize("who", ["plain", "unauthorized_key", "authorized_key"])
-def test_rogue_push_gets_nothing_into_a_curve_protected_input(tmp_path, runs, keys, who):
+def test_rogue_push_gets_nothing_into_a_curve_protected_input(tmp_path, carav, keys, who):
     """A PUSH connecting to t's input (host b's first port) during the run. Without CURVE, or with a key
     not in curve_authorized, nothing of it reaches t or the sink. The authorized-key control shows that
     a frame that does get in is visible in t's counters and at the sink."""
     n = 150
     ports = two_ports()
-    run = runs.start(write_graph(tmp_path, cycles=n, ports=ports, curve=True, delay_s=0.01))
+    run = carav.run(write_graph(tmp_path, cycles=n, ports=ports, curve=True, delay_s=0.01))
     ctx = zmq.Context()
     try:
         rogue = ctx.socket(zmq.PUSH)
@@ -247,7 +188,7 @@ def test_rogue_push_gets_nothing_into_a_curve_protected_input(tmp_path, runs, ke
             except zmq.Again:
                 pass
             events |= handshake_events(monitor, 0.05)
-        assert run.wait(10) == 0 or who == "authorized_key", run.output()
+        assert run.wait(10) == 0 or who == "authorized_key", run.stderr()
         s = run.summary()
         t_seen = s["per_node"]["t"]["in"].get("inp", 0) + s["per_node"]["t"]["rejected"].get("inp", 0)
         if who == "authorized_key":
@@ -262,7 +203,7 @@ def test_rogue_push_gets_nothing_into_a_curve_protected_input(tmp_path, runs, ke
 
 
 @pytest.mark.parametrize("who", ["plain", "wrong_server_key", "right_server_key"])
-def test_rogue_pull_bound_where_a_producer_connects_receives_nothing(tmp_path, runs, keys, who):
+def test_rogue_pull_bound_where_a_producer_connects_receives_nothing(tmp_path, carav, keys, who):
     """Only host a runs; a rogue PULL binds t's address (host b's first port), where src connects as a CURVE
     client. Without the real server secret key the handshake fails and nothing leaves src. The control with
     the right server key receives frames, so the check sees a leak when there is one."""
@@ -277,7 +218,7 @@ def test_rogue_pull_bound_where_a_producer_connects_receives_nothing(tmp_path, r
             rogue.curve_server = True         # no ZAP handler: it would accept any client
         monitor = rogue.get_monitor_socket()
         rogue.bind(f"tcp://127.0.0.1:{ports[1]}")
-        run = runs.start(write_graph(tmp_path, cycles=50, ports=ports, curve=True), "--host", "a")
+        run = carav.run(write_graph(tmp_path, cycles=50, ports=ports, curve=True), "--host", "a")
         received = 0
         events: set[int] = set()
         deadline = time.monotonic() + (8 if who == "right_server_key" else 3)
@@ -288,7 +229,7 @@ def test_rogue_pull_bound_where_a_producer_connects_receives_nothing(tmp_path, r
             events |= handshake_events(monitor, 0.0)
             if who == "right_server_key" and received >= 5:
                 break
-        assert run.proc.poll() is None, run.output()   # src is still blocked on its unreachable consumer
+        assert run.proc.poll() is None, run.stderr()   # src is still blocked on its unreachable consumer
         assert zmq.EVENT_ACCEPTED in events, f"src never connected: {events}"
         if who == "right_server_key":
             assert received >= 5
