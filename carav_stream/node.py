@@ -40,10 +40,6 @@ def _set_parent_death_signal() -> None:
         pass
 
 
-class Stop(Exception):
-    """The supervisor asked this node to end now."""
-
-
 class NodeRunner:
     def __init__(self, spec: dict[str, Any]) -> None:
         self.spec = spec
@@ -119,7 +115,8 @@ class NodeRunner:
         return {"in": dict(self.c_in), "out": dict(self.c_out), "sent": dict(self.c_sent),
                 "rejected": dict(self.c_rejected), "unpaired": dict(self.c_unpaired),
                 "undeliverable": dict(self.c_undeliverable),
-                "processed": self.processed, "consumed": self.consumed, "busy_s": self.busy_s, "block": self.block_type, "generation": self.generation}
+                "processed": self.processed, "consumed": self.consumed, "busy_s": self.busy_s,
+                "block": self.block_type, "generation": self.generation}
 
     def idle(self) -> None:
         """Serve control messages and heartbeats; called between frames and while blocked."""
@@ -134,8 +131,6 @@ class NodeRunner:
                 self.go = True
             elif kind == "stop":
                 self.stopping = True
-            elif kind == "abort":
-                raise Stop()
             elif kind == "exit":
                 self.released = True
             elif kind == "swap":
@@ -351,14 +346,11 @@ class NodeRunner:
     def run(self) -> int:
         self.block.start()
         self.tell("ready", block=self.block_type, version=self.cls.version)
-        try:
-            if self.cls.is_source():
-                self.run_source()
-            else:
-                self.run_filter()
-            self.emit(self.block.finish(), None if not self.in_ports else Frame({"seq": self.seq}))
-        except Stop:
-            return 2
+        if self.cls.is_source():
+            self.run_source()
+        else:
+            self.run_filter()
+        self.emit(self.block.finish(), None if not self.in_ports else Frame({"seq": self.seq}))
         self.send_eos()
         self.close_block(next_seq=self.seq)
         lost = {p: n - self.c_in[p] for p, n in self.eos.items() if n is not None and n != self.c_in[p]}

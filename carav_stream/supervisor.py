@@ -52,6 +52,7 @@ class NodeState:
     lost: dict[str, int] = field(default_factory=dict)
     rejects: list[str] = field(default_factory=list)
     error: str | None = None
+    grace: bool = False        # exited; its last report may still be on the way
 
 
 class Supervisor:
@@ -69,6 +70,9 @@ class Supervisor:
         self.swaps: list[dict[str, Any]] = []
         self.signals = 0
         self.pending_admin: dict[str, Any] | None = None
+        self.stop_requested: str | None = None
+        self.stop_deadline = 0.0
+        self.pending_go: set[str] = set()
         self.t_go = self.t_end = 0.0
 
     # -- planning ------------------------------------------------------------------------------------------
@@ -234,8 +238,8 @@ class Supervisor:
             hung = code is None and st.ready and now - st.last_seen > self.graph.run["heartbeat_timeout_s"]
             if code is None and not hung:
                 continue
-            if code is not None and st.error is None and now - st.last_seen < 1.0 and not getattr(st, "grace", False):
-                st.grace = True      # its last report may still be on the way: look again next round
+            if code is not None and st.error is None and now - st.last_seen < 1.0 and not st.grace:
+                st.grace = True      # look again next round
                 continue
             if code == 0:   # a node exits 0 only after "done", which may still be in flight
                 if now - st.last_seen > 5:
@@ -284,7 +288,7 @@ class Supervisor:
         self.request_stop(f"node {st.name!r} failed")
 
     def request_stop(self, why: str) -> None:
-        if not getattr(self, "stop_requested", None):
+        if not self.stop_requested:
             self.stop_requested = why
             self.stop_deadline = time.monotonic() + self.graph.run["drain_timeout_s"]
             for n in self.nodes:
@@ -304,8 +308,6 @@ class Supervisor:
     # -- main ----------------------------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
         self.run_dir.mkdir(mode=0o700)
-        self.stop_requested = None
-        self.pending_go: set[str] = set()
         old = {s: signal.signal(s, self.on_signal) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
         self.ctx = zmq.Context()
         try:
