@@ -356,7 +356,15 @@ class Supervisor:
                 if sock is self.router:
                     self.drain_router()
                 else:
-                    self.on_admin(msgpack.unpackb(self.admin.recv(), raw=False, strict_map_key=True))
+                    raw = self.admin.recv()
+                    try:
+                        req = msgpack.unpackb(raw, raw=False, strict_map_key=True)
+                        if not isinstance(req, dict):
+                            raise ValueError(f"expected a map, got {type(req).__name__}")
+                    except ValueError as exc:   # msgpack's errors are ValueErrors: answer, never crash
+                        self.admin.send(msgpack.packb({"ok": False, "error": f"bad admin request: {exc}"}))
+                        continue
+                    self.on_admin(req)
             if self.signals and not self.stop_requested:
                 self.request_stop("signal")
             self.check_processes()

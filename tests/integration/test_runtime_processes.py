@@ -172,6 +172,18 @@ def test_status_and_stop_commands_reach_the_running_graph(carav):
     wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
     st = carav.cli("status")
     assert st.returncode == 0 and "add" in st.stdout and "tagger" in st.stdout and "/s" in st.stdout
+    (admin,) = carav.run_root.glob("carav-*/*/admin")
+    ctx = zmq.Context()
+    req = ctx.socket(zmq.REQ)
+    req.linger = 0
+    req.connect(f"ipc://{admin}")
+    for garbage in (b"\xc1", msgpack.packb([1, 2])):          # a garbled request gets an answer, not a crash
+        req.send(garbage)
+        assert req.poll(10_000), "the supervisor did not answer a bad request"
+        reply = msgpack.unpackb(req.recv())
+        assert reply["ok"] is False and "bad admin request" in reply["error"]
+    req.close()
+    ctx.term()
     assert carav.cli("stop").returncode == 0
     assert run.wait(30) == 0
     assert run.summary()["lost"] == 0 and run.summary()["stopped_by"] == "carav stop"
