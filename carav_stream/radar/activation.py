@@ -76,16 +76,8 @@ class ActivationSource:
 
     def lfsr_bits(self, n_bits: int) -> np.ndarray:
         """The next ``n_bits`` output bits of the LFSR (bool)."""
-        state = self._lfsr_state
-        out = np.empty(n_bits, dtype=bool)
-        taps = self.taps
-        for i in range(n_bits):
-            bit = 0
-            for t in taps:
-                bit ^= state[-t]
-            state.append(bit)
-            out[i] = bit
-        del state[: len(state) - max(taps)]
+        out = lfsr_continue(self._lfsr_state, self.taps, n_bits)
+        self._lfsr_state = (self._lfsr_state + [int(b) for b in out])[-max(self.taps):]
         return out
 
 
