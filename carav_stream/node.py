@@ -54,6 +54,7 @@ class NodeRunner:
         self.block_type = spec["type"]
         self.block: Block = self.registry.get(self.block_type).cls(**spec["params"])
         self.cls = type(self.block)
+        self.out_names = {p.name for p in self.cls.outputs}
         sec = spec.get("security") or {}
         self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
                                      sec["curve_authorized"]) if sec else None
@@ -155,6 +156,7 @@ class NodeRunner:
             return
         self.close_block(next_seq=self.seq)
         self.block, self.cls, self.block_type = new, type(new), msg["block"]
+        self.out_names = {p.name for p in self.cls.outputs}
         self.generation += 1
         self.first_seq_of_block = None
         self.tell("swapped", id=msg.get("id"), block=self.block_type, version=self.cls.version,
@@ -206,7 +208,7 @@ class NodeRunner:
         for port, frame in result.items():
             if frame is None:
                 continue
-            if port not in self.outputs and port not in {p.name for p in self.cls.outputs}:
+            if port not in self.out_names:
                 raise KeyError(f"{self.cls.__name__} returned a frame for unknown output {port!r}")
             self.send(port, frame, context)
 
@@ -225,24 +227,29 @@ class NodeRunner:
                        t_sent_s=time.time(), node=self.name, block=self.block_type,
                        block_version=f"{self.cls.version}#{self.generation}", trail=trail + [hop])
         self.c_out[port] += 1
-        for i, (edge, sock) in enumerate(self.outputs.get(port, [])):
-            while True:
-                if edge in self.cut:
-                    self.c_undeliverable[edge] += 1
-                    break
-                if edge in self.reconnect:
-                    sock = self.renew(port, i)
-                if transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut or edge in self.reconnect):
-                    self.c_sent[edge] += 1
-                    break
+        for i, (edge, _) in enumerate(self.outputs.get(port, [])):
+            if self.deliver(port, i, parts):
+                self.c_sent[edge] += 1
+            else:
+                self.c_undeliverable[edge] += 1
+
+    def deliver(self, port: str, i: int, parts: list[Any]) -> bool:
+        """Send on edge i of `port`, blocking under back-pressure; connect afresh if its consumer was
+        restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
+        edge, sock = self.outputs[port][i]
+        while edge not in self.cut:
+            if edge in self.reconnect:
+                sock = self.renew(port, i)
+            if transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut or edge in self.reconnect):
+                return True
+        return False
 
     def send_eos(self) -> None:
         for port, edges in self.outputs.items():
-            for edge, sock in edges:
+            for i, (edge, _) in enumerate(edges):
                 parts = encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
                                stream=f"{self.name}.{port}", node=self.name, block=self.block_type)
-                if edge not in self.cut:
-                    transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut)
+                self.deliver(port, i, parts)
 
     def pump(self) -> None:
         """Process every frame set that is complete (all inputs at the same seq) or can never complete."""
