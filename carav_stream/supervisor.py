@@ -36,6 +36,9 @@ def run_root() -> Path:
     return root
 
 
+PER_PORT_COUNTERS = ("in", "out", "sent", "rejected", "unpaired", "undeliverable")   # dicts: port or edge -> n
+
+
 @dataclass
 class NodeState:
     name: str
@@ -53,6 +56,18 @@ class NodeState:
     rejects: list[str] = field(default_factory=list)
     error: str | None = None
     grace: bool = False        # exited; its last report may still be on the way
+
+    def total(self, key: str) -> Any:
+        """A counter summed over every incarnation of the node (crashed ones and the current one): a number,
+        or for per-port and per-edge counters a dict of numbers."""
+        incarnations = [*self.dead_counters, self.counters]
+        if key in PER_PORT_COUNTERS:
+            out: dict[str, Any] = {}
+            for c in incarnations:
+                for k, v in c.get(key, {}).items():
+                    out[k] = out.get(k, 0) + v
+            return out
+        return sum(c.get(key, 0) for c in incarnations)
 
 
 class Supervisor:
@@ -218,14 +233,11 @@ class Supervisor:
 
     def cycles_done(self) -> int:
         """Frames the local sources generated; on a host without sources, frames that arrived from others."""
-        def total(n: str, key: str, port: str | None = None) -> int:
-            st = self.nodes[n]
-            return sum((c.get(key, {}).get(port, 0) if port else c.get(key, 0)) for c in [*st.dead_counters, st.counters])
         sources = [n for n in self.nodes if not self.graph.edges_into(n)]
         if sources:
-            return max(total(n, "processed") for n in sources)
+            return max(self.nodes[n].total("processed") for n in sources)
         remote = [(e.dst, e.dst_port) for e in self.graph.edges if e.dst in self.nodes and e.src not in self.nodes]
-        return max((total(n, "in", port) for n, port in remote), default=0)
+        return max((self.nodes[n].total("in").get(port, 0) for n, port in remote), default=0)
 
     # -- failure handling ----------------------------------------------------------------------------------
     def check_processes(self) -> None:
@@ -425,19 +437,9 @@ class Supervisor:
         wall = max(self.t_end - self.t_go, 1e-9) if self.t_go else 0.0
         per_node: dict[str, Any] = {}
         for n, st in self.nodes.items():
-            incarnations = [*st.dead_counters, st.counters]
-            def total(key: str) -> dict[str, int]:
-                out: dict[str, int] = {}
-                for c in incarnations:
-                    for k, v in c.get(key, {}).items():
-                        out[k] = out.get(k, 0) + v
-                return out
-            per_node[n] = {"block": st.spec["type"], "in": total("in"), "out": total("out"), "sent": total("sent"),
-                           "rejected": total("rejected"), "unpaired": total("unpaired"),
-                           "undeliverable": total("undeliverable"),
-                           "processed": sum(c.get("processed", 0) for c in incarnations),
-                           "busy_s": sum(c.get("busy_s", 0.0) for c in incarnations), "restarts": st.restarts,
-                           "failed": st.failed, "history": st.history}
+            per_node[n] = {"block": st.spec["type"],
+                           **{k: st.total(k) for k in (*PER_PORT_COUNTERS, "processed", "busy_s")},
+                           "restarts": st.restarts, "failed": st.failed, "history": st.history}
         lost = 0
         edge_loss = {}
         for e in self.graph.edges:
