@@ -9,7 +9,7 @@ Ports   in  rx       float32 | complex64 (n_chirps, n_samples)   signal at the A
         out frames   same dtype and shape                        ADC frame of one cycle; header clipped
 Graph   adc = { type = "adc_framer" }
 """
-from carav_stream.block import Block, BlockError, In, Out, Param
+from carav_stream.block import Block, In, Out, Param
 from carav_stream.radar.streams import scene_of
 from carav_stream.frames import Frame
 from carav_stream.radar.synth import adc
@@ -21,10 +21,7 @@ class AdcFramer(Block):
     params = (Param("scene", str, "table1", "preset name or scene file (ADC bits, full scale)"),)
 
     def check_params(self) -> None:
-        try:
-            self.scene_obj = scene_of(self.scene)
-        except ValueError as exc:
-            raise BlockError(str(exc)) from None
+        self.scene_obj = scene_of(self.scene)
 
     def process(self, rx: Frame) -> Frame:
         frames, clipped = adc(self.scene_obj, rx.payload[None])

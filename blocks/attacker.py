@@ -47,11 +47,8 @@ class AttackerBlock(Block):
 
     def check_params(self) -> None:
         self.model_params = {p.name: getattr(self, p.name) for p in _model_params() if getattr(self, p.name) is not None}
-        try:
-            self.scene_obj = scene_of(self.scene)
-            self.attack = make_attacker(self.model, self.scene_obj, **self.model_params)
-        except ValueError as exc:
-            raise BlockError(str(exc)) from None
+        self.scene_obj = scene_of(self.scene)
+        self.attack = make_attacker(self.model, self.scene_obj, **self.model_params)
         if self.attack.needs_waveform and self.fidelity != "waveform":
             raise BlockError(f"model {self.model!r} transmits its own waveform: set fidelity = \"waveform\" "
                              "(graph-wide, so that the channel renders the same fidelity)")

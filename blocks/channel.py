@@ -13,7 +13,7 @@ Graph   channel = { type = "channel" }
 """
 import numpy as np
 
-from carav_stream.block import Block, BlockError, In, Out, Param
+from carav_stream.block import Block, In, Out, Param
 from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
 from carav_stream.frames import Frame
 from carav_stream.radar.physics import echo_templates
@@ -29,10 +29,7 @@ class Channel(Block):
               Param("fidelity", str, "beat", "beat or waveform", choices=("beat", "waveform")))
 
     def check_params(self) -> None:
-        try:
-            self.scene_obj = scene_of(self.scene)
-        except ValueError as exc:
-            raise BlockError(str(exc)) from None
+        self.scene_obj = scene_of(self.scene)
 
     def start(self) -> None:
         self.rng = seed_streams(self.seed).noise

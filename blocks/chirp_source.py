@@ -9,7 +9,7 @@ Params  scene (str, "table1"): preset name or scene file
         activation (str, "auto"): secure | seeded | lfsr (auto: secure without a seed, seeded with one)
 Graph   source = { type = "chirp_source" }
 """
-from carav_stream.block import Block, BlockError, Out, Param
+from carav_stream.block import Block, Out, Param
 from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
 from carav_stream.frames import Frame
 
@@ -22,11 +22,8 @@ class ChirpSource(Block):
               Param("activation", str, "auto", "activation source", choices=("auto", "secure", "seeded", "lfsr")))
 
     def check_params(self) -> None:
-        try:
-            self.n_chirps = scene_of(self.scene).n_chirps
-            seed_streams(self.seed, self.activation)
-        except ValueError as exc:
-            raise BlockError(str(exc)) from None
+        self.n_chirps = scene_of(self.scene).n_chirps
+        seed_streams(self.seed, self.activation)
 
     def start(self) -> None:
         self.streams = seed_streams(self.seed, self.activation)

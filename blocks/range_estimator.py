@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from carav_stream.block import Block, BlockError, In, Out, Param
+from carav_stream.block import Block, In, Out, Param
 from carav_stream.radar.streams import scene_of
 from carav_stream.estimate.estimators import METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
@@ -28,10 +28,7 @@ class RangeEstimator(Block):
               Param("scene", str, "table1", "preset name or scene file"))
 
     def check_params(self) -> None:
-        try:
-            self.geometry = Geometry.from_scene(scene_of(self.scene))
-        except ValueError as exc:
-            raise BlockError(str(exc)) from None
+        self.geometry = Geometry.from_scene(scene_of(self.scene))
 
     def start(self) -> None:
         self.refused = 0

@@ -14,7 +14,7 @@ Graph   detector = { type = "rms_detector", eta = 1.5 }
 """
 import numpy as np
 
-from carav_stream.block import Block, BlockError, In, Out, Param
+from carav_stream.block import Block, In, Out, Param
 from carav_stream.radar.streams import scene_of
 from carav_stream.detect.detector import detect
 from carav_stream.frames import Frame
@@ -29,10 +29,7 @@ class RmsDetector(Block):
               Param("scene", str, "table1", "preset name or scene file"))
 
     def check_params(self) -> None:
-        try:
-            self.sigma = self.sigma_n or scene_of(self.scene).sigma_n
-        except ValueError as exc:
-            raise BlockError(str(exc)) from None
+        self.sigma = self.sigma_n or scene_of(self.scene).sigma_n
 
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from carav_stream.block import Block, BlockError, In, Param
+from carav_stream.block import Block, In, Param
 from carav_stream.radar.streams import scene_of
 from carav_stream.frames import Frame
 
@@ -36,10 +36,7 @@ class RunSummary(Block):
               Param("every_s", float, 0.0, "console line period; 0 = none", low=0.0))
 
     def check_params(self) -> None:
-        try:
-            scene = scene_of(self.scene)
-        except ValueError as exc:
-            raise BlockError(str(exc)) from None
+        scene = scene_of(self.scene)
         target = scene.targets[0] if scene.targets else None
         self.true_range_m = target.range_m if target else None
         self.true_velocity_mps = scene.range_rate_mps(target) if target else None

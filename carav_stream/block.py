@@ -111,7 +111,12 @@ class Block:
             raise BlockError("; ".join(f"{name}: {text}" for name, text in problems))
         for p in self.params:
             setattr(self, p.name, p.check(values[p.name])[0] if p.name in values else p.default)
-        self.check_params()
+        try:
+            self.check_params()
+        except BlockError:
+            raise
+        except ValueError as exc:   # a kernel's own validation (a bad scene file, say) speaks for the block
+            raise BlockError(str(exc)) from None
 
     @classmethod
     def param_problems(cls, values: dict[str, Any]) -> list[tuple[str, str]]:
@@ -129,7 +134,7 @@ class Block:
         return problems
 
     def check_params(self) -> None:
-        """Cross-parameter checks; raise BlockError naming the parameters."""
+        """Cross-parameter checks; raise BlockError (or ValueError) naming the parameters."""
 
     def start(self) -> None:
         pass

@@ -153,3 +153,14 @@ def test_params_are_typed_and_bounded():
         B(mode="c")
     with pytest.raises(BlockError, match="n: must be int, got bool True"):
         B(n=True)
+
+
+def test_a_value_error_from_check_params_becomes_a_block_error_naming_it():
+    class NeedsFile(Block):
+        params = (Param("path", str, "x"),)
+
+        def check_params(self):
+            raise ValueError(f"{self.path}: no such scene file")
+
+    with pytest.raises(BlockError, match="x: no such scene file"):
+        NeedsFile()
