@@ -22,7 +22,7 @@ from carav_stream.estimate.estimators import estimate
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene import Scene
-from carav_stream.radar.streams import NO_SEED, Streams, scene_of, seed_streams  # noqa: F401 (re-exported)
+from carav_stream.radar.streams import seed_streams
 from carav_stream.radar.synth import simulate_cycles
 
 @dataclass

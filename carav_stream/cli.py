@@ -279,6 +279,15 @@ def cmd_swap(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_as_command(module: str) -> int:
+    """`python -m <plugin module> ARGS` is `carav <its command> ARGS` (the words come from the tables above)."""
+    for prefix, table in (([], PLUGINS), (["experiment"], EXPERIMENTS), (["bench"], BENCHES)):
+        for name, (mod, _) in table.items():
+            if mod == module:
+                return main([*prefix, name, *sys.argv[1:]])
+    raise LookupError(f"{module} is not a carav command module")
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = build_parser(argv).parse_args(argv)

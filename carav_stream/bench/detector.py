@@ -201,11 +201,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv=None) -> int:  # pragma: no cover
-    parser = argparse.ArgumentParser(prog="carav bench detector", description=__doc__.splitlines()[0])
-    configure(parser)
-    return run(parser.parse_args(argv))
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+if __name__ == "__main__":
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.bench.detector"))

@@ -268,11 +268,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv=None) -> int:  # python -m carav_stream.bench.estimators
-    parser = argparse.ArgumentParser(prog="carav bench estimators", description=__doc__.splitlines()[0])
-    configure(parser)
-    return run(parser.parse_args(argv))
-
-
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.bench.estimators"))

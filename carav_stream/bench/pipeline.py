@@ -18,7 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from carav_stream.chain import run_chain, scene_of
+from carav_stream.chain import run_chain
+from carav_stream.radar.streams import scene_of
 from carav_stream.graph import load_graph
 from carav_stream.supervisor import Supervisor
 

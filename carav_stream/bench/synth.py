@@ -123,7 +123,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-if __name__ == "__main__":  # pragma: no cover
-    p = argparse.ArgumentParser(prog="carav bench synth", description=__doc__)
-    configure(p)
-    raise SystemExit(run(p.parse_args()))
+if __name__ == "__main__":
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.bench.synth"))

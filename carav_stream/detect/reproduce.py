@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -222,11 +221,6 @@ def run(args: argparse.Namespace) -> int:
     fig_dir = Path(args.figures)
     fig_dir.mkdir(parents=True, exist_ok=True)
     out.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        import carav_stream.radar.synth  # noqa: F401
-    except ImportError as exc:
-        print(f"carav reproduce: the radar signal chain is not available ({exc})", file=sys.stderr)
-        return 1
     data: dict = {}
     body = ["## The paper's figures, reproduced", ""]
     body += paper_figures(args, fig_dir, data)
@@ -258,11 +252,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv=None) -> int:  # pragma: no cover
-    parser = argparse.ArgumentParser(prog="carav reproduce", description=__doc__.splitlines()[0])
-    configure(parser)
-    return run(parser.parse_args(argv))
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+if __name__ == "__main__":
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.detect.reproduce"))

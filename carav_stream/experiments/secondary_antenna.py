@@ -186,11 +186,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv=None) -> int:  # python -m carav_stream.experiments.secondary_antenna
-    parser = argparse.ArgumentParser(prog="carav experiment secondary-antenna", description=__doc__.splitlines()[0])
-    configure(parser)
-    return run(parser.parse_args(argv))
-
-
 if __name__ == "__main__":
-    raise SystemExit(main())
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.experiments.secondary_antenna"))

@@ -5,7 +5,8 @@ import signal
 import numpy as np
 import pytest
 
-from carav_stream.chain import run_chain, scene_of
+from carav_stream.chain import run_chain
+from carav_stream.radar.streams import scene_of
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration

@@ -1,7 +1,6 @@
 """Real graphs of real processes: counts, order, back-pressure, swap, crash and restart, clean shutdown."""
 import json
 import signal
-import time
 
 import msgpack
 import numpy as np
