@@ -93,8 +93,7 @@ class Graph:
 
     def params_for(self, block_type: str, explicit: dict[str, Any]) -> dict[str, Any]:
         """A block's parameters: the graph-wide ones it declares, overridden by `explicit`."""
-        declared = {p.name for p in self.registry.get(block_type).cls.params}
-        return {**{k: v for k, v in self.params.items() if k in declared}, **explicit}
+        return with_graph_params(self.registry.get(block_type).cls, self.params, explicit)
 
     def block_class(self, node: str) -> type[Block]:
         return self.registry.get(self.nodes[node].type).cls
@@ -275,15 +274,20 @@ def _apply_overrides(nodes: dict[str, Node], overrides: list[str], where: str, p
             nodes[node].params[param] = parse_value(value.strip())
 
 
+def with_graph_params(cls: type[Block], graph_params: dict[str, Any], explicit: dict[str, Any]) -> dict[str, Any]:
+    """The graph-wide parameters `cls` declares, overridden by the node's own (`explicit`)."""
+    declared = {p.name for p in cls.params}
+    return {**{k: v for k, v in graph_params.items() if k in declared}, **explicit}
+
+
 def _apply_graph_params(nodes: dict[str, Node], classes: dict[str, type[Block]], graph_params: dict[str, Any],
                         where: str, problems: list[str]) -> None:
-    for key, value in graph_params.items():
-        takers = [n for n, cls in classes.items() if any(p.name == key for p in cls.params)]
-        if not takers and len(classes) == len(nodes):
-            problems.append(f"{where}: {key}: no block of this graph takes a parameter {key!r} "
-                            f"(top-level keys are graph-wide parameters, or one of {sorted(TOP_KEYS)})")
-        for n in takers:
-            nodes[n].params.setdefault(key, value)
+    if len(classes) == len(nodes):   # with an unknown block type, an unused key may be that block's
+        declared = {p.name for cls in classes.values() for p in cls.params}
+        problems += [f"{where}: {key}: no block of this graph takes a parameter {key!r} (top-level keys are "
+                     f"graph-wide parameters, or one of {sorted(TOP_KEYS)})" for key in graph_params if key not in declared]
+    for n, cls in classes.items():
+        nodes[n].params = with_graph_params(cls, graph_params, nodes[n].params)
 
 
 def _check_params(node: Node, cls: type[Block], where: str, problems: list[str]) -> None:
