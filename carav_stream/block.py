@@ -89,7 +89,10 @@ class Block:
     Life cycle, all inside the block's own process except `__init__` and `check_params`:
       __init__(**params)  check parameters only (no I/O)
       start()             open resources; called once in the block's process before the first frame
-      generate(seq)       sources only (no inputs): the frame(s) for output `seq`, or None at end of stream
+      generate(seq)       sources only (no inputs): the frame(s) for output `seq`, or None at end of stream;
+                          before each call the runtime sets `self.cycle_budget`, the cycles still wanted
+                          (None = until stopped), so that a source putting several cycles in one frame
+                          (header `cycles`) can size its last frame
       process(*frames)    one frame per input, all with the same seq; returns a Frame (single output), a dict
                           {port: Frame}, or None (nothing this time)
       unpaired(port, f)   a frame whose partners on the other inputs can no longer arrive; default raises
@@ -104,6 +107,7 @@ class Block:
     # False: inputs are paired by seq (process gets one frame per input). True: inputs are independent
     # streams, merged in arrival order (process gets one frame, None for the other inputs).
     merge_inputs: ClassVar[bool] = False
+    cycle_budget: int | None = None   # sources: set by the runtime before each generate()
 
     def __init__(self, **values: Any) -> None:
         problems = self.param_problems(values)

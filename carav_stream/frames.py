@@ -11,6 +11,8 @@ Reserved header keys (the runtime stamps them; blocks set their own fields besid
     stream         str    "node.port" that sent the frame
     seq            int    sequence number on the stream (>= 0); outputs inherit the seq of their inputs
     cycle          int    cycle index (the source's count; carried unchanged through the graph)
+    cycles         int    how many consecutive cycles the frame carries, from `cycle` on (absent = 1); the
+                          runtime counts cycles with it, blocks set it (a source batching cycles, say)
     t_created_s    float  wall-clock time the source created the cycle (Unix seconds)
     t_sent_s       float  wall-clock time of this hop's send
     arrays         list   [[name, dtype, shape], ...] describing parts 1..n
@@ -46,13 +48,13 @@ ALLOWED_DTYPES = frozenset({
 _NAME_OF = {np.dtype(n).newbyteorder(o): n for n in ALLOWED_DTYPES for o in "<>="}
 _WIRE_DTYPE = {n: np.dtype(n).newbyteorder("<") for n in ALLOWED_DTYPES}
 
-RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "t_created_s", "t_sent_s", "arrays",
+RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "cycles", "t_created_s", "t_sent_s", "arrays",
                            "node", "block", "block_version", "trail", "eos"})
 # Keys a derived frame does not inherit: the runtime stamps them anew at every hop.
 _PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block", "block_version"})
 
 _HEADER_TYPES: dict[str, tuple[type, ...]] = {
-    "v": (int,), "stream": (str,), "seq": (int,), "cycle": (int,), "t_created_s": (float, int),
+    "v": (int,), "stream": (str,), "seq": (int,), "cycle": (int,), "cycles": (int,), "t_created_s": (float, int),
     "t_sent_s": (float, int), "arrays": (list,), "node": (str,), "block": (str,), "block_version": (str,),
     "trail": (list,), "eos": (bool,),
 }
@@ -125,7 +127,7 @@ def end_of_stream(seq: int, **fields: Any) -> Frame:
 
 
 def _check_user_fields(fields: Mapping[str, Any]) -> None:
-    bad = sorted(set(fields) & (RESERVED_KEYS - {"cycle", "t_created_s"}))
+    bad = sorted(set(fields) & (RESERVED_KEYS - {"cycle", "cycles", "t_created_s"}))
     if bad:
         raise FrameError(f"header fields {bad} are reserved for the runtime; choose other names")
 
@@ -244,6 +246,8 @@ def _check_header(header: dict) -> None:
         raise FrameError(f"schema version {header['v']} is not supported; expected {SCHEMA_VERSION}")
     if header["seq"] < 0:
         raise FrameError(f"seq must be >= 0, got {header['seq']}")
+    if header.get("cycles", 1) < 1:
+        raise FrameError(f"cycles must be >= 1, got {header['cycles']}")
     if len(header["arrays"]) > MAX_ARRAYS:
         raise FrameError(f"{len(header['arrays'])} arrays exceed the limit of {MAX_ARRAYS}")
     if "trail" in header and not all(isinstance(t, str) for t in header["trail"]):

@@ -83,6 +83,7 @@ class NodeRunner:
         self.n_reports = 0
         self.processed = 0
         self.consumed = 0                                # input frames handed to the block
+        self.cycles = spec.get("start_cycles", 0)        # cycles those frames carried (header `cycles`)
         self.busy_s = 0.0                                # CPU time spent inside the block's own code
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
@@ -116,7 +117,7 @@ class NodeRunner:
         return {"in": dict(self.c_in), "out": dict(self.c_out), "sent": dict(self.c_sent),
                 "rejected": dict(self.c_rejected), "unpaired": dict(self.c_unpaired),
                 "undeliverable": dict(self.c_undeliverable),
-                "processed": self.processed, "consumed": self.consumed, "busy_s": self.busy_s,
+                "processed": self.processed, "consumed": self.consumed, "cycles": self.cycles, "busy_s": self.busy_s,
                 "block": self.block_type, "generation": self.generation}
 
     def idle(self) -> None:
@@ -308,6 +309,7 @@ class NodeRunner:
         self.busy_s += time.thread_time() - t0
         self.processed += 1
         self.consumed += len(frames)
+        self.cycles += context.header.get("cycles", 1)
         self.emit(result, context)
         self.seq = context.seq + 1
         self.idle()
@@ -318,15 +320,18 @@ class NodeRunner:
         while not self.go:
             self.control.poll(100)
             self.idle()
-        while not self.stopping and (not max_cycles or self.seq < max_cycles):
+        while not self.stopping and (not max_cycles or self.cycles < max_cycles):
             if self.pending_swap:
                 self.apply_swap()
+            self.block.cycle_budget = max_cycles - self.cycles if max_cycles else None
             t0 = time.thread_time()
             result = self.block.generate(self.seq)
             self.busy_s += time.thread_time() - t0
             if result is None:
                 break
             self.processed += 1
+            first = result if isinstance(result, Frame) else next((f for f in result.values() if f is not None), None)
+            self.cycles += first.header.get("cycles", 1) if first is not None else 1
             self.emit(result, None)
             self.seq += 1
             self.idle()

@@ -232,10 +232,11 @@ class Supervisor:
                           for n, st in self.nodes.items()}}
 
     def cycles_done(self) -> int:
-        """Frames the local sources generated; on a host without sources, frames that arrived from others."""
+        """Cycles the local sources generated (a frame may carry several, header `cycles`); on a host without
+        sources, frames that arrived from others."""
         sources = [n for n in self.nodes if not self.graph.edges_into(n)]
         if sources:
-            return max(self.nodes[n].total("processed") for n in sources)
+            return max(self.nodes[n].total("cycles") for n in sources)
         remote = [(e.dst, e.dst_port) for e in self.graph.edges if e.dst in self.nodes and e.src not in self.nodes]
         return max((self.nodes[n].total("in").get(port, 0) for n, port in remote), default=0)
 
@@ -275,7 +276,8 @@ class Supervisor:
         if policy.policy == "on-failure" and st.restarts < policy.max_restarts and not self.signals:
             st.restarts += 1
             st.error = None
-            st.spec["start_seq"] = st.dead_counters[-1].get("processed", 0) if not self.graph.edges_into(st.name) else 0
+            if not self.graph.edges_into(st.name):   # a source resumes where its incarnations left off
+                st.spec["start_seq"], st.spec["start_cycles"] = st.total("processed"), st.total("cycles")
             st.spec["recovering"] = True
             self.log(f"carav: restarting {st.name!r} ({st.restarts}/{policy.max_restarts})")
             self.spawn(st)
@@ -438,7 +440,7 @@ class Supervisor:
         per_node: dict[str, Any] = {}
         for n, st in self.nodes.items():
             per_node[n] = {"block": st.spec["type"],
-                           **{k: st.total(k) for k in (*PER_PORT_COUNTERS, "processed", "busy_s")},
+                           **{k: st.total(k) for k in (*PER_PORT_COUNTERS, "processed", "cycles", "busy_s")},
                            "restarts": st.restarts, "failed": st.failed, "history": st.history}
         lost = 0
         edge_loss = {}

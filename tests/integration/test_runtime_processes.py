@@ -39,6 +39,23 @@ def test_fan_out_and_pairing_deliver_every_frame_once_in_order(carav):
     assert s["throughput_cycles_per_s"] > 0 and s["per_node"]["log"]["history"][0]["summary"] == {"lines": n}
 
 
+def test_frames_carrying_several_cycles_are_counted_as_cycles_and_the_last_is_sized_to_the_budget(carav):
+    body = """
+connections = ["src.out -> log.inp"]
+[blocks]
+src = { type = "counter_source", batch = 4, n_values = 2 }
+log = { type = "jsonl_sink", path = "out.jsonl" }
+"""
+    run = carav.run(carav.graph(body), "--cycles", "10")
+    assert run.wait(60) == 0, run.stderr()
+    lines = read_jsonl(carav.workdir / "out.jsonl")
+    assert [(l["seq"], l["cycle"], l["cycles"]) for l in lines] == [(0, 0, 4), (1, 4, 4), (2, 8, 2)]
+    assert [row[0] for l in lines for row in l["data"]] == list(range(10))
+    s = run.summary()
+    assert s["cycles"] == 10 and s["lost"] == 0
+    assert s["per_node"]["src"]["processed"] == 3 and s["per_node"]["log"]["cycles"] == 10
+
+
 def test_slow_consumer_slows_the_producer_and_nothing_is_dropped(carav):
     n = 300
     body = """
