@@ -1,18 +1,21 @@
-"""Attacker: an attack signal model added to the received signal; the node `carav swap` replaces.
+"""Attacker: the signal an attacker model puts on the air for each cycle; the node `carav swap` replaces.
 
-    R_k[m] <- R_k[m] + a_k[m]     a from the chosen model; the model never sees the activation sequence
+    a_k[m] from the chosen model; the receiver (adc_framer) adds it to R_k[m]
 
-Models: none, random (i.i.d. Gaussian, paper V.D), smart (one sequence repeated over every chirp, V.E),
-secondary_antenna (a moving transmitter, V.G; needs fidelity = "waveform"), ghost (chirp-synchronised
-spoofer planting a false target), ramp (power rising over cycles), lfsr_predictor (learns an LFSR
-activation source from past cycles' emission, heard on the `air` input one cycle late). Each model's
-parameters (rarms = sigma_a / sigma_n, start_cycle, ...) are documented in carav_stream/radar/attackers.py;
-a parameter the chosen model does not take is refused by name. The chirp-reactive repeater (`reactive`)
-needs the current chirp's emission, which this node never receives: it runs in the library and sweeps only.
+The node hears what an attacker physically can: the victim's on-air emission, one cycle late (input `air`);
+it never receives the activation sequence, nor the victim's received signal. Models: none, random (i.i.d.
+Gaussian, paper V.D), smart (one sequence repeated over every chirp, V.E; sent as one row per cycle, shape
+(cycles, 1, n_samples), which the receiver adds to every chirp), secondary_antenna (a moving transmitter,
+V.G; needs fidelity = "waveform"), ghost (chirp-synchronised spoofer planting a false target), ramp (power
+rising over cycles), lfsr_predictor (learns an LFSR activation source from past cycles' emission). Each
+model's parameters (rarms = sigma_a / sigma_n, start_cycle, ...) are documented in
+carav_stream/radar/attackers.py; a parameter the chosen model does not take is refused by name. The
+chirp-reactive repeater (`reactive`) needs the current chirp's emission, which this node never receives: it
+runs in the library and sweeps only.
 
-Ports   in  rx    float32 | complex64 (n_chirps, n_samples)   signal at the ADC input
-        in  air   bool (n_chirps,)                            previous cycle's emission (optional)
-        out rx    same as rx                                  with the attack added; header attack_active
+Ports   in  air      bool (cycles, n_chirps)    row i: the emission of the cycle before cycle i
+        out attack   float32 | complex64 (cycles, n_chirps | 1, n_samples), or no payload when the model is
+                     silent for the whole frame; per_cycle attack_active, header attack_model
 Graph   attacker = { type = "attacker", model = "smart", rarms = 3.0, start_cycle = 200 }
 """
 import numpy as np
@@ -36,9 +39,8 @@ def _model_params() -> tuple[Param, ...]:
 
 
 class AttackerBlock(Block):
-    inputs = (In("rx", kind="rx", dtypes=("float32", "complex64")),
-              In("air", kind="air", dtypes=("bool",), required=False))
-    outputs = (Out("rx", kind="rx", dtypes=("float32", "complex64")),)
+    inputs = (In("air", kind="air", dtypes=("bool",), doc="past cycles' on-air emission"),)
+    outputs = (Out("attack", kind="attack", dtypes=("float32", "complex64", "none"), doc="attack signal"),)
     params = (Param("model", str, "none", "attack model", choices=PIPELINE_MODELS),
               Param("scene", str, "table1", "preset name or scene file"),
               Param("seed", int, NO_SEED, "simulation seed; -1 = OS entropy"),
@@ -56,12 +58,24 @@ class AttackerBlock(Block):
     def start(self) -> None:
         self.rng = seed_streams(self.seed).attack
 
-    def process(self, rx: Frame, air: Frame | None = None) -> Frame:
-        if self.attack.listens:
-            if air is None:
-                raise ValueError(f"model {self.model!r} listens to past emissions: connect channel.air -> attacker.air")
-            if air.header.get("air_cycle", -1) >= 0:   # cycle c-1's emission, heard before attacking cycle c
-                self.attack.listen(np.asarray(air.payload, dtype=bool))
-        a, active = self.attack.emit(1, rx.cycle, self.rng, None, fidelity=self.fidelity)
-        out = rx.payload if a is None else rx.payload + a[0]
-        return rx.derive(out, attack_active=bool(active[0]), attack_model=self.model)
+    def process(self, air: Frame) -> Frame:
+        heard = np.asarray(air.payload, dtype=bool)
+        if heard.ndim != 2 or heard.shape[1] != self.scene_obj.n_chirps:
+            raise ValueError(f"air frame seq {air.seq}: expected (cycles, {self.scene_obj.n_chirps}) chirps, "
+                             f"got shape {heard.shape}")
+        c0, n = air.cycle, heard.shape[0]
+        if self.attack.listens:   # hear cycle c-1, then attack cycle c: one cycle at a time
+            a, active = None, np.zeros(n, dtype=bool)
+            for i in range(n):
+                if air.header.get("air_cycle", -1) + i >= 0:
+                    self.attack.listen(heard[i])
+                a_i, active[i: i + 1] = self.attack.emit(1, c0 + i, self.rng, None, fidelity=self.fidelity)
+                if a_i is not None:
+                    a = np.zeros((n,) + a_i.shape[1:], a_i.dtype) if a is None else a
+                    a[i] = a_i[0]
+        else:
+            a, active = self.attack.emit(n, c0, self.rng, None, fidelity=self.fidelity)
+        if a is not None and self.attack.same_every_chirp:
+            a = a[:, :1]
+        return Frame.of(a, per_cycle={"attack_active": active.tolist()}, attack_model=self.model,
+                        cycle=c0, cycles=n)

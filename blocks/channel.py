@@ -1,12 +1,13 @@
 """Channel: target echoes of the transmitted chirps, propagation and receiver noise of the scene.
 
-    R_k[m] = n_k[m] + rho(k) x_k[m]        (the attacker adds a_k[m] downstream)
+    R_k[m] = n_k[m] + rho(k) x_k[m]        (the attacker's a_k[m] is added at the receiver, adc_framer)
 
-Ports   in  tx    bool (n_chirps,)                               transmitted chirps of the cycle
-        out rx    float32 | complex64 (n_chirps, n_samples)      signal at the ADC input (no attack yet)
-        out air   bool (n_chirps,)                               the PREVIOUS cycle's on-air emission (header
-                                                                 air_cycle): all an attacker may have heard
-                                                                 before the current cycle; zeros at cycle 0
+Ports   in  tx    bool (cycles, n_chirps)                               transmitted chirps of the cycles
+        out rx    float32 | complex64 (cycles, n_chirps, n_samples)     signal at the ADC input, no attack
+        out air   bool (cycles, n_chirps)                               row i: the on-air emission of the cycle
+                                                                        BEFORE cycle i (header air_cycle = the
+                                                                        first row's): all an attacker may have
+                                                                        heard before attacking; zeros before 0
 Params  scene (str, "table1"), seed (int, -1), fidelity (str, "beat": closed-form beat samples;
         "waveform": complex chirps, true delays and Doppler, mixing and filtering)
 Graph   channel = { type = "channel" }
@@ -23,7 +24,7 @@ from carav_stream.radar.synth import channel, transmit
 class Channel(Block):
     inputs = (In("tx", kind="tx", dtypes=("bool",)),)
     outputs = (Out("rx", kind="rx", dtypes=("float32", "complex64"), doc="ADC input, echoes + noise"),
-               Out("air", kind="air", dtypes=("bool",), doc="previous cycle's emission"))
+               Out("air", kind="air", dtypes=("bool",), doc="each cycle's previous cycle's emission"))
     params = (Param("scene", str, "table1", "preset name or scene file"),
               Param("seed", int, NO_SEED, "simulation seed; -1 = OS entropy"),
               Param("fidelity", str, "beat", "beat or waveform", choices=("beat", "waveform")))
@@ -38,10 +39,11 @@ class Channel(Block):
 
     def process(self, tx: Frame) -> dict[str, Frame]:
         rho = np.asarray(tx.payload, dtype=bool)
-        if rho.shape != (self.scene_obj.n_chirps,):
-            raise ValueError(f"tx frame seq {tx.seq}: expected {self.scene_obj.n_chirps} chirps, got shape {rho.shape}")
+        if rho.ndim != 2 or rho.shape[1] != self.scene_obj.n_chirps:
+            raise ValueError(f"tx frame seq {tx.seq}: expected (cycles, {self.scene_obj.n_chirps}) chirps, "
+                             f"got shape {rho.shape}")
         cycle = tx.cycle
-        rx = channel(self.scene_obj, transmit(self.scene_obj, rho[None], cycle, self.fidelity), self.rng, cycle)[0]
-        air = tx.derive(self.heard, air_cycle=cycle - 1)
-        self.heard = rho.copy()
-        return {"rx": tx.derive(rx, fidelity=self.fidelity), "air": air}
+        rx = channel(self.scene_obj, transmit(self.scene_obj, rho, cycle, self.fidelity), self.rng, cycle)
+        air = np.concatenate([self.heard[None], rho[:-1]])
+        self.heard = rho[-1].copy()
+        return {"rx": tx.derive(rx, fidelity=self.fidelity), "air": tx.derive(air, air_cycle=cycle - 1)}

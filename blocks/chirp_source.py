@@ -2,12 +2,17 @@
 
     rho(k) in {0, 1},  sum_k rho(k) = N_r / 2,  fresh every cycle; chirp k is transmitted iff rho(k) = 1
 
-Ports   out tx    bool (n_chirps,)   the transmitted chirps: what goes on the air, to the channel
-        out rho   bool (n_chirps,)   the activation sequence: a private edge to the detector alone
+A frame carries `batch` consecutive cycles (header cycle = the first, cycles = how many; the last frame of a
+run is sized to the cycles asked for): the kernels downstream are vectorised over cycles, and one frame per
+batch spreads the per-frame cost of every hop over many cycles. Every cycle keeps its own fresh sequence.
+
+Ports   out tx    bool (cycles, n_chirps)   the transmitted chirps: what goes on the air, to the channel
+        out rho   bool (cycles, n_chirps)   the activation sequences: a private edge to the detector alone
 Params  scene (str, "table1"): preset name or scene file
-        seed (int, -1): simulation seed; -1 draws the sequence from the OS's secure generator
+        seed (int, -1): simulation seed; -1 draws the sequences from the OS's secure generator
         activation (str, "auto"): secure | seeded | lfsr (auto: secure without a seed, seeded with one)
-Graph   source = { type = "chirp_source" }
+        batch (int, 16): cycles per frame (graph-wide `batch = ...` sets it)
+Graph   source = { type = "chirp_source", batch = 16 }
 """
 from carav_stream.block import Block, Out, Param
 from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
@@ -15,11 +20,12 @@ from carav_stream.frames import Frame
 
 
 class ChirpSource(Block):
-    outputs = (Out("tx", kind="tx", dtypes=("bool",), doc="transmitted chirps of the cycle"),
-               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequence (private: detector only)"))
+    outputs = (Out("tx", kind="tx", dtypes=("bool",), doc="transmitted chirps of the cycles"),
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private: detector only)"))
     params = (Param("scene", str, "table1", "preset name or scene file"),
               Param("seed", int, NO_SEED, "simulation seed; -1 = secure activation sequence"),
-              Param("activation", str, "auto", "activation source", choices=("auto", "secure", "seeded", "lfsr")))
+              Param("activation", str, "auto", "activation source", choices=("auto", "secure", "seeded", "lfsr")),
+              Param("batch", int, 16, "cycles per frame", low=1, high=4096))
 
     def check_params(self) -> None:
         self.n_chirps = scene_of(self.scene).n_chirps
@@ -29,5 +35,7 @@ class ChirpSource(Block):
         self.streams = seed_streams(self.seed, self.activation)
 
     def generate(self, seq: int) -> dict[str, Frame]:
-        rho = self.streams.activation.next(1, self.n_chirps)[0]
-        return {"tx": Frame.of(rho), "rho": Frame.of(rho.copy())}
+        n = min(self.batch, self.cycle_budget or self.batch)
+        rho = self.streams.activation.next(n, self.n_chirps)
+        cycles = {"cycle": seq * self.batch, "cycles": n}   # only a run's last frame is short
+        return {"tx": Frame.of(rho, **cycles), "rho": Frame.of(rho.copy(), **cycles)}

@@ -1,33 +1,80 @@
 """Gate: pass a cycle to target processing only on a clean verdict (Algorithm 1, steps 5-6). Fail closed.
 
-    pass(cycle)  <=>  a verdict for the same seq exists  and  C(eta) < 1  and  the frame was valid
+    pass(cycle)  <=>  a verdict for the same cycle exists  and  C(eta) < 1  and  the frame was valid
 
-Ports   in  frames    float32 | complex64 (n_chirps, n_samples)   ADC frame of one cycle
-        in  verdict   rms_detector's verdict for the same seq (payload: rho)
-        out clean     the frame plus its rho (array "rho"), header verdict = "clean", q
-        out alarms    header only: one record per refused cycle, reason "attack" | "invalid" | "no_rho"
-                      | "no_verdict" | "no_frame"
-A frame whose verdict never comes (detector down) is refused as "no_verdict", never passed.
+A frame carries several cycles: the clean ones go on together, the others each get an alarm record.
+
+Ports   in  frames    ADC frames of the cycles (int16 codes or float32 | complex64 samples)
+        in  verdict   rms_detector's verdicts for the same seq (payload: rho)
+        out clean     the clean cycles' frames plus their rho (array "rho"), header verdict = "clean",
+                      per_cycle cycle_index, q and the frame's own per-cycle fields
+        out alarms    header only: per_cycle cycle_index and reason "attack" | "invalid" | "no_rho" |
+                      "no_verdict" | "no_frame" | "bad_verdict" for every refused cycle
+A frame whose verdict never comes (detector down), or whose verdict does not say "alarm: false" and
+"invalid: false" for a cycle in so many words, is refused for that cycle, never passed.
 Graph   gate = { type = "gate" }
 """
 from carav_stream.block import Block, In, Out
+from carav_stream.cycles import n_cycles, pick
 from carav_stream.frames import Frame
 
 
+def _column(per: object, name: str, n: int) -> list | None:
+    values = per.get(name) if isinstance(per, dict) else None
+    return values if isinstance(values, list) and len(values) == n else None
+
+
+def _reason(alarm: object, invalid: object, raised_by: object) -> str | None:
+    """None for a clean verdict (both flags False, in so many words), else why the cycle is refused."""
+    if alarm is False and invalid is False:
+        return None
+    if invalid is True:
+        return "no_rho" if raised_by == "no_rho" else "invalid"
+    return "attack" if alarm is True else "bad_verdict"
+
+
 class Gate(Block):
-    inputs = (In("frames", kind="adc_frame", dtypes=("float32", "complex64")),
+    inputs = (In("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64")),
               In("verdict", kind="verdict", dtypes=("bool",)))
-    outputs = (Out("clean", kind="clean_frame", dtypes=("float32", "complex64")),
+    outputs = (Out("clean", kind="clean_frame", dtypes=("int16", "float32", "complex64")),
                Out("alarms", kind="alarm", dtypes=("none",)))
 
     def process(self, frames: Frame, verdict: Frame) -> dict[str, Frame]:
-        v = verdict.header
-        if v.get("alarm") is not False or v.get("invalid") is not False:
-            reason = v.get("reason") or ("invalid" if v.get("invalid") else "attack")
-            return {"alarms": verdict.derive(None, reason=reason)}
-        return {"clean": frames.derive(frames.payload, arrays={"rho": verdict.payload}, verdict="clean",
-                                       q=v.get("q"), eta=v.get("eta"))}
+        n = n_cycles(frames)
+        data, rho, per = frames.payload, verdict.payload, verdict.header.get("per_cycle")
+        alarm, invalid = _column(per, "alarm", n), _column(per, "invalid", n)
+        try:
+            pick(frames, [])   # the frame's own per-cycle fields are well formed
+            usable = (alarm is not None and invalid is not None and n_cycles(verdict) == n and data is not None
+                      and rho is not None and data.ndim >= 3 and rho.shape == data.shape[:2] == (n, rho.shape[1]))
+        except ValueError:
+            usable = False
+        if not usable:
+            return {"alarms": self._refuse(frames, range(n), ["bad_verdict"] * n)}
+        raised_by, q = _column(per, "raised_by", n) or [None] * n, _column(per, "q", n) or [None] * n
+        reasons = [_reason(a, i, r) for a, i, r in zip(alarm, invalid, raised_by)]
+        keep = [i for i in range(n) if reasons[i] is None]
+        refused = [i for i in range(n) if reasons[i] is not None]
+        out: dict[str, Frame] = {}
+        if keep:
+            whole = not refused   # every cycle clean: the frame goes on as it came, no copy
+            out["clean"] = frames.derive(data if whole else data[keep], arrays={"rho": rho if whole else rho[keep]},
+                                         verdict="clean", eta=verdict.header.get("eta"), cycles=len(keep),
+                                         per_cycle=pick(frames, keep, q=[q[i] for i in keep]))
+        if refused:
+            out["alarms"] = self._refuse(frames, refused, [reasons[i] for i in refused],
+                                         q=[q[i] for i in refused], raised_by=[raised_by[i] for i in refused])
+        return out
+
+    @staticmethod
+    def _refuse(frame: Frame, rows, reasons: list, **extra: list) -> Frame:
+        rows = list(rows)
+        try:
+            per = pick(frame, rows, reason=reasons, **extra)
+        except ValueError:   # malformed per-cycle fields: the cycles are still refused, one by one
+            per = {"cycle_index": list(range(frame.cycle, frame.cycle + len(rows))), "reason": reasons, **extra}
+        return frame.derive(None, cycles=len(rows), alarm=True, per_cycle=per)
 
     def unpaired(self, port: str, frame: Frame) -> dict[str, Frame]:
-        reason = "no_verdict" if port == "frames" else "no_frame"
-        return {"alarms": frame.derive(None, reason=reason, alarm=True)}
+        n = n_cycles(frame)
+        return {"alarms": self._refuse(frame, range(n), ["no_verdict" if port == "frames" else "no_frame"] * n)}

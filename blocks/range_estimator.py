@@ -5,8 +5,10 @@ progression over the randomly missing active chirps. Methods: fft_peak, fft_zero
 root_music, ml (see carav_stream/estimate). A frame that does not carry the gate's clean verdict is refused
 (counted, and reported as a record with refused = true): target processing never runs without a verdict.
 
-Ports   in  frames      clean_frame: float32 | complex64 (n_chirps, n_samples) + array rho
-        out estimates   header range_m, velocity_mps (lists, one per target), method
+Ports   in  frames      clean_frame: ADC frames (int16 codes or float32 | complex64 samples) of the clean
+                        cycles + array rho
+        out estimates   header method, per_cycle range_m, velocity_mps (lists, one value per target; None
+                        where no target was found) beside the frame's own per-cycle fields
 Graph   ranging = { type = "range_estimator", method = "root_music" }
 """
 import math
@@ -14,35 +16,44 @@ import math
 import numpy as np
 
 from carav_stream.block import Block, In, Out, Param
+from carav_stream.cycles import n_cycles, pick
 from carav_stream.radar.streams import scene_of
+from carav_stream.radar.synth import from_codes
 from carav_stream.estimate.estimators import METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.frames import Frame
 
 
+def _plain(values: np.ndarray) -> list:
+    return [[None if math.isnan(x) else float(x) for x in row] for row in values]
+
+
 class RangeEstimator(Block):
-    inputs = (In("frames", kind="clean_frame", dtypes=("float32", "complex64")),)
+    inputs = (In("frames", kind="clean_frame", dtypes=("int16", "float32", "complex64")),)
     outputs = (Out("estimates", kind="estimates", dtypes=("none",)),)
     params = (Param("method", str, "ml", "estimator", choices=METHODS),
               Param("n_targets", int, 1, "targets per cycle", low=1),
               Param("scene", str, "table1", "preset name or scene file"))
 
     def check_params(self) -> None:
-        self.geometry = Geometry.from_scene(scene_of(self.scene))
+        self.scene_obj = scene_of(self.scene)
+        self.geometry = Geometry.from_scene(self.scene_obj)
 
     def start(self) -> None:
         self.refused = 0
 
     def process(self, frames: Frame) -> Frame:
         rho = frames.arrays.get("rho")
-        if frames.header.get("verdict") != "clean" or rho is None:
-            self.refused += 1
+        n = n_cycles(frames)
+        if frames.header.get("verdict") != "clean" or rho is None or frames.payload is None:
+            self.refused += n
             return frames.derive(None, refused=True, reason="no clean verdict")
-        est = estimate(frames.payload[None], np.asarray(rho, dtype=bool)[None], self.geometry,
-                       method=self.method, n_targets=self.n_targets)
-        clean = lambda xs: [None if math.isnan(x) else float(x) for x in xs]
-        return frames.derive(None, range_m=clean(est.range_m[0]), velocity_mps=clean(est.velocity_mps[0]),
-                             method=self.method)
+        x = from_codes(self.scene_obj, frames.payload)
+        if x.ndim != 3 or rho.shape != x.shape[:2] or x.shape[0] != n:
+            raise ValueError(f"frame seq {frames.seq}: {n} cycles, frames {x.shape} and rho {rho.shape} disagree")
+        est = estimate(x, np.asarray(rho, dtype=bool), self.geometry, method=self.method, n_targets=self.n_targets)
+        return frames.derive(None, method=self.method, per_cycle=pick(
+            frames, range(n), range_m=_plain(est.range_m), velocity_mps=_plain(est.velocity_mps)))
 
     def summary(self) -> dict:
         return {"refused": self.refused}

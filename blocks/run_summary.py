@@ -1,9 +1,12 @@
 """Run summary: detection and ranging figures of a run, live on the console and in `carav run --json`.
 
-Counts every cycle once, from the gate's alarms and the estimator's records: cycles, alarms (by reason and by
-the detector that raised them), attacked cycles (header attack_active, set by the attacker), detected
-attacks, false alarms (alarms on cycles with no attack), missed attacks, and the range and velocity errors
-of the estimates against the scene's first target (mean, rmse, max), split into attacked and clean cycles.
+Counts every cycle once, from the gate's alarms and the estimator's records (each frame carries one or more
+cycles, per_cycle lists): cycles, alarms (by reason and by the detector that raised them), attacked cycles
+(per-cycle attack_active, set by the attacker), detected attacks, false alarms (alarms on cycles with no
+attack), missed attacks, and the range and velocity errors of the estimates against the scene's first
+target (mean, rmse, max), split into attacked and clean cycles. Velocity errors are folded into the
+unambiguous interval +-lambda / (4 T_c): a target faster than that (AWR1642's Table II car) is seen at its
+alias, which is all a chirp-to-chirp phase can tell.
 
 Ports   in  estimates   range_estimator records          (merged in arrival order with alarms)
         in  alarms      gate alarm records
@@ -17,6 +20,8 @@ import time
 import numpy as np
 
 from carav_stream.block import Block, In, Param
+from carav_stream.cycles import n_cycles, per_cycle
+from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.streams import scene_of
 from carav_stream.frames import Frame
 
@@ -40,9 +45,10 @@ class RunSummary(Block):
         target = scene.targets[0] if scene.targets else None
         self.true_range_m = target.range_m if target else None
         self.true_velocity_mps = scene.range_rate_mps(target) if target else None
+        self.v_max = Geometry.from_scene(scene).max_velocity_mps
 
     def start(self) -> None:
-        self.cycles = self.attacked = self.detected = self.false_alarms = self.refused = 0
+        self.cycles = self.attacked = self.detected = self.false_alarms = self.refused = self.unreadable = 0
         self.reasons: dict[str, int] = {}
         self.raised_by: dict[str, int] = {}
         self.range_err = {"attacked": [], "clean": []}
@@ -51,23 +57,34 @@ class RunSummary(Block):
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
         frame = estimates if estimates is not None else alarms
-        h = frame.header
-        attacked = bool(h.get("attack_active", False))
-        self.cycles += 1
-        self.attacked += attacked
+        n = n_cycles(frame)
+        try:
+            per = per_cycle(frame)
+        except ValueError:   # not readable cycle by cycle: counted, never guessed
+            per = {}
+            self.unreadable += n
+        attacked = per.get("attack_active") or [False] * n
+        self.cycles += n
+        self.attacked += sum(bool(a) for a in attacked)
         if alarms is not None:
-            reason = h.get("reason", "attack")
-            self.reasons[reason] = self.reasons.get(reason, 0) + 1
-            if "raised_by" in h:
-                self.raised_by[h["raised_by"]] = self.raised_by.get(h["raised_by"], 0) + 1
-            self.detected += attacked
-            self.false_alarms += not attacked
-        elif h.get("refused"):
-            self.refused += 1
-        elif self.true_range_m is not None and h.get("range_m") and h["range_m"][0] is not None:
-            self.range_err["attacked" if attacked else "clean"].append(h["range_m"][0] - self.true_range_m)
-            if h.get("velocity_mps") and h["velocity_mps"][0] is not None:
-                self.velocity_err.append(h["velocity_mps"][0] - self.true_velocity_mps)
+            for i in range(n):
+                reason = (per.get("reason") or ["attack"] * n)[i]
+                self.reasons[reason] = self.reasons.get(reason, 0) + 1
+                by = (per.get("raised_by") or [None] * n)[i]
+                if by is not None:
+                    self.raised_by[by] = self.raised_by.get(by, 0) + 1
+                self.detected += bool(attacked[i])
+                self.false_alarms += not attacked[i]
+        elif frame.header.get("refused"):
+            self.refused += n
+        elif self.true_range_m is not None:
+            ranges, velocities = per.get("range_m") or [None] * n, per.get("velocity_mps") or [None] * n
+            for i in range(n):
+                if ranges[i] and ranges[i][0] is not None:
+                    self.range_err["attacked" if attacked[i] else "clean"].append(ranges[i][0] - self.true_range_m)
+                if velocities[i] and velocities[i][0] is not None:
+                    err = velocities[i][0] - self.true_velocity_mps
+                    self.velocity_err.append((err + self.v_max) % (2 * self.v_max) - self.v_max)
         if self.every_s and time.monotonic() >= self.next_print:
             self.next_print = time.monotonic() + self.every_s
             r = self.run_figures()
@@ -84,7 +101,7 @@ class RunSummary(Block):
             "missed": self.attacked - self.detected, "false_alarms": self.false_alarms,
             "detection_rate": self.detected / self.attacked if self.attacked else None,
             "false_alarm_rate": self.false_alarms / (self.cycles - self.attacked) if self.cycles > self.attacked else None,
-            "refused_by_estimator": self.refused,
+            "refused_by_estimator": self.refused, "unreadable_cycles": self.unreadable,
             "range_error_m": _stats(all_range),
             "range_error_attacked_missed_m": _stats(self.range_err["attacked"]),
             "velocity_error_mps": _stats(self.velocity_err),

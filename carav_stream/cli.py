@@ -69,7 +69,7 @@ def build_parser(argv: list[str] = ()) -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run a graph and print its summary")
     p.add_argument("graph", type=Path)
-    p.add_argument("--cycles", type=int, help="frames each source generates (default: the graph's run.cycles; 0 = until stopped)")
+    p.add_argument("--cycles", type=int, help="cycles each source generates (a frame may carry several; default: the graph's run.cycles; 0 = until stopped)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE", help="override a parameter")
     p.add_argument("--json", type=Path, metavar="FILE", help="write the summary as JSON")
     p.add_argument("--host", help="run only the nodes placed on this host (graphs with [hosts])")

@@ -1,10 +1,11 @@
 """carav bench pipeline: cycles/s of the multi-process radar graph against the same chain in one process.
 
 For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mode:
-  pipeline       the 8-node graph of graphs/demo.toml (smart attacker from cycle 0 off, i.e. half the run
-                 attacked), one process per node, run by the supervisor; cycles/s from go to the last sink
-  fused          carav_stream.chain.run_chain in this process, one cycle at a time (the same work per cycle)
-  fused_batched  run_chain with 64-cycle batches (what vectorisation buys on one core)
+  pipeline       the 8-node graph of graphs/demo.toml (smart attacker from half the run on), one process per
+                 node, run by the supervisor, frames of --batch cycles; cycles/s from go to the last sink
+  fused          carav_stream.chain.run_chain in this process, in batches of the same --batch cycles (the
+                 same work per cycle, the same vectorisation)
+  fused_batched  run_chain with 64-cycle batches (what larger batches buy on one core)
 Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
 rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time.
 Noise and attacks are fresh and i.i.d. in every cycle and every cycle is processed in full.
@@ -26,10 +27,11 @@ from carav_stream.supervisor import Supervisor
 CASES = (("table1", "beat", 2000), ("table1", "waveform", 200), ("awr1642", "beat", 1000))
 GRAPH = """
 seed = 5
+batch = {batch}
 scene = "{preset}"
 fidelity = "{fidelity}"
 connections = [
-  "source.tx -> channel.tx", "channel.rx -> attacker.rx", "attacker.rx -> adc.rx",
+  "source.tx -> channel.tx", "channel.rx -> adc.rx", "channel.air -> attacker.air", "attacker.attack -> adc.attack",
   "adc.frames -> detector.frames", "source.rho -> detector.rho",
   "adc.frames -> gate.frames", "detector.verdict -> gate.verdict",
   "gate.clean -> ranging.frames", "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms",
@@ -50,13 +52,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the records as JSON")
     parser.add_argument("--repeats", type=int, default=3, help="runs per case and mode (median reported)")
     parser.add_argument("--scale", type=float, default=1.0, help="multiply the cycles of every case")
+    parser.add_argument("--batch", type=int, default=16, help="cycles per frame (pipeline) and per call (fused)")
     parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
     parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
 
 
-def _pipeline(preset: str, fidelity: str, n: int, method: str, folder: Path) -> tuple[float, dict]:
+def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, folder: Path) -> tuple[float, dict]:
     path = folder / f"bench-{preset}-{fidelity}.toml"
-    path.write_text(GRAPH.format(preset=preset, fidelity=fidelity, half=n // 2, method=method))
+    path.write_text(GRAPH.format(preset=preset, fidelity=fidelity, half=n // 2, method=method, batch=batch))
     summary = Supervisor(load_graph(path), cycles=n, progress=False, log=lambda text: None).run()
     if summary["failures"] or summary["lost"] or summary["cycles_judged"] != n:
         raise RuntimeError(f"pipeline run of {preset}/{fidelity} failed: {summary['failures']} lost {summary['lost']}")
@@ -84,10 +87,10 @@ def run(args: argparse.Namespace) -> int:
             runs = {"pipeline": [], "fused": [], "fused_batched": []}
             busy_runs = []
             for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
-                rate, busy = _pipeline(preset, fidelity, n, args.method, Path(folder))
+                rate, busy = _pipeline(preset, fidelity, n, args.method, args.batch, Path(folder))
                 runs["pipeline"].append(rate)
                 busy_runs.append(busy)
-                runs["fused"].append(_fused(preset, fidelity, n, args.method, 1))
+                runs["fused"].append(_fused(preset, fidelity, n, args.method, args.batch))
                 runs["fused_batched"].append(_fused(preset, fidelity, n, args.method, 64))
             busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
             bottleneck = max(busy, key=busy.get)
@@ -95,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
             for mode, rates in runs.items():
                 rate = statistics.median(rates)
                 rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "cycles": n, "repeats": args.repeats,
-                       "method": args.method, "cycles_per_s": rate, "runs_cycles_per_s": rates,
+                       "method": args.method, "batch": args.batch if mode != "fused_batched" else 64, "cycles_per_s": rate, "runs_cycles_per_s": rates,
                        "real_time_factor": rate / rate_radar, "radar_cycles_per_s": rate_radar,
                        "speedup_over_fused": rate / fused}
                 if mode == "pipeline":

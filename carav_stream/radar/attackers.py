@@ -64,6 +64,7 @@ class Attacker:
     kind = "none"
     needs_waveform = False       # transmits its own waveform: only the waveform fidelity renders it
     uses_live_emission = False   # reacts to the current chirp (with a latency)
+    same_every_chirp = False     # a[c, k, :] is the same for every chirp k (a[:, :1] says it all)
     PARAMS: dict = {}
     COMMON = {"start_cycle": (0, "int>=0"), "n_active_cycles": (None, "int>=0|None")}
 
@@ -217,6 +218,7 @@ class RandomAttacker(Attacker):
 
 class SmartAttacker(RandomAttacker):
     kind = "smart"
+    same_every_chirp = True
 
     def _batch(self, a, on, cycle0, rng, fidelity):
         if on.any():

@@ -185,10 +185,19 @@ def adc(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     Returns (frames, clipped): frames same dtype and shape as rx, values on the ADC grid in the
     same units; clipped int64 (n_cycles,) = samples whose I or Q hit a rail. ``adc_bits = 0`` is an
-    ideal ADC (a copy, no clipping).
+    ideal ADC (a copy, no clipping). Equal to ``from_codes(scene, *adc_codes(scene, rx)[:1])``.
+    """
+    codes, clipped = adc_codes(scene, rx)
+    return from_codes(scene, codes), clipped
+
+
+def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """What the ADC delivers: integer codes, int16 (n_cycles, n_chirps, n_samples), or for I/Q
+    (n_cycles, n_chirps, n_samples, 2) with I then Q; and clipped as in :func:`adc`. An ideal ADC
+    (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx instead (float32 | complex64).
     """
     n_cycles = rx.shape[0]
-    if scene.adc_bits == 0:
+    if not 0 < scene.adc_bits <= 16:
         return rx.copy(), np.zeros(n_cycles, dtype=np.int64)
     lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
     hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
@@ -201,8 +210,18 @@ def adc(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         over = over.view(np.uint16)               # a sample's I and Q flags share two bytes: any -> != 0
     clipped = np.count_nonzero(over.reshape(n_cycles, -1), axis=1).astype(np.int64)
     np.clip(codes, lo, hi, out=codes)
-    codes *= np.float32(lsb)
-    return codes.view(rx.dtype).reshape(rx.shape), clipped
+    out = codes.astype(np.int16)
+    return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped
+
+
+def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:
+    """ADC codes (from :func:`adc_codes`) as samples in sqrt(W): float32 (I-only) or complex64 (I/Q),
+    (n_cycles, n_chirps, n_samples). Float input (an ideal ADC's) is returned as it is."""
+    if codes.dtype != np.int16:
+        return codes
+    lsb = np.float32(scene.adc_full_scale / 2 ** (scene.adc_bits - 1))
+    x = np.multiply(codes, lsb, dtype=np.float32)
+    return x.view(np.complex64)[..., 0] if scene.iq else x
 
 
 def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generator, *, attacker=None,

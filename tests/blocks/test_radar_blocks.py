@@ -17,60 +17,95 @@ def wire(frame: Frame, seq: int) -> Frame:
     return decode(encode(frame, seq=seq, stream="x.y"))
 
 
-def adc_frame(seq: int, value: float = 1e-4) -> Frame:
-    return wire(Frame.of(np.full((64, 1100), value, np.float32)), seq)
+def adc_frame(seq: int, value: float = 1e-4, cycles: int = 1) -> Frame:
+    return wire(Frame.of(np.full((cycles, 64, 1100), value, np.float32), cycles=cycles), seq)
 
 
-verdict_fields = st.fixed_dictionaries({}, optional={
+RHO = np.zeros(64, bool)
+RHO[::2] = True
+
+cycle_fields = st.fixed_dictionaries({}, optional={
     "alarm": st.one_of(st.booleans(), st.none(), st.integers(0, 1)),
     "invalid": st.one_of(st.booleans(), st.none(), st.integers(0, 1)),
-    "q": st.floats(allow_nan=True), "eta": st.floats(0.1, 3)})
+    "q": st.floats(allow_nan=True)})
 
 
 @settings(max_examples=100)
-@given(fields=verdict_fields)
-def test_gate_never_passes_a_cycle_without_an_explicit_clean_verdict(fields):
-    gate = Gate()
-    rho = np.zeros(64, bool)
-    rho[::2] = True
-    out = gate.process(adc_frame(3), wire(Frame.of(rho, **fields), 3))
-    clean = fields.get("alarm") is False and fields.get("invalid") is False
-    assert ("clean" in out) == clean and ("alarms" in out) == (not clean)
-    if clean:
-        assert out["clean"].header["verdict"] == "clean"
-        np.testing.assert_array_equal(out["clean"].arrays["rho"], rho)
+@given(cycles=st.lists(cycle_fields, min_size=1, max_size=4), eta=st.floats(0.1, 3))
+def test_gate_never_passes_a_cycle_without_an_explicit_clean_verdict(cycles, eta):
+    n = len(cycles)
+    per = {}
+    for name in ("alarm", "invalid", "q"):
+        if all(name in c for c in cycles):
+            per[name] = [c[name] for c in cycles]
+    verdict = wire(Frame.of(np.tile(RHO, (n, 1)), cycles=n, eta=eta, per_cycle=per), 3)
+    out = Gate().process(adc_frame(3, cycles=n), verdict)
+    clean = [c.get("alarm") is False and c.get("invalid") is False and "alarm" in per and "invalid" in per
+             for c in cycles]
+    passed = out["clean"].header["per_cycle"]["cycle_index"] if "clean" in out else []
+    refused = out["alarms"].header["per_cycle"]["cycle_index"] if "alarms" in out else []
+    assert passed == [3 + i for i in range(n) if clean[i]] and refused == [3 + i for i in range(n) if not clean[i]]
+    if "clean" in out:
+        assert out["clean"].header["verdict"] == "clean" and out["clean"].header["cycles"] == len(passed)
+        assert out["clean"].payload.shape == (len(passed), 64, 1100)
+        np.testing.assert_array_equal(out["clean"].arrays["rho"], np.tile(RHO, (len(passed), 1)))
+
+
+def test_gate_refuses_verdicts_that_do_not_match_the_frame():
+    per = {"alarm": [False, False], "invalid": [False, False]}
+    short = wire(Frame.of(np.tile(RHO, (2, 1)), cycles=2, per_cycle=per), 1)   # 2 verdicts for 3 cycles
+    out = Gate().process(adc_frame(1, cycles=3), short)
+    assert set(out) == {"alarms"} and out["alarms"].header["per_cycle"]["reason"] == ["bad_verdict"] * 3
 
 
 def test_gate_refuses_cycle_without_verdict_and_verdict_without_frame():
     gate = Gate()
-    out = gate.unpaired("frames", adc_frame(7))
-    assert set(out) == {"alarms"} and out["alarms"].header["reason"] == "no_verdict"
-    assert out["alarms"].payload is None
-    out = gate.unpaired("verdict", wire(Frame.of(np.ones(64, bool), alarm=False, invalid=False), 8))
-    assert out["alarms"].header["reason"] == "no_frame"
+    out = gate.unpaired("frames", adc_frame(7, cycles=2))
+    assert set(out) == {"alarms"} and out["alarms"].header["per_cycle"]["reason"] == ["no_verdict"] * 2
+    assert out["alarms"].payload is None and out["alarms"].header["cycles"] == 2
+    out = gate.unpaired("verdict", wire(Frame.of(np.ones((1, 64), bool), per_cycle={"alarm": [False],
+                                                                                     "invalid": [False]}), 8))
+    assert out["alarms"].header["per_cycle"]["reason"] == ["no_frame"]
 
 
 def test_detector_flags_nan_frames_and_frames_without_rho():
     det = RmsDetector(eta=1.5)
-    rho = np.zeros(64, bool)
-    rho[:32] = True
-    frames = np.random.default_rng(0).normal(0, det.sigma, (64, 1100)).astype(np.float32)
-    ok = det.process(wire(Frame.of(frames), 1), wire(Frame.of(rho), 1))
-    assert ok.header["alarm"] is False and ok.header["q"] < 1.5
-    frames[5, 7] = np.nan
-    bad = det.process(wire(Frame.of(frames), 2), wire(Frame.of(rho), 2))
-    assert bad.header["alarm"] is True and bad.header["invalid"] is True and bad.header["raised_by"] == "invalid"
-    lone = det.unpaired("frames", wire(Frame.of(frames), 3))
-    assert lone.header["alarm"] is True and lone.header["reason"] == "no_rho"
+    rho = np.zeros((2, 64), bool)
+    rho[:, :32] = True
+    frames = np.random.default_rng(0).normal(0, det.sigma, (2, 64, 1100)).astype(np.float32)
+    ok = det.process(wire(Frame.of(frames, cycles=2), 1), wire(Frame.of(rho, cycles=2), 1))
+    assert ok.header["per_cycle"]["alarm"] == [False, False] and max(ok.header["per_cycle"]["q"]) < 1.5
+    frames[1, 5, 7] = np.nan
+    bad = det.process(wire(Frame.of(frames, cycles=2), 2), wire(Frame.of(rho, cycles=2), 2)).header["per_cycle"]
+    assert bad["alarm"] == [False, True] and bad["invalid"] == [False, True] and bad["raised_by"][1] == "invalid"
+    lone = det.unpaired("frames", wire(Frame.of(frames, cycles=2), 3))
+    assert lone.header["per_cycle"]["alarm"] == [True, True] and lone.header["reason"] == "no_rho"
     assert det.unpaired("rho", wire(Frame.of(rho), 4)) is None
+
+
+def test_detector_judges_int16_codes_like_the_samples_they_stand_for():
+    from carav_stream.radar.streams import scene_of
+    from carav_stream.radar.synth import adc_codes, from_codes
+    scene = scene_of("table1")
+    det = RmsDetector(eta=1.5)
+    rho = np.zeros((3, 64), bool)
+    rho[:, 1::2] = True
+    rx = np.random.default_rng(1).normal(0, scene.sigma_n, (3, 64, 1100)).astype(np.float32)
+    rx[2, :4] *= 5   # an attacked cycle
+    codes, _ = adc_codes(scene, rx)
+    assert codes.dtype == np.int16
+    from_c = det.process(wire(Frame.of(codes, cycles=3), 1), wire(Frame.of(rho, cycles=3), 1)).header["per_cycle"]
+    from_s = det.process(wire(Frame.of(from_codes(scene, codes), cycles=3), 1),
+                         wire(Frame.of(rho, cycles=3), 1)).header["per_cycle"]
+    assert from_c == from_s and from_c["alarm"] == [False, False, True]
 
 
 def test_estimator_refuses_frames_without_the_gates_clean_verdict():
     est = RangeEstimator()
     est.start()
-    out = est.process(adc_frame(1))
-    assert out.header["refused"] is True and est.summary() == {"refused": 1}
-    forged = wire(Frame.of(np.zeros((64, 1100), np.float32), verdict="clean"), 2)   # no rho: still refused
+    out = est.process(adc_frame(1, cycles=2))
+    assert out.header["refused"] is True and est.summary() == {"refused": 2}
+    forged = wire(Frame.of(np.zeros((1, 64, 1100), np.float32), verdict="clean"), 2)   # no rho: still refused
     assert est.process(forged).header["refused"] is True
 
 

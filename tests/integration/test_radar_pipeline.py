@@ -13,15 +13,16 @@ pytestmark = pytest.mark.integration
 
 CHAIN = """
 seed = {seed}
+batch = {batch}
 scene = "table1"
 fidelity = "{fidelity}"
 connections = [
-  "source.tx -> channel.tx", "channel.rx -> attacker.rx", "channel.air -> attacker.air", "attacker.rx -> adc.rx",
+  "source.tx -> channel.tx", "channel.rx -> adc.rx", "channel.air -> attacker.air", "attacker.attack -> adc.attack",
   "adc.frames -> detector.frames", "source.rho -> detector.rho",
   "adc.frames -> gate.frames", "detector.verdict -> gate.verdict",
   "gate.clean -> ranging.frames", "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms",
   "detector.verdict -> vlog.inp", "ranging.estimates -> elog.inp", "gate.alarms -> elog.extra",
-  "channel.rx -> alog.inp", "channel.air -> alog.extra", "source.rho -> rlog.inp",
+  "channel.air -> alog.inp", "source.rho -> rlog.inp",
 ]
 [run]
 cycles = {cycles}
@@ -34,82 +35,98 @@ detector = {{ type = "rms_detector", eta = 1.5 {detector} }}
 gate     = {{ type = "gate" }}
 ranging  = {{ type = "range_estimator", method = "ml" }}
 summary  = {{ type = "run_summary" }}
-vlog     = {{ type = "jsonl_sink", path = "verdicts.jsonl", max_values = 64 }}
+vlog     = {{ type = "jsonl_sink", path = "verdicts.jsonl", max_values = 100000 }}
 elog     = {{ type = "jsonl_sink", path = "judged.jsonl" }}
-alog     = {{ type = "jsonl_sink", path = "attacker_inputs.jsonl", max_values = 64 }}
-rlog     = {{ type = "jsonl_sink", path = "rho.jsonl", max_values = 64 }}
+alog     = {{ type = "jsonl_sink", path = "attacker_inputs.jsonl", max_values = 100000 }}
+rlog     = {{ type = "jsonl_sink", path = "rho.jsonl", max_values = 100000 }}
 """
 
 
-def graph(carav, cycles, attacker, seed=21, fidelity="beat", detector=""):
-    return carav.graph(CHAIN.format(cycles=cycles, attacker=attacker, seed=seed, fidelity=fidelity, detector=detector))
+def graph(carav, cycles, attacker, seed=21, fidelity="beat", detector="", batch=16):
+    return carav.graph(CHAIN.format(cycles=cycles, attacker=attacker, seed=seed, fidelity=fidelity, detector=detector,
+                                    batch=batch))
+
+
+def by_cycle(records: list[dict]) -> dict[int, dict]:
+    """{cycle: that cycle's record}: the frame's header with its per_cycle values for the cycle (and port)."""
+    out = {}
+    for r in records:
+        per = r.get("per_cycle") or {}
+        index = per.get("cycle_index", list(range(r["cycle"], r["cycle"] + r.get("cycles", 1))))
+        for i, c in enumerate(index):
+            assert c not in out, f"cycle {c} recorded twice"
+            out[c] = {**{k: v for k, v in r.items() if k != "per_cycle"}, **{k: v[i] for k, v in per.items()}}
+    return out
 
 
 def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
-    n = 120
+    n = 120   # 7 frames of 16 cycles and a last one of 8
     run = carav.run(graph(carav, n, 'model = "smart", rarms = 3.0, start_cycle = 60'))
     assert run.wait(120) == 0, run.stderr()
     lib = run_chain(scene_of("table1"), n, seed=21, attack="smart", attack_params={"rarms": 3.0, "start_cycle": 60})
-    verdicts = read_jsonl(carav.workdir / "verdicts.jsonl")
-    assert [v["seq"] for v in verdicts] == list(range(n))
-    np.testing.assert_array_equal([v["q"] for v in verdicts], lib.q)            # bit for bit
-    np.testing.assert_array_equal([v["alarm"] for v in verdicts], lib.alarm)
-    np.testing.assert_array_equal([v["data"] for v in verdicts], lib.rho)
-    est = {e["seq"]: e for e in read_jsonl(carav.workdir / "judged.jsonl") if e["port"] == "inp"}
+    records = read_jsonl(carav.workdir / "verdicts.jsonl")
+    assert [(v["seq"], v["cycle"], v["cycles"]) for v in records] == [(i, 16 * i, 16 if i < 7 else 8) for i in range(8)]
+    verdicts = by_cycle(records)
+    assert sorted(verdicts) == list(range(n))
+    np.testing.assert_array_equal([verdicts[c]["q"] for c in range(n)], lib.q)            # bit for bit
+    np.testing.assert_array_equal([verdicts[c]["alarm"] for c in range(n)], lib.alarm)
+    np.testing.assert_array_equal(np.concatenate([v["data"] for v in records]), lib.rho)
+    est = by_cycle([e for e in read_jsonl(carav.workdir / "judged.jsonl") if e["port"] == "inp"])
     assert sorted(est) == [c for c in range(n) if not lib.alarm[c]]
     np.testing.assert_array_equal([est[c]["range_m"][0] for c in sorted(est)], lib.range_m[~lib.alarm, 0])
     np.testing.assert_array_equal([est[c]["velocity_mps"][0] for c in sorted(est)], lib.velocity_mps[~lib.alarm, 0])
     s = run.summary()
-    assert s["lost"] == 0 and s["cycles_judged"] == n and s["attacked_cycles"] == 60
+    assert s["lost"] == 0 and s["cycles"] == n and s["cycles_judged"] == n and s["attacked_cycles"] == 60
     assert s["detected"] == int(lib.alarm[60:].sum()) and s["false_alarms"] == int(lib.alarm[:60].sum())
 
 
 def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
     n = 40
-    run = carav.run(graph(carav, n, 'model = "lfsr_predictor", rarms = 3.0'))
+    run = carav.run(graph(carav, n, 'model = "lfsr_predictor", rarms = 3.0', batch=8))
     assert run.wait(120) == 0, run.stderr()
-    rho = {r["seq"]: r["data"] for r in read_jsonl(carav.workdir / "rho.jsonl")}
+    rho = np.concatenate([r["data"] for r in read_jsonl(carav.workdir / "rho.jsonl")])
     seen = read_jsonl(carav.workdir / "attacker_inputs.jsonl")   # exactly the frames sent to the attacker
-    assert len(seen) == 2 * n
-    forbidden = {"rho", "activation", "tx", "active_chirps"}
+    assert len(seen) == n // 8
+    forbidden = {"rho", "activation", "tx", "active_chirps", "per_cycle"}
+    heard = []
     for frame in seen:
         assert not forbidden & set(frame), frame.keys()
-        assert [a[0] for a in frame["arrays"]] == ["data"]
-    air = {f["seq"]: f for f in seen if f["port"] == "extra"}
-    assert air[0]["data"] == [False] * 64 and air[0]["air_cycle"] == -1
+        assert [a[0] for a in frame["arrays"]] == ["data"] and frame["air_cycle"] == frame["cycle"] - 1
+        heard.extend(frame["data"])
+    assert heard[0] == [False] * 64
     for c in range(1, n):
-        assert air[c]["air_cycle"] == c - 1 and air[c]["data"] == rho[c - 1]   # one cycle late, never current
-    rx = [f for f in seen if f["port"] == "inp"]
-    assert all("data" not in f and f["arrays"][0][2] == [64, 1100] for f in rx)
+        assert heard[c] == rho[c - 1].tolist()   # cycle c hears cycle c - 1: one cycle late, never current
+    s = run.summary()
+    assert set(s["per_node"]["attacker"]["in"]) == {"air"}   # its one input: nothing of the received signal
 
 
 def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector_dies(carav):
     body = CHAIN.format(cycles=0, attacker='model = "none"', seed=22, fidelity="beat",
-                        detector=', restart = "on-failure"')
+                        detector=', restart = "on-failure"', batch=4)
     run = carav.run(carav.graph(body))
     judged = carav.workdir / "judged.jsonl"
-    wait_until(lambda: len(read_jsonl(judged)) > 60, 60, "cycles to be judged")
+    wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
     pid = int(wait_until(lambda: _pid_of(carav, run, "detector"), 20, "detector pid"))
     os.kill(pid, signal.SIGKILL)
     wait_until(lambda: "restarting 'detector'" in run.stderr(), 30, "the supervisor to restart the detector")
     n_at_restart = len(read_jsonl(judged))
-    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 60, 60, "cycles after the restart")
+    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 30, 60, "cycles after the restart")
     assert carav.cli("stop").returncode == 0
     run.wait(60)
     err = run.stderr()
     assert "node 'detector' (rms_detector) failed: exited with signal SIGKILL" in err
-    verdicts = {v["seq"]: v for v in read_jsonl(carav.workdir / "verdicts.jsonl")}
+    verdicts = by_cycle(read_jsonl(carav.workdir / "verdicts.jsonl"))
     records = read_jsonl(judged)
-    estimates = [r for r in records if r["port"] == "inp"]
-    alarms = [r for r in records if r["port"] == "extra"]
-    assert estimates and all(r["seq"] in verdicts and verdicts[r["seq"]]["alarm"] is False for r in estimates)
-    assert all(r["verdict"] == "clean" for r in estimates)
+    estimates = by_cycle([r for r in records if r["port"] == "inp"])
+    alarms = by_cycle([r for r in records if r["port"] == "extra"])
+    assert estimates and all(c in verdicts and verdicts[c]["alarm"] is False for c in estimates)
+    assert all(r["verdict"] == "clean" for r in estimates.values())
     # a verdict lost on the gate's edge when the detector died (its tap may still have it) means a refusal
-    assert {a["reason"] for a in alarms} <= {"no_verdict", "no_rho", "no_frame", "attack"}
+    assert {a["reason"] for a in alarms.values()} <= {"no_verdict", "no_rho", "no_frame", "attack"}
     s = run.summary()
     assert s["restarts"] == 1
     # every generated cycle is judged exactly once: estimated on a clean verdict, or refused with a reason
-    assert sorted(r["seq"] for r in records) == list(range(s["cycles"]))
+    assert not set(estimates) & set(alarms) and sorted([*estimates, *alarms]) == list(range(s["cycles"]))
 
 
 def _pid_of(carav, run, node):
@@ -124,27 +141,27 @@ def _pid_of(carav, run, node):
 
 
 def test_live_attacker_swaps_keep_every_cycle_and_change_the_verdicts(carav):
-    run = carav.run(graph(carav, 0, 'model = "none"', seed=23, fidelity="waveform"))
+    run = carav.run(graph(carav, 0, 'model = "none"', seed=23, fidelity="waveform", batch=4))
     judged = carav.workdir / "judged.jsonl"
     swaps = [("smart", ["rarms=4.0"]),
              ("secondary_antenna", ["range_m=30.0", "velocity_mps=13.89", "tx_power_w=0.1"])]
     for i, (model, sets) in enumerate(swaps):
-        wait_until(lambda: len(read_jsonl(judged)) > 30 * (i + 1), 90, f"cycles before swap {i}")
+        wait_until(lambda: len(by_cycle(read_jsonl(judged))) > 30 * (i + 1), 90, f"cycles before swap {i}")
         res = carav.cli("swap", "attacker", "attacker", "--set", f"model={model}",
                         *sum((["--set", s] for s in sets), []), timeout_s=60)
         assert res.returncode == 0, res.stderr
-    wait_until(lambda: len(read_jsonl(judged)) > 100, 90, "cycles after the last swap")
+    wait_until(lambda: len(by_cycle(read_jsonl(judged))) > 100, 90, "cycles after the last swap")
     assert carav.cli("stop").returncode == 0
     assert run.wait(90) == 0, run.stderr()
     s = run.summary()
-    records = sorted(read_jsonl(judged), key=lambda r: r["seq"])
-    assert [r["seq"] for r in records] == list(range(s["cycles"]))     # none lost, duplicated or reordered
+    records = by_cycle(read_jsonl(judged))
+    assert sorted(records) == list(range(s["cycles"]))     # none lost, duplicated or reordered
     assert s["lost"] == 0
-    models = [r.get("attack_model") for r in records]
-    firsts = [sw["first_seq"] for sw in s["swaps"]]
+    models = [records[c].get("attack_model") for c in sorted(records)]
+    firsts = [4 * sw["first_seq"] for sw in s["swaps"]]     # frames of 4 cycles: swaps fall between frames
     assert models == ["none"] * firsts[0] + ["smart"] * (firsts[1] - firsts[0]) + \
         ["secondary_antenna"] * (s["cycles"] - firsts[1])
-    alarmed = [r["port"] == "extra" for r in records]
+    alarmed = [records[c]["port"] == "extra" for c in sorted(records)]
     assert not any(alarmed[:firsts[0]])                                   # clean before the first swap
     assert all(alarmed[firsts[0]:])                                       # every attacked cycle alarms
 
