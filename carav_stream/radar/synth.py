@@ -202,14 +202,17 @@ def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
     hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
     lo = np.float32(-(2 ** (scene.adc_bits - 1)))
-    re = rx.view(np.float32)                      # complex64 -> interleaved I, Q
-    codes = np.multiply(re, np.float32(1.0 / lsb))
+    codes = np.multiply(rx.view(np.float32), np.float32(1.0 / lsb))   # complex64 -> interleaved I, Q
     np.rint(codes, out=codes)
-    over = (codes > hi) | (codes < lo)
-    if scene.iq:
-        over = over.view(np.uint16)               # a sample's I and Q flags share two bytes: any -> != 0
-    clipped = np.count_nonzero(over.reshape(n_cycles, -1), axis=1).astype(np.int64)
-    np.clip(codes, lo, hi, out=codes)
+    flat = codes.reshape(n_cycles, -1)
+    clipped = np.zeros(n_cycles, dtype=np.int64)
+    # two fast reductions find the cycles that hit a rail; only those are counted and clipped
+    for i in np.flatnonzero((flat.max(axis=1, initial=lo) > hi) | (flat.min(axis=1, initial=hi) < lo)):
+        over = (flat[i] > hi) | (flat[i] < lo)
+        if scene.iq:
+            over = over.view(np.uint16)           # a sample's I and Q flags share two bytes: any -> != 0
+        clipped[i] = np.count_nonzero(over)
+        np.clip(flat[i], lo, hi, out=flat[i])
     out = codes.astype(np.int16)
     return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped
 
