@@ -36,6 +36,12 @@ def run_root() -> Path:
     return root
 
 
+# glibc malloc in node processes: keep freed buffers for reuse rather than handing them back to the OS after
+# every frame. Large frames would otherwise be mmap'ed and unmapped each time, and every page of every new
+# buffer faulted in again (measured on an 8-node radar graph with 4.5 MB frames: 70-80 page faults and about
+# 200 us of kernel time per cycle fewer). Settings in the user's environment win; other C libraries ignore them.
+MALLOC_TUNING = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
+                 "MALLOC_TOP_PAD_": str(64 << 20)}
 PER_PORT_COUNTERS = ("in", "out", "sent", "rejected", "unpaired", "undeliverable")   # dicts: port or edge -> n
 
 
@@ -134,7 +140,8 @@ class Supervisor:
         spec_path.write_bytes(msgpack.packb(st.spec, use_bin_type=True))
         logf = open(self.run_dir / f"{st.name}.log", "ab")
         st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.node", str(spec_path)],
-                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf)
+                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf,
+                                   env={**MALLOC_TUNING, **os.environ})
         logf.close()
         st.ready = st.done = st.failed = False
         st.last_seen = time.monotonic()
