@@ -69,13 +69,12 @@ class AttackerBlock(Block):
             for i in range(n):
                 if air.header.get("air_cycle", -1) + i >= 0:
                     self.attack.listen(heard[i])
-                a_i, active[i: i + 1] = self.attack.emit(1, c0 + i, self.rng, None, fidelity=self.fidelity)
+                a_i, active[i: i + 1] = self.attack.emit(1, c0 + i, self.rng, None, fidelity=self.fidelity,
+                                                                compact=True)
                 if a_i is not None:
                     a = np.zeros((n,) + a_i.shape[1:], a_i.dtype) if a is None else a
                     a[i] = a_i[0]
         else:
-            a, active = self.attack.emit(n, c0, self.rng, None, fidelity=self.fidelity)
-        if a is not None and self.attack.same_every_chirp:
-            a = a[:, :1]
+            a, active = self.attack.emit(n, c0, self.rng, None, fidelity=self.fidelity, compact=True)
         return Frame.of(a, per_cycle={"attack_active": active.tolist()}, attack_model=self.model,
                         cycle=c0, cycles=n)

@@ -119,9 +119,11 @@ class Attacker:
         return out, active
 
     def emit(self, n_cycles: int, cycle0: int, rng_attack: np.random.Generator | None,
-             observation: Observation | None = None, *, fidelity: str = "beat"):
+             observation: Observation | None = None, *, fidelity: str = "beat", compact: bool = False):
         """The attack signal a: (n_cycles, n_chirps, n_samples) of the scene's dtype, or None when
         silent throughout, and attack_active bool (n_cycles,). Draws from rng_attack in cycle order.
+        With ``compact`` a model that sends the same samples in every chirp (``same_every_chirp``)
+        returns them once per cycle, (n_cycles, 1, n_samples), which broadcasts over the chirps.
 
         A listening model (``listens``) hears ``observation``'s row i after producing cycle i; with
         ``observation=None`` it hears nothing here (a streaming node feeds it with ``listen``)."""
@@ -135,7 +137,8 @@ class Attacker:
         hear = self._listens and observation is not None
         if not on.any() and not hear:
             return None, on
-        a = np.zeros((n_cycles, self.scene.n_chirps, self.scene.n_samples), self.dtype)
+        rows = 1 if compact and self.same_every_chirp else self.scene.n_chirps
+        a = np.zeros((n_cycles, rows, self.scene.n_samples), self.dtype)
         active = np.zeros(n_cycles, dtype=bool)
         batch = self._batch(a, on, cycle0, rng_attack, fidelity)
         for i in range(n_cycles):

@@ -56,6 +56,16 @@ def test_smart_attack_repeats_one_sequence_in_every_chirp_of_a_cycle(small_scene
     assert not np.allclose(a[0, 0], a[1, 0])
 
 
+@pytest.mark.parametrize("kind", ["smart", "random"])
+def test_compact_emission_is_the_dense_one_sent_once_per_cycle_where_every_chirp_is_the_same(small_scene, kind):
+    s = small_scene()
+    dense, on = make_attacker(kind, s, rarms=2.0, start_cycle=1).emit(4, 0, np.random.default_rng(5))
+    compact, on_c = make_attacker(kind, s, rarms=2.0, start_cycle=1).emit(4, 0, np.random.default_rng(5), compact=True)
+    assert np.array_equal(on, on_c) and on.tolist() == [False, True, True, True]
+    assert compact.shape == ((4, 1, s.n_samples) if kind == "smart" else dense.shape)
+    assert np.array_equal(np.broadcast_to(compact, dense.shape), dense)
+
+
 def test_ghost_plants_a_target_at_the_chosen_range_and_speed(small_scene):
     s = small_scene(iq=True, sigma_n=1.0)
     a, _ = emit(make_attacker("ghost", s, range_m=25.0, velocity_mps=10.0, rarms=5.0), 1)
