@@ -1,4 +1,5 @@
 """Algorithm 1 as a graph of real processes: the guarantees of the radar pipeline."""
+import csv
 import os
 import signal
 
@@ -22,7 +23,7 @@ connections = [
   "adc.frames -> gate.frames", "detector.verdict -> gate.verdict",
   "gate.clean -> ranging.frames", "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms",
   "detector.verdict -> vlog.inp", "ranging.estimates -> elog.inp", "gate.alarms -> elog.extra",
-  "channel.air -> alog.inp", "source.rho -> rlog.inp",
+  "channel.air -> alog.inp", "source.rho -> rlog.inp", "ranging.estimates -> csv.estimates", "gate.alarms -> csv.alarms",
 ]
 [run]
 cycles = {cycles}
@@ -39,6 +40,7 @@ vlog     = {{ type = "jsonl_sink", path = "verdicts.jsonl", max_values = 100000 
 elog     = {{ type = "jsonl_sink", path = "judged.jsonl" }}
 alog     = {{ type = "jsonl_sink", path = "attacker_inputs.jsonl", max_values = 100000 }}
 rlog     = {{ type = "jsonl_sink", path = "rho.jsonl", max_values = 100000 }}
+csv      = {{ type = "csv_sink", path = "cycles.csv" }}
 """
 
 
@@ -75,6 +77,10 @@ def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
     assert sorted(est) == [c for c in range(n) if not lib.alarm[c]]
     np.testing.assert_array_equal([est[c]["range_m"][0] for c in sorted(est)], lib.range_m[~lib.alarm, 0])
     np.testing.assert_array_equal([est[c]["velocity_mps"][0] for c in sorted(est)], lib.velocity_mps[~lib.alarm, 0])
+    rows = sorted(csv.DictReader(open(carav.workdir / "cycles.csv")), key=lambda r: int(r["cycle"]))
+    assert [int(r["cycle"]) for r in rows] == list(range(n))
+    assert [r["port"] == "alarms" for r in rows] == lib.alarm.tolist()
+    assert [r["range_m"] for r in rows if r["port"] == "estimates"] == [repr(float(x)) for x in lib.range_m[~lib.alarm, 0]]
     s = run.summary()
     assert s["lost"] == 0 and s["cycles"] == n and s["cycles_judged"] == n and s["attacked_cycles"] == 60
     assert s["detected"] == int(lib.alarm[60:].sum()) and s["false_alarms"] == int(lib.alarm[:60].sum())
