@@ -2,10 +2,13 @@
 
 Pipeline, vectorised over cycles (C cycles, M chirps, N fast-time samples):
 
-1. Silent chirps are zeroed (rho False): every sum below runs over the active chirps only, and the
-   slow-time spectrum of the zero-filled chirps is exactly the non-uniform DFT of the sparse active set.
-2. Range-Doppler map |FFT_slow(FFT_fast(x))|^2 (fast-time FFT length nr, slow-time length md); targets are the
-   K largest local maxima (K given, or estimated by MDL/AIC on a Toeplitz covariance built from the
+1. Only the active chirps (rho True) are read: they are gathered into (C, A, N), A the largest active count
+   of the batch (shorter cycles padded with zero rows), and every sum and fast-time FFT below runs on them.
+   Slow-time spectra scatter them back to their chirp times with zeros at the silent ones, which is exactly
+   the non-uniform DFT of the sparse active set.
+2. Range-Doppler map |FFT_slow(FFT_fast(x))|^2 (fast-time FFT length nr, slow-time length md), transformed in
+   slow time only at the range bins that can hold its maximum (a bound from each bin's energy); targets are
+   the K largest local maxima (K given, or estimated by MDL/AIC on a Toeplitz covariance built from the
    non-coherently integrated power spectrum of the active chirps).
 3. Refinement by method:
      fft_peak      grid peak (bin centres)
@@ -83,22 +86,59 @@ def _check_inputs(frames, rho, geometry: Geometry, method: str):
     return frames, rho
 
 
-def _normalise(frames, rho):
-    """Zero silent chirps, drop non-finite cycles, scale each cycle to unit peak |I| or |Q|.
+@dataclass(frozen=True)
+class _Chirps:
+    """The active chirps of every cycle, compacted: arrays (C, A, ...) with A the most active chirps in any cycle
+    (at least 1) hold in row a of cycle c chirp index[c, a] for a < count[c]; the rows after them are padding
+    (mask False) and are zero in every compacted array."""
 
-    Returns x (complex64 or float32, same shape), scale (C,) float64 and valid (C,) bool."""
+    rho: np.ndarray  # (C, M) bool: the activation pattern
+    index: np.ndarray  # (C, A) int: active chirps in increasing order, then silent ones (padding)
+    mask: np.ndarray  # (C, A) bool: row holds an active chirp
+    count: np.ndarray  # (C,) int: active chirps per cycle
+
+    @classmethod
+    def of(cls, rho):
+        count = rho.sum(axis=1)
+        k = max(int(count.max(initial=0)), 1)
+        index = np.argsort(~rho, axis=1, kind="stable")[:, :k]
+        return cls(rho=rho, index=index, mask=np.arange(k) < count[:, None], count=count)
+
+    @property
+    def n_chirps(self) -> int:
+        return self.rho.shape[1]
+
+    def gather(self, a):
+        """(C, M, ...) -> (C, A, ...): the active chirps' rows, padding rows zero."""
+        out = a[np.arange(a.shape[0])[:, None], self.index]
+        if not self.mask.all():
+            out[~self.mask] = 0
+        return out
+
+    def scatter(self, b):
+        """(C, A, ...) -> (C, M, ...): the rows back at their chirps, zero at the silent ones."""
+        out = np.zeros((b.shape[0], self.n_chirps) + b.shape[2:], dtype=b.dtype)
+        out[np.arange(b.shape[0])[:, None], self.index] = b  # padding rows are zero and land on silent chirps
+        return out
+
+
+def _normalise(frames, chirps: _Chirps):
+    """Gather the active chirps, drop non-finite cycles, scale each cycle to unit peak |I| or |Q|.
+
+    Returns x (C, A, N) complex64 or float32 (compacted, see _Chirps), scale (C,) float64 and valid (C,) bool.
+    Silent chirps are never read, whatever they hold."""
     work_dtype = np.complex64 if np.iscomplexobj(frames) else np.float32
-    x = frames.astype(work_dtype, copy=False) * rho[..., None]
+    x = chirps.gather(frames).astype(work_dtype, copy=False)
     flat = x.view(np.float32).reshape(x.shape[0], -1)
-    peak = np.max(np.abs(flat), axis=1).astype(float)  # NaN/inf propagate here
-    valid = np.isfinite(peak) & (peak > 0) & rho.any(axis=1)
+    peak = np.maximum(flat.max(axis=1), -flat.min(axis=1)).astype(float)  # NaN/inf propagate here
+    valid = np.isfinite(peak) & (peak > 0) & (chirps.count > 0)
     scale = np.where(valid, peak, 1.0)
     x *= (1.0 / scale).astype(np.float32)[:, None, None]
     x[~valid] = 0
     return x, scale, valid
 
 
-def _estimate_order(x, rho, criterion: str, max_targets: int, iq: bool):
+def _estimate_order(x, chirps: _Chirps, criterion: str, max_targets: int, iq: bool):
     """Model order per cycle from MDL/AIC on the Toeplitz covariance of the active chirps' summed power."""
     n = x.shape[-1]
     length = int(min(max(4 * max_targets + 4, 16), n // 2))
@@ -107,19 +147,56 @@ def _estimate_order(x, rho, criterion: str, max_targets: int, iq: bool):
     power = (np.abs(spec) ** 2).sum(axis=1)
     cov = spectral.toeplitz_covariance_from_power(power, length, n)
     eig = np.linalg.eigvalsh(cov)
-    n_act = rho.sum(axis=1)
-    snaps = np.maximum(n_act * (n // length), 1)
+    snaps = np.maximum(chirps.count * (n // length), 1)
     per = 1 if iq else 2
     order = spectral.information_criterion_order(eig, snaps, criterion=criterion, max_order=per * max_targets)
     return np.minimum((order + per - 1) // per, max_targets)
 
 
-def _doppler_column(spec, cyc, k0, l0, md, n_tgt, pad: int = 8):
+def _search(spec, chirps: _Chirps, md: int, iq: bool):
+    """Cell (l0, k0), each (C, 1), of the largest |RD| of the range-Doppler map RD = FFT_md(spec) along slow
+    time (spec (C, A, nb) the compacted range spectra). Real samples: DC and Nyquist are not searched.
+
+    Only the range bins that can hold the maximum are transformed: the largest |RD[l, k]|^2 over l lies between
+    the mean E_k = sum_m |spec[m, k]|^2 (Parseval) and count * E_k (Cauchy-Schwarz over the active chirps), so a
+    bin with count * E_k < max_k E_k cannot win (0.1 % margin for float32 rounding). With a target above the
+    noise that leaves a few bins around it; otherwise the whole map is computed."""
+    n_cycles, _, nb = spec.shape
+    energy = np.abs(spec)
+    energy = np.square(energy, out=energy).sum(axis=1)  # (C, nb)
+    if not iq:
+        energy[:, [0, -1]] = -1.0
+    top = energy.max(axis=1, keepdims=True)
+    keep = (energy * (1.001 * chirps.count[:, None]) >= top) & (top > 0)
+    keep[np.arange(n_cycles), np.argmax(energy, axis=1)] = True  # empty cycles: one bin, any
+    n_keep = int(keep.sum(axis=1).max())
+    if 2 * n_keep > nb:
+        cols = np.broadcast_to(np.arange(nb), (n_cycles, nb))
+    else:
+        cols = np.argsort(~keep, axis=1, kind="stable")[:, :n_keep]
+        spec = np.take_along_axis(spec, cols[:, None, :], axis=2)
+        keep = np.take_along_axis(keep, cols, axis=1)
+    mag = np.abs(scipy.fft.fft(chirps.scatter(spec), n=md, axis=1, overwrite_x=True))  # (C, md, P)
+    if not keep.all():
+        mag *= keep[:, None, :]
+    l0, p0 = np.divmod(np.argmax(mag.reshape(n_cycles, -1), axis=1)[:, None], mag.shape[2])
+    return l0, np.take_along_axis(cols, p0, axis=1)
+
+
+def _cells(spec, chirps: _Chirps, l, k, md: int):
+    """Range-Doppler values RD[l, k] = sum_m spec[m, k] exp(-j 2 pi l m / md) at the cells (l, k), each (C, J)
+    (l any integer, k in range), complex128 (C, J)."""
+    col = np.take_along_axis(spec, k[:, None, :], axis=2).astype(complex)  # (C, A, J)
+    turns = (chirps.index[:, :, None] * l[:, None, :]) % md / md  # exact integer phase
+    return (col * np.exp(-2j * np.pi * turns) * chirps.mask[:, :, None]).sum(axis=1)
+
+
+def _doppler_column(spec, chirps: _Chirps, k0, l0, md, n_tgt, pad: int = 8):
     """Slow-time frequency [cycles/chirp] (C, K) from a pad-times zero-padded Doppler FFT of the range bins
-    k0 (C, K) of spec (C, M, nb), with a parabolic vertex. One target: the global maximum of the column
+    k0 (C, K) of spec (C, A, nb), with a parabolic vertex. One target: the global maximum of the column
     (robust to the high sidelobes of the sparse active set when the coarse grid scallops); several: the
     maximum within one coarse bin of the 2-D peak l0."""
-    col = spec[cyc, :, k0]  # (C, K, M)
+    col = np.swapaxes(chirps.scatter(np.take_along_axis(spec, k0[:, None, :], axis=2)), 1, 2)  # (C, K, M)
     n_pad = md * pad
     pw = np.abs(scipy.fft.fft(col, n=n_pad, axis=-1)).astype(float)
     if n_tgt == 1:
@@ -132,26 +209,30 @@ def _doppler_column(spec, cyc, k0, l0, md, n_tgt, pad: int = 8):
     return (j + spectral.parabolic_delta(*p)) / n_pad
 
 
-def _integrate_fast(x, rho, nu):
+def _integrate_fast(x, chirps: _Chirps, nu):
     """Doppler-compensated coherent sum over active chirps: y[c, n] = sum_m x[c,m,n] exp(-j 2 pi nu_c m).
 
-    x complex64 or float32 (C, M, N), single-precision products (the data's precision); returns complex128."""
-    e = spectral.phasor(nu, x.shape[1]) * rho
+    x compacted complex64 or float32 (C, A, N), single-precision products (the data's precision); returns
+    complex128 (C, N)."""
+    e = chirps.gather(spectral.phasor(nu, chirps.n_chirps))  # (C, A), zero on padding rows
     if np.iscomplexobj(x):
         return np.matmul(e.astype(np.complex64)[:, None, :], x)[:, 0, :].astype(np.complex128)
-    c = e.real.astype(np.float32)[:, None, :]
+    c = e.real.astype(np.float32)[:, None, :]  # two matrix-vector products beat one with two columns
     s = e.imag.astype(np.float32)[:, None, :]
     return np.matmul(c, x)[:, 0, :] + 1j * np.matmul(s, x)[:, 0, :].astype(np.float64)
 
 
-def _demod_slow(x, f):
-    """Per-chirp DTFT at beat f [cycles/sample]: z[c, m] = sum_n x[c,m,n] exp(-j 2 pi f_c n), complex128."""
+def _demod_slow(x, chirps: _Chirps, f):
+    """Per-chirp DTFT at beat f [cycles/sample]: z[c, m] = sum_n x[c,m,n] exp(-j 2 pi f_c n), complex128 (C, M)
+    (zero at silent chirps), from the compacted x (C, A, N)."""
     e = spectral.phasor(f, x.shape[-1])
     if np.iscomplexobj(x):
-        return np.matmul(x, e.astype(np.complex64)[:, :, None])[:, :, 0].astype(np.complex128)
-    c = e.real.astype(np.float32)[:, :, None]
-    s = e.imag.astype(np.float32)[:, :, None]
-    return np.matmul(x, c)[:, :, 0] + 1j * np.matmul(x, s)[:, :, 0].astype(np.float64)
+        z = np.matmul(x, e.astype(np.complex64)[:, :, None])[:, :, 0].astype(np.complex128)
+    else:
+        c = e.real.astype(np.float32)[:, :, None]
+        s = e.imag.astype(np.float32)[:, :, None]
+        z = np.matmul(x, c)[:, :, 0] + 1j * np.matmul(x, s)[:, :, 0].astype(np.float64)
+    return chirps.scatter(z)
 
 
 def _music_beat(y, f_init, n_model: int, length: int, root: bool, n_bins: int):
@@ -176,38 +257,36 @@ def _music_beat(y, f_init, n_model: int, length: int, root: bool, n_bins: int):
     return f_init + (offs[k] + delta * (offs[1] - offs[0]))
 
 
-def _one_target(x, rho, method, zeropad, n_newton, music_length, iq):
-    """Strongest target of every cycle: (f, nu, amp) each (C, 1); f [cycles/sample], nu [cycles/chirp],
-    amp the positive-frequency tone amplitude per sample (normalised units)."""
-    n_cycles, n_chirps, n_samp = x.shape
+def _one_target(x, chirps: _Chirps, method, zeropad, n_newton, music_length, iq):
+    """Strongest target of every cycle from the compacted x (C, A, N): (f, nu, amp) each (C, 1); f
+    [cycles/sample], nu [cycles/chirp], amp the positive-frequency tone amplitude per sample (normalised units)."""
+    n_samp = x.shape[-1]
     nr = n_samp * (zeropad if method == "fft_zeropad" else 1)
-    md = n_chirps * (4 if method == "fft_zeropad" else 1)
+    md = chirps.n_chirps * (4 if method == "fft_zeropad" else 1)
+    # range FFT of the active chirps only (the silent ones are zero)
     spec = scipy.fft.fft(x, n=nr, axis=-1) if iq else scipy.fft.rfft(x, n=nr, axis=-1)
-    rd = scipy.fft.fft(spec, n=md, axis=1)  # range-Doppler map over the active chirps (silent ones are zero)
-    power = rd.real ** 2 + rd.imag ** 2
-    if not iq:  # real samples: search strictly positive beats away from DC and Nyquist
-        power[:, :, :1] = 0.0
-        power[:, :, -1:] = 0.0
-    idx = np.argmax(power.reshape(n_cycles, -1), axis=1)[:, None]
-    l0, k0 = np.divmod(idx, power.shape[2])  # (C, 1) Doppler and range bins
+    nb = spec.shape[-1]
+    l0, k0 = _search(spec, chirps, md, iq)  # (C, 1) Doppler and range bins
     f = k0 / nr
     nu = l0 / md
-    cyc = np.arange(n_cycles)[:, None]
-    nb = power.shape[2]
-    if method in ("fft_zeropad", "fft_interp", "ml", "music", "root_music"):
-        def mag(l, k):
-            return np.sqrt(power[cyc, l, k].astype(float))
-
-        km, kp = np.clip(k0 - 1, 0, nb - 1), np.clip(k0 + 1, 0, nb - 1)
-        if method == "fft_zeropad":
-            f = f + spectral.parabolic_delta(mag(l0, km), mag(l0, k0), mag(l0, kp)) / nr
-            nu = nu + spectral.parabolic_delta(mag((l0 - 1) % md, k0), mag(l0, k0), mag((l0 + 1) % md, k0)) / md
-        else:
-            f = f + spectral.candan_delta(rd[cyc, l0, km], rd[cyc, l0, k0], rd[cyc, l0, kp], n_samp) / nr
-            nu = _doppler_column(spec, cyc, k0, l0, md, 1)
-    amp = np.abs(rd[cyc, l0, k0]) / (n_samp * np.maximum(rho.sum(axis=1), 1))[:, None]
+    if method == "fft_zeropad":
+        k3 = np.concatenate([np.clip(k0 - 1, 0, nb - 1), k0, np.clip(k0 + 1, 0, nb - 1), k0, k0], axis=1)
+        l3 = np.concatenate([l0, l0, l0, l0 - 1, l0 + 1], axis=1)
+        mag = np.abs(_cells(spec, chirps, l3, k3, md))
+        f = f + spectral.parabolic_delta(mag[:, 0:1], mag[:, 1:2], mag[:, 2:3]) / nr
+        nu = nu + spectral.parabolic_delta(mag[:, 3:4], mag[:, 1:2], mag[:, 4:5]) / md
+        peak = mag[:, 1:2]
+    elif method != "fft_peak":
+        k3 = np.concatenate([np.clip(k0 - 1, 0, nb - 1), k0, np.clip(k0 + 1, 0, nb - 1)], axis=1)
+        rd = _cells(spec, chirps, np.repeat(l0, 3, axis=1), k3, md)
+        f = f + spectral.candan_delta(rd[:, 0:1], rd[:, 1:2], rd[:, 2:3], n_samp) / nr
+        nu = _doppler_column(spec, chirps, k0, l0, md, 1)
+        peak = np.abs(rd[:, 1:2])
+    else:
+        peak = np.abs(_cells(spec, chirps, l0, k0, md))
+    amp = peak / (n_samp * np.maximum(chirps.count, 1))[:, None]
     if method in ("ml", "music", "root_music"):
-        f, nu, amp = _refine(x, rho, f, nu, amp, method, n_newton, music_length, iq)
+        f, nu, amp = _refine(x, chirps, f, nu, amp, method, n_newton, music_length, iq)
     return f, nu, amp
 
 
@@ -235,17 +314,18 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
         raise ValueError(f"estimate: zeropad must be a positive integer, got {zeropad!r}")
     n_cycles, n_chirps, n_samp = frames.shape
     iq = geometry.iq
-    x, scale, valid = _normalise(frames, rho)
+    chirps = _Chirps.of(rho)
+    x, scale, valid = _normalise(frames, chirps)  # (C, A, N): the active chirps only
 
     if n_targets is None:
-        order = np.where(valid, _estimate_order(x, rho, criterion, max_targets, iq), 0)
+        order = np.where(valid, _estimate_order(x, chirps, criterion, max_targets, iq), 0)
         width = max(int(order.max(initial=0)), 1)
     else:
         width = int(n_targets)
         order = np.where(valid, width, 0)
 
     if width == 1:
-        f, nu, amp = _one_target(x, rho, method, zeropad, n_newton, music_length, iq)
+        f, nu, amp = _one_target(x, chirps, method, zeropad, n_newton, music_length, iq)
     else:
         # RELAX-style sequential search: the strongest target first, removed from the data before the next
         # search (its range and Doppler sidelobes -- high for a sparse active set -- would otherwise win),
@@ -254,23 +334,24 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
         nu = np.zeros((n_cycles, width))
         amp = np.zeros((n_cycles, width))
         resid = x.copy()
-        n_act = np.maximum(rho.sum(axis=1), 1)
+        n_act = np.maximum(chirps.count, 1)
         for k in range(width):
-            fk, nuk, _ = _one_target(resid, rho, method, zeropad, n_newton, music_length, iq)
+            fk, nuk, _ = _one_target(resid, chirps, method, zeropad, n_newton, music_length, iq)
             f[:, k], nu[:, k] = fk[:, 0], nuk[:, 0]
             slow = spectral.phasor(nu[:, k], n_chirps) * rho
-            alpha = (_demod_slow(resid, f[:, k]) * slow).sum(axis=1) / (n_samp * n_act)  # e^{+j..} amplitude
+            alpha = (_demod_slow(resid, chirps, f[:, k]) * slow).sum(axis=1) / (n_samp * n_act)  # e^{+j..}
             amp[:, k] = np.abs(alpha)
-            tone = (alpha[:, None] * slow.conj())[:, :, None] * spectral.phasor(f[:, k], n_samp, +1.0)[:, None, :]
+            tone = (alpha[:, None] * chirps.gather(slow.conj()))[:, :, None] * \
+                spectral.phasor(f[:, k], n_samp, +1.0)[:, None, :]
             resid = resid - (tone if iq else 2.0 * tone.real).astype(resid.dtype)  # real: a e^{..} + conj
         if method in ("ml", "music", "root_music"):
-            f, nu, amp = _refine(x, rho, f, nu, amp, method, n_newton, music_length, iq)
+            f, nu, amp = _refine(x, chirps, f, nu, amp, method, n_newton, music_length, iq)
 
     nu = (nu + 0.5) % 1.0 - 0.5
     beat_hz = (f % 1.0) * geometry.fs_hz
     velocity = geometry.velocity_from_slow_freq(nu)
     found = np.arange(width)[None, :] < order[:, None]
-    one_chirp = rho.sum(axis=1) < 2
+    one_chirp = chirps.count < 2
     velocity = np.where(one_chirp[:, None], np.nan, velocity)
     range_m = geometry.range_from_beat(beat_hz, np.nan_to_num(velocity) if couple else 0.0)
     nan = np.nan
@@ -280,21 +361,22 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
                      n_found=order.astype(np.int64), method=method)
 
 
-def _refine(x, rho, f, nu, amp, method, n_newton, music_length, iq):
-    """Alternating ML refinement (ml) or MUSIC beat + ML Doppler (music, root_music).
+def _refine(x, chirps: _Chirps, f, nu, amp, method, n_newton, music_length, iq):
+    """Alternating ML refinement (ml) or MUSIC beat + ML Doppler (music, root_music) on the compacted x (C, A, N).
 
     The other targets, and for real samples the negative-frequency image of every target (x real =
     sum_k a_k e^{+j..} + conj(a_k) e^{-j..}), are removed in the reduced domain: their contributions to the
     per-chirp DTFT z[m] and to the Doppler-compensated sum y[n] are closed forms (RELAX-style cancellation).
     """
-    n_cycles, n_chirps, n_samp = x.shape
+    n_cycles, n_samp = x.shape[0], x.shape[-1]
+    n_chirps = chirps.n_chirps
     n_tgt = f.shape[1]
-    xc = x
+    rho = chirps.rho
     m_times = np.arange(n_chirps, dtype=float)
     n_times = np.arange(n_samp, dtype=float)
     rhof = rho.astype(float)
     f, nu = f.copy(), nu.copy()
-    n_act = np.maximum(rho.sum(axis=1), 1)
+    n_act = np.maximum(chirps.count, 1)
     length = music_length or int(min(n_samp // 4, 32))
     n_model = (1 if iq else 2) * n_tgt
     cancel = n_tgt > 1 or not iq
@@ -334,7 +416,7 @@ def _refine(x, rho, f, nu, amp, method, n_newton, music_length, iq):
         # one target: integrate at the column Doppler (error ~0.01 bin: negligible loss), refine the beat,
         # demodulate at it and refine the Doppler; the amplitude for the image of real samples comes from
         # the integrated vector itself. Two passes over the data.
-        y = _integrate_fast(xc, rho, nu[:, 0])
+        y = _integrate_fast(x, chirps, nu[:, 0])
         if not iq:
             c = np.pi * f[:, 0] * (n_samp - 1)  # move the centred DTFT's time origin to sample 0
             alpha[:, 0] = spectral.dtft_derivatives(y, f[:, 0])[0] * (np.cos(c) - 1j * np.sin(c)) / (n_samp * n_act)
@@ -343,14 +425,14 @@ def _refine(x, rho, f, nu, amp, method, n_newton, music_length, iq):
             f[:, 0] = spectral.newton_refine(y, f[:, 0], n_iter=n_newton)
         else:
             f[:, 0] = _music_beat(y, f[:, 0], n_model, length, method == "root_music", n_samp)
-        z = _demod_slow(xc, f[:, 0])
+        z = _demod_slow(x, chirps, f[:, 0])
         if not iq:
             alpha[:, 0] = amplitude(z, 0)
             z = z - interference_z(0)
         nu[:, 0] = spectral.newton_refine(z, nu[:, 0], n_iter=n_newton, times=m_times)
         alpha[:, 0] = amplitude(z, 0)
         return f, nu, np.abs(alpha)
-    z_at = [_demod_slow(xc, f[:, k]) for k in range(n_tgt)]  # per-chirp DTFT at the current beat
+    z_at = [_demod_slow(x, chirps, f[:, k]) for k in range(n_tgt)]  # per-chirp DTFT at the current beat
     for k in range(n_tgt):
         alpha[:, k] = amplitude(z_at[k], k)
     for _ in range(2 if n_tgt > 1 else 1):
@@ -358,14 +440,14 @@ def _refine(x, rho, f, nu, amp, method, n_newton, music_length, iq):
             z = z_at[k] - interference_z(k) if cancel else z_at[k]
             nu[:, k] = spectral.newton_refine(z, nu[:, k], n_iter=n_newton, times=m_times)
             alpha[:, k] = amplitude(z, k)
-            y = _integrate_fast(xc, rho, nu[:, k])
+            y = _integrate_fast(x, chirps, nu[:, k])
             if cancel:
                 y = y - interference_y(k)
             if method == "ml":
                 f[:, k] = spectral.newton_refine(y, f[:, k], n_iter=n_newton)
             else:
                 f[:, k] = _music_beat(y, f[:, k], n_model, length, method == "root_music", n_samp)
-            z_at[k] = _demod_slow(xc, f[:, k])
+            z_at[k] = _demod_slow(x, chirps, f[:, k])
     for k in range(n_tgt):  # final Doppler at the final beats
         z = z_at[k] - interference_z(k) if cancel else z_at[k]
         nu[:, k] = spectral.newton_refine(z, nu[:, k], n_iter=n_newton, times=m_times)

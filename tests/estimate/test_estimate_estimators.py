@@ -183,3 +183,74 @@ def test_bad_inputs_are_named():
         estimate(x, rho[:, :31], SMALL)
     with pytest.raises(ValueError, match="frames must be"):
         estimate(x[0], rho, SMALL)
+
+
+def _uneven_rho(rng, n_cycles, n_chirps):
+    """Activation patterns with every count that matters: none, one, two, a few, half, all but one, all."""
+    counts = [0, 1, 2, 5, n_chirps // 2, n_chirps - 1, n_chirps]
+    counts = counts + list(rng.integers(0, n_chirps + 1, n_cycles - len(counts)))
+    rho = np.zeros((n_cycles, n_chirps), bool)
+    for c, k in enumerate(counts[:n_cycles]):
+        rho[c, rng.choice(n_chirps, k, replace=False)] = True
+    return rho
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("iq", [True, False])
+@pytest.mark.parametrize("n_targets", [1, 2, None])
+def test_batch_with_uneven_active_counts_equals_cycle_by_cycle(method, iq, n_targets):
+    # the active chirps are compacted to the largest count of the batch, padding the others: a cycle's result
+    # must not depend on its neighbours (padding rows, the range-bin pruning of the Doppler search)
+    g = SMALL if iq else SMALL_REAL
+    rng = np.random.default_rng(30)
+    rho = _uneven_rho(rng, 10, 32)
+    x = synth_beat(g, rho, [[24.0, 41.0]], [[3.0, -8.0]], amplitudes=[[1.0, 0.6]], snr_sample_db=0.0, rng=rng)
+    x[7, rho[7]] = x[7, rho[7]] * np.float32(1e-3)  # near noise level: a wide search for that cycle
+    x[~rho] = 7.0  # silent chirps are never read
+    e = estimate(x, rho, g, method=method, n_targets=n_targets)
+    assert np.all(e.n_found[:1] == 0) and np.all(np.isnan(e.range_m[0]))
+    assert np.all(np.isnan(e.velocity_mps[1])) and np.all(np.isfinite(e.velocity_mps[2:, :1]))
+    for c in range(rho.shape[0]):
+        one = estimate(x[c:c + 1], rho[c:c + 1], g, method=method, n_targets=n_targets)
+        assert one.n_found[0] == e.n_found[c]
+        k = one.range_m.shape[1]
+        if k != e.range_m.shape[1]:  # n_targets=None: the batch's width picks one- or several-target search
+            continue
+        np.testing.assert_allclose(one.range_m[0], e.range_m[c, :k], rtol=0, atol=1e-5)  # float32 rounding
+        np.testing.assert_allclose(one.velocity_mps[0], e.velocity_mps[c, :k], rtol=0, atol=1e-5)
+        np.testing.assert_allclose(one.amplitude[0], e.amplitude[c, :k], rtol=1e-5)
+
+
+@pytest.mark.parametrize("md_factor", [1, 4])
+@pytest.mark.parametrize("iq", [True, False])
+@pytest.mark.parametrize("snr", [None, 10.0, -20.0])  # pruned to a few range bins ... whole map
+def test_range_doppler_search_finds_the_global_maximum_of_the_full_map(md_factor, iq, snr):
+    from carav_stream.estimate.estimators import _Chirps, _normalise, _search
+    g = SMALL if iq else SMALL_REAL
+    rng = np.random.default_rng(31)
+    rho = _uneven_rho(rng, 12, 32)
+    x = synth_beat(g, rho, [[33.0]], [[5.0]], snr_sample_db=snr, rng=rng)
+    chirps = _Chirps.of(rho)
+    xc, _, _ = _normalise(x, chirps)
+    full = np.where(rho[..., None], x, 0).astype(x.dtype) / np.maximum(np.abs(x.view(np.float32)).max(), 1e-30)
+    spec = np.fft.fft(xc, axis=-1) if iq else np.fft.rfft(xc, axis=-1)
+    spec_full = np.fft.fft(full, axis=-1) if iq else np.fft.rfft(full, axis=-1)
+    md = 32 * md_factor
+    power = np.abs(np.fft.fft(spec_full, n=md, axis=1)) ** 2
+    if not iq:
+        power[:, :, [0, -1]] = 0
+    l0, k0 = _search(spec.astype(np.complex64), chirps, md, iq)
+    got = power[np.arange(12), l0[:, 0], k0[:, 0]]
+    best = power.reshape(12, -1).max(axis=1)
+    active = rho.sum(axis=1) > 0
+    np.testing.assert_allclose(got[active], best[active], rtol=1e-4)
+
+
+def test_non_finite_samples_in_silent_chirps_are_never_read():
+    x, rho = _data(SMALL, 3, [30.0], [3.0], 10.0, 16)
+    broken = x.copy()
+    broken[0][~rho[0]] = np.nan
+    broken[1][~rho[1]] = np.inf
+    a, b = estimate(x, rho, SMALL), estimate(broken, rho, SMALL)
+    np.testing.assert_array_equal(a.range_m, b.range_m)
+    np.testing.assert_array_equal(a.velocity_mps, b.velocity_mps)

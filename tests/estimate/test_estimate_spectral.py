@@ -84,3 +84,15 @@ def test_information_criterion_gives_rank_of_noise_free_covariance():
 def test_information_criterion_rejects_unknown_criterion():
     with pytest.raises(ValueError, match="criterion.*'bic'"):
         spectral.information_criterion_order(np.ones(4), 10, criterion="bic")
+
+
+@pytest.mark.parametrize("n_len", [1, 2, 7, 64, 127, 1100])
+@pytest.mark.parametrize("sign", [-1.0, 1.0])
+def test_phasor_matches_complex_exponential(n_len, sign):
+    f = np.array([[0.0, 0.123456789], [-0.4999, 0.37]])
+    n = np.arange(n_len)
+    for origin in (0.0, 0.5 * (n_len - 1)):
+        ref = np.exp(sign * 2j * np.pi * f[..., None] * (n - origin))
+        got = spectral.phasor(f, n_len, sign, origin=origin)
+        assert got.shape == (2, 2, n_len)
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
