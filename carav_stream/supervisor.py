@@ -36,12 +36,16 @@ def run_root() -> Path:
     return root
 
 
-# glibc malloc in node processes: keep freed buffers for reuse rather than handing them back to the OS after
-# every frame. Large frames would otherwise be mmap'ed and unmapped each time, and every page of every new
-# buffer faulted in again (measured on an 8-node radar graph with 4.5 MB frames: 70-80 page faults and about
-# 200 us of kernel time per cycle fewer). Settings in the user's environment win; other C libraries ignore them.
-MALLOC_TUNING = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
-                 "MALLOC_TOP_PAD_": str(64 << 20)}
+# The environment of node processes (settings in the user's environment win):
+# - glibc malloc keeps freed buffers for reuse rather than handing them back to the OS after every frame.
+#   Large frames would otherwise be mmap'ed and unmapped each time, and every page of every new buffer faulted
+#   in again (measured on an 8-node radar graph with 4.5 MB frames: 70-80 page faults and about 200 us of
+#   kernel time per cycle fewer). Other C libraries ignore these variables.
+# - BLAS libraries run one thread: a graph's parallelism is its processes, and a threaded BLAS call in one
+#   node competing with the other nodes for the cores can stall for milliseconds.
+NODE_ENV = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
+            "MALLOC_TOP_PAD_": str(64 << 20), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+            "MKL_NUM_THREADS": "1"}
 PER_PORT_COUNTERS = ("in", "out", "sent", "rejected", "unpaired", "undeliverable")   # dicts: port or edge -> n
 
 
@@ -141,7 +145,7 @@ class Supervisor:
         logf = open(self.run_dir / f"{st.name}.log", "ab")
         st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.node", str(spec_path)],
                                    stdin=subprocess.DEVNULL, stdout=logf, stderr=logf,
-                                   env={**MALLOC_TUNING, **os.environ})
+                                   env={**NODE_ENV, **os.environ})
         logf.close()
         st.ready = st.done = st.failed = False
         st.last_seen = time.monotonic()
