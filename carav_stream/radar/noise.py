@@ -2,53 +2,109 @@
 
 ``Generator.standard_normal(dtype=np.float32)`` costs about 11 ns per sample on the 2-core reference
 machine (the ziggurat's per-sample branch); vectorised Box-Muller on the generator's raw 64-bit words
-costs about 3.5 ns, which is what lets Table I run near its real-time rate (docs/bench/synth.md).
+costs about 2 ns, more than half of it the generator itself (docs/bench/synth.md).
 
-Each 64-bit word gives two 32-bit uniforms u1 in (0, 1], u2 in [0, 1): z1 = r cos(2 pi u2),
-z2 = r sin(2 pi u2), r = sqrt(-2 ln u1). u1 >= 2^-33 bounds |z| at 6.8 (P(|N(0,1)| > 6.8) = 1e-11).
-Each row is filled from its own consecutive block of words (cosines in the first half, sines in the
-second), so drawing n rows at once gives exactly the rows that n one-row calls give.
+A row of n samples takes h = ceil(n / 2) consecutive 64-bit words, read as 2h 32-bit integers (little
+endian: word j gives integers 2j and 2j + 1). Pair j (j < h) takes u = integer j, as u1 = (u + 1/2) 2^-32
+in (0, 1], and v = integer h + j, signed, as the angle theta = 2 pi v 2^-32 in [-pi, pi):
+
+    r = sqrt(-2 ln u1),   sample j = r cos(theta),   sample h + j = r sin(theta)
+
+evaluated with one tangent instead of a cosine and a sine (exact identities, float32 rounding only):
+t = tan(theta / 2), q = 2 r / (1 + t^2), r cos(theta) = q - r, r sin(theta) = q t. u1 >= 2^-33 bounds |z|
+at 6.8 (P(|N(0,1)| > 6.8) = 1e-11). Each row is filled from its own consecutive block of words, so
+drawing n rows at once gives exactly the rows that n one-row calls give, however the rows are chunked.
+
+Work is done a few rows at a time (about ``CHUNK_WORDS`` words, so the raw words, the radii and the
+output of a chunk stay in the core's L2 cache) in a reused scratch buffer per thread: no temporary the
+size of the whole batch is allocated (fresh multi-megabyte temporaries cost more in page faults than
+the arithmetic).
 """
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
+CHUNK_WORDS = 1 << 15                        # 256 KiB of raw words per chunk (at least one row)
 _U32 = np.float32(2.0 ** -32)
 _HALF_U32 = np.float32(2.0 ** -33)
-_ANGLE = np.float32(2.0 * np.pi * 2.0 ** -32)
+_HALF_ANGLE = np.float32(np.pi * 2.0 ** -32)
+_LN2 = float(np.log(2.0))
+_local = threading.local()
 
 
-def standard_normal_rows(rng: np.random.Generator, n_rows: int, n_per_row: int, scale: float = 1.0) -> np.ndarray:
-    """i.i.d. N(0, scale^2) float32 (n_rows, n_per_row), consuming ceil(n_per_row / 2) words per row."""
+def _scratch(n: int) -> np.ndarray:
+    """This thread's float32 scratch buffer of at least n elements (grown, never shrunk)."""
+    buf = getattr(_local, "buf", None)
+    if buf is None or buf.size < n:
+        buf = _local.buf = np.empty(n, np.float32)
+    return buf[:n]
+
+
+def standard_normal_rows(rng: np.random.Generator, n_rows: int, n_per_row: int, scale: float = 1.0, *,
+                         out: np.ndarray | None = None) -> np.ndarray:
+    """i.i.d. N(0, scale^2) float32 (n_rows, n_per_row), consuming ceil(n_per_row / 2) words per row.
+
+    ``out``: a C-contiguous float32 array of n_rows * n_per_row elements to fill (returned reshaped to
+    (n_rows, n_per_row)); a new array if None.
+    """
     h = (n_per_row + 1) // 2
-    raw = rng.bit_generator.random_raw(n_rows * h).reshape(n_rows, h)
-    u = raw.view(np.uint32)                      # (n_rows, 2h): even = u1 bits, odd = u2 bits
-    out = np.empty((n_rows, 2 * h), np.float32)
-    r, s = out[:, :h], out[:, h:]
-    np.multiply(u[:, 0::2], _U32, out=r, dtype=np.float32)
-    r += _HALF_U32
-    np.log(r, out=r)
+    if out is None:
+        out = np.empty((n_rows, n_per_row), np.float32)
+    elif out.dtype != np.float32 or out.size != n_rows * n_per_row or not out.flags.c_contiguous:
+        raise ValueError(f"out: expected a C-contiguous float32 array of {n_rows} x {n_per_row} elements")
+    out = out.reshape(n_rows, n_per_row)
+    if n_rows == 0 or n_per_row == 0:
+        return out
     folded = 1e-15 < scale < 1e15                # scale^2 stays a normal float32
-    r *= np.float32(-2.0 * scale * scale if folded else -2.0)   # the scale rides on the radius
-    np.sqrt(r, out=r)
-    if not folded:
-        r *= np.float32(scale)
-    np.multiply(u[:, 1::2], _ANGLE, out=s, dtype=np.float32)
-    c = np.cos(s)
-    np.sin(s, out=s)
-    s *= r
-    r *= c
-    return out if 2 * h == n_per_row else out[:, :n_per_row]
+    k = np.float32(-8.0 * _LN2 * (scale * scale if folded else 1.0))   # 2 r, with the scale riding on it
+    even = 2 * h == n_per_row
+    m_max = max(1, CHUNK_WORDS // h)
+    bits = rng.bit_generator
+    for a in range(0, n_rows, m_max):
+        m = min(m_max, n_rows - a)
+        u = bits.random_raw(m * h).view(np.uint32).reshape(m, 2 * h)
+        buf = _scratch(m * (2 * h if even else 4 * h))
+        r2, q = buf[:m * h].reshape(m, h), buf[m * h: 2 * m * h].reshape(m, h)
+        z = out[a: a + m] if even else buf[2 * m * h:].reshape(m, 2 * h)
+        c, s = z[:, :h], z[:, h:]
+        np.multiply(u[:, :h], _U32, out=r2, dtype=np.float32)        # u1
+        r2 += _HALF_U32
+        np.log2(r2, out=r2)
+        r2 *= k
+        np.sqrt(r2, out=r2)                                           # 2 r
+        if not folded:
+            r2 *= np.float32(scale)
+        np.multiply(u[:, h:].view(np.int32), _HALF_ANGLE, out=s, dtype=np.float32)   # theta / 2
+        np.tan(s, out=s)                                              # t
+        np.multiply(s, s, out=q)
+        q += np.float32(1.0)
+        np.divide(r2, q, out=q)                                       # q = 2 r / (1 + t^2)
+        s *= q                                                        # r sin(theta) = q t
+        r2 *= np.float32(0.5)
+        np.subtract(q, r2, out=c)                                     # r cos(theta) = q - r
+        if not even:
+            out[a: a + m] = z[:, :n_per_row]
+    return out
 
 
-def gaussian(rng: np.random.Generator, shape: tuple[int, ...], rms: float, complex_: bool) -> np.ndarray:
+def gaussian(rng: np.random.Generator, shape: tuple[int, ...], rms: float, complex_: bool, *,
+             out: np.ndarray | None = None) -> np.ndarray:
     """Zero-mean Gaussian with E|z|^2 = rms^2: float32, or circular complex64 (rms^2 / 2 per part).
 
-    The leading axis is the row axis (one block of words per row, see module docstring).
+    The leading axis is the row axis (one block of words per row, see module docstring). ``out``: a
+    C-contiguous array of that shape and dtype to fill (and return); a new array if None.
     """
     n_rows = shape[0]
     n_per_row = int(np.prod(shape[1:], dtype=np.int64)) * (2 if complex_ else 1)
-    z = standard_normal_rows(rng, n_rows, n_per_row, rms / np.sqrt(2.0) if complex_ else rms)
+    dtype = np.complex64 if complex_ else np.float32
+    if out is not None and (out.dtype != dtype or out.shape != tuple(shape) or not out.flags.c_contiguous):
+        raise ValueError(f"out: expected a C-contiguous {np.dtype(dtype)} array of shape {tuple(shape)}")
+    flat = None if out is None else out.reshape(-1).view(np.float32)
+    z = standard_normal_rows(rng, n_rows, n_per_row, rms / np.sqrt(2.0) if complex_ else rms, out=flat)
+    if out is not None:
+        return out
     if complex_:
         return z.view(np.complex64).reshape(shape)
     return z.reshape(shape)

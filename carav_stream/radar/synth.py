@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from carav_stream.detect.detector import chirp_rms, chirp_rms_codes
 from carav_stream.radar.noise import gaussian
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.scene import Scene
@@ -63,6 +64,7 @@ class Cycles:
     clean_echo: same dtype and shape, noise-free rho * x (ADC input, unquantised), or None.
     clipped: int64 (n_cycles,), samples per cycle at the ADC rails (I or Q).
     attack_active: bool (n_cycles,), the attacker emitted something in the cycle.
+    codes: what the ADC delivered (:func:`adc_codes`): int16 codes, or the samples of an ideal ADC.
     """
 
     frames: np.ndarray
@@ -72,6 +74,7 @@ class Cycles:
     fidelity: str
     rho: np.ndarray
     cycle0: int
+    codes: np.ndarray | None = None
 
 
 def resolve_fidelity(fidelity: str, attacker=None) -> str:
@@ -105,11 +108,12 @@ def observe(tx: Transmission) -> Observation:
     return Observation(tx.rho, tx.cycle0)
 
 
-def draw_noise(scene: Scene, rng: np.random.Generator, n_cycles: int) -> np.ndarray:
+def draw_noise(scene: Scene, rng: np.random.Generator, n_cycles: int, *, out: np.ndarray | None = None) -> np.ndarray:
     """Receiver noise, i.i.d. N(0, sigma_n^2) per sample (circular complex for I/Q: sigma_n^2/2 per
-    component). float32 / complex64 (n_cycles, n_chirps, n_samples). One block of the generator's
-    stream per cycle (carav_stream.radar.noise), so batches equal one-cycle calls."""
-    return gaussian(rng, (n_cycles, scene.n_chirps, scene.n_samples), scene.sigma_n, scene.iq)
+    component). float32 / complex64 (n_cycles, n_chirps, n_samples), written into ``out`` if given (a
+    C-contiguous array of that shape and dtype). One block of the generator's stream per cycle
+    (carav_stream.radar.noise), so batches equal one-cycle calls."""
+    return gaussian(rng, (n_cycles, scene.n_chirps, scene.n_samples), scene.sigma_n, scene.iq, out=out)
 
 
 def swerling_gains(scene: Scene, rng: np.random.Generator) -> np.ndarray:
@@ -134,9 +138,19 @@ def _add_echo(scene: Scene, rx: np.ndarray, rho: np.ndarray, fidelity: str,
     rho_prev = np.zeros_like(rho)
     rho_prev[:, 1:] = rho[:, :-1]      # the chirp before chirp 0 (previous cycle) is taken as silent
     if gains is None:
-        np.add(rx, tpl.main_sum, out=rx, where=rho[:, :, None])
-        if tpl.tail_sum is not None:
-            np.add(rx, tpl.tail_sum, out=rx, where=rho_prev[:, :, None])
+        # rx[i, k] += template[k] where on[i, k], cycle by cycle: gather the active chirps, add, scatter
+        # back (the same float32 additions as np.add(..., where=on), which costs about twice as much)
+        for template, on in ((tpl.main_sum, rho), (tpl.tail_sum, rho_prev)):
+            if template is None:
+                continue
+            for i, n_on in enumerate(np.count_nonzero(on, axis=1).tolist()):
+                if n_on == on.shape[1]:
+                    rx[i] += template
+                elif n_on:
+                    k, x = on[i], rx[i]
+                    part = x[k]
+                    part += template[k]
+                    x[k] = part
         return
     for t in range(len(scene.targets)):
         g = gains[t]
@@ -152,31 +166,33 @@ def channel(scene: Scene, tx: Transmission, rng_noise: np.random.Generator, cycl
 
     Draws from ``rng_noise``, per cycle in order: the Swerling factors of fluctuating targets, then
     the noise. Returns rx (float32 | complex64, (n_cycles, n_chirps, n_samples)), or (rx, clean)
-    with ``return_clean`` (clean = the noise-free echo part).
+    with ``return_clean`` (clean = the noise-free echo part). Works a few cycles at a time (noise, then
+    echoes, while the chunk is still in cache).
     """
     if cycle0 != tx.cycle0:
         raise ValueError(f"channel: cycle0 {cycle0} does not match the transmission's cycle0 {tx.cycle0}")
     n_cycles = tx.rho.shape[0]
-    fluctuating = any(t.swerling for t in scene.targets)
-    if not fluctuating:
-        rx = draw_noise(scene, rng_noise, n_cycles)
-        _add_echo(scene, rx, tx.rho, tx.fidelity)
-        clean = None
-        if return_clean:
-            clean = np.zeros_like(rx)
-            _add_echo(scene, clean, tx.rho, tx.fidelity)
-        return (rx, clean) if return_clean else rx
     dtype = np.complex64 if scene.iq else np.float32
     rx = np.empty((n_cycles, scene.n_chirps, scene.n_samples), dtype)
     clean = np.zeros_like(rx) if return_clean else None
-    for i in range(n_cycles):
+    fluctuating = any(t.swerling for t in scene.targets)
+    cycle_bytes = max(1, scene.n_chirps * scene.n_samples * np.dtype(dtype).itemsize)
+    step = 1 if fluctuating else max(1, (256 << 10) // cycle_bytes)   # ~ noise.CHUNK_WORDS: stays in L2
+    for a in range(0, n_cycles, step):
+        b = min(a + step, n_cycles)
+        if not fluctuating:
+            draw_noise(scene, rng_noise, b - a, out=rx[a:b])
+            _add_echo(scene, rx[a:b], tx.rho[a:b], tx.fidelity)
+            if clean is not None:
+                _add_echo(scene, clean[a:b], tx.rho[a:b], tx.fidelity)
+            continue
         gains = swerling_gains(scene, rng_noise)
-        rx[i] = draw_noise(scene, rng_noise, 1)[0]
+        draw_noise(scene, rng_noise, 1, out=rx[a:b])
         echo = np.zeros((1,) + rx.shape[1:], dtype)
-        _add_echo(scene, echo, tx.rho[i: i + 1], tx.fidelity, gains)
-        rx[i] += echo[0]
+        _add_echo(scene, echo, tx.rho[a:b], tx.fidelity, gains)
+        rx[a] += echo[0]
         if clean is not None:
-            clean[i] = echo[0]
+            clean[a] = echo[0]
     return (rx, clean) if return_clean else rx
 
 
@@ -215,6 +231,14 @@ def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         np.clip(flat[i], lo, hi, out=flat[i])
     out = codes.astype(np.int16)
     return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped
+
+
+def adc_chirp_rms(scene: Scene, codes: np.ndarray) -> np.ndarray:
+    """RMS of every chirp in sqrt(W) (n_cycles, n_chirps) from what the ADC delivered: exact sums over
+    int16 codes, or :func:`chirp_rms` of an ideal ADC's samples (NaN for a chirp with a NaN/Inf sample)."""
+    if codes.dtype != np.int16:
+        return chirp_rms(codes)
+    return chirp_rms_codes(codes, scene.adc_full_scale / 2 ** (scene.adc_bits - 1), scene.iq)
 
 
 def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:
@@ -256,8 +280,11 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
             clean[i:j] = out[1]
         if attacker is not None:
             rx, active[i:j] = attacker.apply(rx, cycle0 + i, rng_attack, observe(tx), fidelity=fid)
-        frames[i:j], clipped[i:j] = adc(scene, rx)
-    return Cycles(frames, clean, clipped, active, fid, rho, cycle0)
+        chunk, clipped[i:j] = adc_codes(scene, rx)
+        codes = np.empty((n_cycles,) + chunk.shape[1:], chunk.dtype) if i == 0 else codes
+        codes[i:j] = chunk
+        frames[i:j] = from_codes(scene, chunk)
+    return Cycles(frames, clean, clipped, active, fid, rho, cycle0, codes)
 
 
 def echo_energy_per_chirp(scene: Scene, rho: np.ndarray, fidelity: str = "beat") -> np.ndarray:
