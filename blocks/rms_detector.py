@@ -18,8 +18,8 @@ import numpy as np
 from carav_stream.block import Block, In, Out, Param
 from carav_stream.cycles import n_cycles
 from carav_stream.radar.streams import scene_of
-from carav_stream.radar.synth import from_codes
-from carav_stream.detect.detector import detect
+from carav_stream.radar.synth import adc_chirp_rms
+from carav_stream.detect.detector import detect_from_rms
 from carav_stream.frames import Frame
 
 
@@ -37,11 +37,11 @@ class RmsDetector(Block):
 
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)
-        x = from_codes(self.scene_obj, frames.payload)
-        if r.ndim != 2 or x.ndim != 3 or x.shape[:2] != r.shape:
-            raise ValueError(f"frame seq {frames.seq}: frames {x.shape} and rho {r.shape} do not describe the "
-                             "same cycles and chirps")
-        d = detect(x, r, self.sigma, self.eta)
+        x = frames.payload
+        if r.ndim != 2 or x.ndim != (4 if x.dtype == np.int16 and self.scene_obj.iq else 3) or x.shape[:2] != r.shape:
+            raise ValueError(f"frame seq {frames.seq}: frames {x.dtype} {x.shape} and rho {r.shape} do not describe "
+                             "the same cycles and chirps")
+        d = detect_from_rms(adc_chirp_rms(self.scene_obj, x), r, self.sigma, self.eta)
         raised_by = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
         return frames.derive(r, eta=self.eta, per_cycle={
             "q": d.q.tolist(), "c": d.c.tolist(), "alarm": d.alarm.tolist(), "invalid": d.invalid.tolist(),

@@ -3,8 +3,8 @@
     rho      = activation rows (secure, or seeded for simulation)          chirp_source
     rx       = echoes + receiver noise                                       channel
     rx      += attack signal a_k                                            attacker
-    frames   = quantised, clipped ADC samples                                adc_framer
-    verdict  = D0, D1, Q, C(eta) per cycle                                   rms_detector
+    frames   = quantised, clipped ADC codes (and the samples they stand for)  adc_framer
+    verdict  = D0, D1, Q, C(eta) per cycle, from the codes' exact RMS        rms_detector
     clean    = cycles with C(eta) < 1 and valid samples                      gate
     ranges   = estimates on the clean cycles only, active chirps only        range_estimator
 
@@ -17,13 +17,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from carav_stream.detect.detector import detect
+from carav_stream.detect.detector import detect_from_rms
 from carav_stream.estimate.estimators import estimate
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene import Scene
 from carav_stream.radar.streams import seed_streams
-from carav_stream.radar.synth import simulate_cycles
+from carav_stream.radar.synth import adc_chirp_rms, simulate_cycles
 
 @dataclass
 class ChainResult:
@@ -53,7 +53,7 @@ def run_chain(scene: Scene, n_cycles: int, *, seed: int | None = None, attack: s
         rho = streams.activation.next(n, scene.n_chirps)
         cyc = simulate_cycles(scene, rho, streams.noise, attacker=attacker, rng_attack=streams.attack,
                               fidelity=fidelity, cycle0=c0)
-        det = detect(cyc.frames, rho, sigma, eta)
+        det = detect_from_rms(adc_chirp_rms(scene, cyc.codes), rho, sigma, eta)
         rng = np.full((n, n_targets), np.nan)
         vel = np.full((n, n_targets), np.nan)
         clean = ~det.alarm

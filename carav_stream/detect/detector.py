@@ -132,6 +132,29 @@ def chirp_rms(frames) -> np.ndarray:
     return rms if rms.ndim else rms[()]
 
 
+def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
+    """RMS of every chirp, lsb * sqrt(mean code^2), from an ADC's integer codes: the sums are exact.
+
+    codes  integer (..., n_samples) for I only, or (..., n_samples, 2) with I and Q for iq=True; every
+           |code| <= 2^15 (any ADC up to 16 bits): squares summed in float64 are exact up to 2^23 samples
+    lsb    the ADC's step in the unit of the result
+    returns float64, shape (...) = the chirps; for I/Q, |s|^2 = I^2 + Q^2 averaged over the n_samples.
+    """
+    c = np.asarray(codes)
+    if not np.issubdtype(c.dtype, np.integer):
+        raise TypeError(f"codes: expected an integer dtype, got {c.dtype}")
+    lead = c.shape[:-2] if iq else c.shape[:-1]
+    if iq and c.shape[-1:] != (2,):
+        raise ValueError(f"codes: I/Q codes need a last axis of 2 (I, Q), got shape {c.shape}")
+    n_samples = c.shape[-2] if iq else c.shape[-1]
+    flat = c.reshape(-1, n_samples * (2 if iq else 1))
+    sumsq = np.empty(flat.shape[0])
+    for i in range(0, flat.shape[0], 256):   # float64 chunks that stay in cache
+        x = flat[i: i + 256].astype(np.float64)
+        sumsq[i: i + 256] = np.einsum("...i,...i->...", x, x)
+    return float(lsb) * np.sqrt(sumsq / max(n_samples, 1)).reshape(lead)
+
+
 def check_rho(rho, n_chirps: int, n_cycles: int | None = None) -> np.ndarray:
     """Validate an activation sequence and return it as bool, shape (n_chirps,) or (n_cycles, n_chirps).
 

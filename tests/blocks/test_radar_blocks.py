@@ -83,9 +83,10 @@ def test_detector_flags_nan_frames_and_frames_without_rho():
     assert det.unpaired("rho", wire(Frame.of(rho), 4)) is None
 
 
-def test_detector_judges_int16_codes_like_the_samples_they_stand_for():
+def test_detector_judges_int16_codes_exactly_like_the_samples_they_stand_for():
+    from carav_stream.detect.detector import detect
     from carav_stream.radar.streams import scene_of
-    from carav_stream.radar.synth import adc_codes, from_codes
+    from carav_stream.radar.synth import adc_codes
     scene = scene_of("table1")
     det = RmsDetector(eta=1.5)
     rho = np.zeros((3, 64), bool)
@@ -94,10 +95,11 @@ def test_detector_judges_int16_codes_like_the_samples_they_stand_for():
     rx[2, :4] *= 5   # an attacked cycle
     codes, _ = adc_codes(scene, rx)
     assert codes.dtype == np.int16
-    from_c = det.process(wire(Frame.of(codes, cycles=3), 1), wire(Frame.of(rho, cycles=3), 1)).header["per_cycle"]
-    from_s = det.process(wire(Frame.of(from_codes(scene, codes), cycles=3), 1),
-                         wire(Frame.of(rho, cycles=3), 1)).header["per_cycle"]
-    assert from_c == from_s and from_c["alarm"] == [False, False, True]
+    got = det.process(wire(Frame.of(codes, cycles=3), 1), wire(Frame.of(rho, cycles=3), 1)).header["per_cycle"]
+    lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
+    exact = detect(codes.astype(np.float64) * lsb, rho, scene.sigma_n, 1.5)   # float64 samples: no rounding
+    np.testing.assert_allclose(got["q"], exact.q, rtol=1e-13)
+    assert got["alarm"] == exact.alarm.tolist() == [False, False, True]
 
 
 def test_estimator_refuses_frames_without_the_gates_clean_verdict():

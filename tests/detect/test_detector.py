@@ -207,3 +207,21 @@ def test_chirp_rms_accepts_a_single_chirp_including_degenerate_ones():
     assert chirp_rms(np.zeros(5, dtype=np.float32)) == 0.0
     assert np.isnan(chirp_rms(np.array([np.inf, 1.0])))
     assert chirp_rms(np.array([1e300, -1e300])) == pytest.approx(1e300, rel=1e-15)
+
+
+def test_chirp_rms_from_integer_codes_is_exact_for_i_only_and_iq_up_to_full_scale():
+    from fractions import Fraction
+    from carav_stream.detect.detector import chirp_rms_codes
+    rng = np.random.default_rng(3)
+    codes = rng.integers(-32768, 32768, size=(2, 3, 1000, 2)).astype(np.int16)
+    codes[0, 0] = -32768                                     # every sample on the negative rail
+    for iq, c in ((True, codes), (False, codes[..., 0])):
+        got = chirp_rms_codes(c, 0.5, iq=iq)
+        n = c.shape[2]
+        for idx in np.ndindex(got.shape):
+            exact = Fraction(int(np.sum(c[idx].astype(object) ** 2)), n)   # exact mean square
+            assert got[idx] == 0.5 * np.sqrt(float(exact))
+    with pytest.raises(TypeError, match="integer"):
+        chirp_rms_codes(codes.astype(np.float32), 1.0)
+    with pytest.raises(ValueError, match="last axis of 2"):
+        chirp_rms_codes(codes[..., 0], 1.0, iq=True)
