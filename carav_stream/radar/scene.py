@@ -295,6 +295,10 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         radar_speed_mps=v["radar_speed_mps"], targets=targets, waveform_oversample=v["waveform_oversample"],
         description=v["description"], source=source)
     sigma_n = _sigma_n(base, v)
+    if not (math.isfinite(sigma_n) and sigma_n > 0):   # snr_db = +-1e300 passes the type check, say
+        p.fail("snr_db" if v.get("snr_db") is not None else "sigma_n",
+               f"gives a noise RMS of {sigma_n:g}; it must be finite and > 0")
+        raise SceneError(problems)
     full_scale = v.get("adc_full_scale")
     if full_scale is None:
         total_w = sigma_n ** 2 + sum(base.echo_power_w(t) for t in targets)
@@ -321,7 +325,11 @@ def _sigma_n(scene: Scene, v: dict) -> float:
     if v.get("sigma_n") is not None:
         return float(v["sigma_n"])
     if v.get("snr_db") is not None:
-        return math.sqrt(scene.echo_power_w(scene.targets[0]) / 10 ** (v["snr_db"] / 10))
+        power = scene.echo_power_w(scene.targets[0])
+        if not power > 0:
+            return 0.0
+        log10_ratio = math.log10(power) - v["snr_db"] / 10   # in logs: no overflow for any snr_db
+        return 10 ** (log10_ratio / 2) if log10_ratio < 600 else math.inf
     noise_w = (K_BOLTZMANN * scene.temperature_k * scene.fs_hz * 10 ** (scene.noise_figure_db / 10)
                * 10 ** (scene.rx_gain_db / 10))
     return math.sqrt(noise_w if scene.iq else noise_w / 2.0)
