@@ -244,12 +244,12 @@ class Supervisor:
 
     def cycles_done(self) -> int:
         """Cycles the local sources generated (a frame may carry several, header `cycles`); on a host without
-        sources, frames that arrived from others."""
+        sources, cycles processed by the nodes fed from other hosts."""
         sources = [n for n in self.nodes if not self.graph.edges_into(n)]
         if sources:
             return max(self.nodes[n].total("cycles") for n in sources)
-        remote = [(e.dst, e.dst_port) for e in self.graph.edges if e.dst in self.nodes and e.src not in self.nodes]
-        return max((self.nodes[n].total("in").get(port, 0) for n, port in remote), default=0)
+        remote = {e.dst for e in self.graph.edges if e.dst in self.nodes and e.src not in self.nodes}
+        return max((self.nodes[n].total("cycles") for n in remote), default=0)
 
     # -- failure handling ----------------------------------------------------------------------------------
     def check_processes(self) -> None:
