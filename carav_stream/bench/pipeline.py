@@ -4,8 +4,8 @@ For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mod
   pipeline       the 8-node graph of graphs/demo.toml (smart attacker from half the run on), one process per
                  node, run by the supervisor, frames of --batch cycles; cycles/s from go to the last sink
   fused          carav_stream.chain.run_chain in this process, in batches of the same --batch cycles (the
-                 same work per cycle, the same vectorisation)
-  fused_batched  run_chain with 64-cycle batches (what larger batches buy on one core)
+                 same work per cycle, the same vectorisation; scene templates built before the clock starts,
+                 as the channel node builds them before the run starts)
 Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
 rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time.
 Noise and attacks are fresh and i.i.d. in every cycle and every cycle is processed in full.
@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from carav_stream.chain import run_chain
+from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
 from carav_stream.graph import load_graph
 from carav_stream.supervisor import Supervisor
@@ -52,7 +53,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the records as JSON")
     parser.add_argument("--repeats", type=int, default=3, help="runs per case and mode (median reported)")
     parser.add_argument("--scale", type=float, default=1.0, help="multiply the cycles of every case")
-    parser.add_argument("--batch", type=int, default=16, help="cycles per frame (pipeline) and per call (fused)")
+    parser.add_argument("--batch", default="16", help="cycles per frame (pipeline) and per call (fused); a comma "
+                        "list runs each")
     parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
     parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
 
@@ -69,6 +71,7 @@ def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, folde
 
 def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> float:
     scene = scene_of(preset)
+    echo_templates(scene, fidelity)   # built once per scene, like the channel node does before the run starts
     t0 = time.perf_counter()
     run_chain(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
               method=method, fidelity=fidelity, batch=batch)
@@ -77,6 +80,7 @@ def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> float
 
 def run(args: argparse.Namespace) -> int:
     wanted = None if args.cases == "all" else {tuple(c.split(":")) for c in args.cases.split(",")}
+    batches = [int(b) for b in str(args.batch).split(",")]
     records = []
     with tempfile.TemporaryDirectory() as folder:
         for preset, fidelity, n in CASES:
@@ -84,31 +88,31 @@ def run(args: argparse.Namespace) -> int:
                 continue
             n = max(20, int(n * args.scale))
             rate_radar = scene_of(preset).cycles_per_s
-            runs = {"pipeline": [], "fused": [], "fused_batched": []}
-            busy_runs = []
-            for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
-                rate, busy = _pipeline(preset, fidelity, n, args.method, args.batch, Path(folder))
-                runs["pipeline"].append(rate)
-                busy_runs.append(busy)
-                runs["fused"].append(_fused(preset, fidelity, n, args.method, args.batch))
-                runs["fused_batched"].append(_fused(preset, fidelity, n, args.method, 64))
-            busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
-            bottleneck = max(busy, key=busy.get)
-            fused = statistics.median(runs["fused"])
-            for mode, rates in runs.items():
-                rate = statistics.median(rates)
-                rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "cycles": n, "repeats": args.repeats,
-                       "method": args.method, "batch": args.batch if mode != "fused_batched" else 64, "cycles_per_s": rate, "runs_cycles_per_s": rates,
-                       "real_time_factor": rate / rate_radar, "radar_cycles_per_s": rate_radar,
-                       "speedup_over_fused": rate / fused}
-                if mode == "pipeline":
-                    rec["bottleneck_node"] = bottleneck
-                    rec["busy_us_per_cycle"] = busy
-                records.append(rec)
-                print(f"{preset:<8} {fidelity:<8} {mode:<13} {rate:9.1f} cycles/s  real-time x{rate / rate_radar:6.3f}"
-                      f"  vs fused x{rate / fused:5.2f}" + (f"  bottleneck {bottleneck} "
-                                                           f"({busy[bottleneck]:.0f} us/cycle)" if mode == "pipeline" else ""),
-                      flush=True)
+            for batch in batches:
+                runs = {"pipeline": [], "fused": []}
+                busy_runs = []
+                for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
+                    rate, busy = _pipeline(preset, fidelity, n, args.method, batch, Path(folder))
+                    runs["pipeline"].append(rate)
+                    busy_runs.append(busy)
+                    runs["fused"].append(_fused(preset, fidelity, n, args.method, batch))
+                busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
+                bottleneck = max(busy, key=busy.get)
+                fused = statistics.median(runs["fused"])
+                for mode, rates in runs.items():
+                    rate = statistics.median(rates)
+                    rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "batch": batch, "cycles": n,
+                           "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
+                           "runs_cycles_per_s": rates, "real_time_factor": rate / rate_radar,
+                           "radar_cycles_per_s": rate_radar, "speedup_over_fused": rate / fused}
+                    if mode == "pipeline":
+                        rec["bottleneck_node"] = bottleneck
+                        rec["busy_us_per_cycle"] = busy
+                    records.append(rec)
+                    print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {rate:9.1f} cycles/s  real-time "
+                          f"x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}"
+                          + (f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)" if mode == "pipeline" else ""),
+                          flush=True)
     if args.json:
         args.json.write_text(json.dumps(records, indent=2))
     return 0

@@ -228,3 +228,15 @@ def test_two_hosts_over_tcp_as_two_supervisors(carav):
     assert sf["cycles"] == 200 and set(sf["per_node"]) == {"source", "channel", "attacker", "adc"}
     assert sb["cycles"] == 200 and sb["cycles_judged"] == 200 and sb["lost"] == 0
     assert sb["attacked_cycles"] == 50 and sb["detected"] == 50 and sb["false_alarms"] == 0
+
+
+def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(carav):
+    res = carav.cli("bench", "pipeline", "--cases", "awr1642:beat", "--repeats", "1", "--scale", "0.04",
+                    "--batch", "4,8", "--json", "bench.json", timeout_s=120)
+    assert res.returncode == 0, res.stderr
+    records = __import__("json").loads((carav.workdir / "bench.json").read_text())
+    assert [(r["preset"], r["fidelity"], r["mode"], r["batch"]) for r in records] == [
+        ("awr1642", "beat", mode, b) for b in (4, 8) for mode in ("pipeline", "fused")]
+    for r in records:
+        assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
+    assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")
