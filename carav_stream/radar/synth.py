@@ -16,6 +16,7 @@ streaming pipeline runs the stages in separate processes, one cycle at a time):
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -220,7 +221,7 @@ def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lo = np.float32(-(2 ** (scene.adc_bits - 1)))
     codes = np.multiply(rx.view(np.float32), np.float32(1.0 / lsb))   # complex64 -> interleaved I, Q
     np.rint(codes, out=codes)
-    flat = codes.reshape(n_cycles, -1)
+    flat = codes.reshape(n_cycles, math.prod(codes.shape[1:]))
     clipped = np.zeros(n_cycles, dtype=np.int64)
     # two fast reductions find the cycles that hit a rail; only those are counted and clipped
     for i in np.flatnonzero((flat.max(axis=1, initial=lo) > hi) | (flat.min(axis=1, initial=hi) < lo)):
@@ -268,6 +269,7 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
     clean = np.empty_like(frames) if return_clean else None
     clipped = np.zeros(n_cycles, dtype=np.int64)
     active = np.zeros(n_cycles, dtype=bool)
+    codes = []
     # Stages run on chunks of about 2 MB: the same numbers (every stage draws cycle by cycle), but the
     # intermediate arrays stay in cache, which makes large batches as fast per cycle as small ones.
     step = max(1, CHUNK_BYTES // (scene.n_chirps * scene.n_samples * np.dtype(dtype).itemsize))
@@ -281,9 +283,9 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
         if attacker is not None:
             rx, active[i:j] = attacker.apply(rx, cycle0 + i, rng_attack, observe(tx), fidelity=fid)
         chunk, clipped[i:j] = adc_codes(scene, rx)
-        codes = np.empty((n_cycles,) + chunk.shape[1:], chunk.dtype) if i == 0 else codes
-        codes[i:j] = chunk
+        codes.append(chunk)
         frames[i:j] = from_codes(scene, chunk)
+    codes = np.concatenate(codes) if codes else adc_codes(scene, frames)[0]
     return Cycles(frames, clean, clipped, active, fid, rho, cycle0, codes)
 
 
