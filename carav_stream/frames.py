@@ -53,12 +53,15 @@ RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "cycles", "t_created_s
 # Keys a derived frame does not inherit: the runtime stamps them anew at every hop.
 _PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block", "block_version"})
 
+# Exact types: msgpack builds only plain int, float, str, bytes, bool, None, list and dict objects, so
+# `type(value) in types` checks a received header exactly (and refuses a bool where an int is expected).
 _HEADER_TYPES: dict[str, tuple[type, ...]] = {
     "v": (int,), "stream": (str,), "seq": (int,), "cycle": (int,), "cycles": (int,), "t_created_s": (float, int),
     "t_sent_s": (float, int), "arrays": (list,), "node": (str,), "block": (str,), "block_version": (str,),
     "trail": (list,), "eos": (bool,),
 }
-_REQUIRED_KEYS = ("v", "stream", "seq", "cycle", "arrays", "eos")
+_REQUIRED_KEYS = frozenset({"v", "stream", "seq", "cycle", "arrays", "eos"})
+_STR = frozenset({str})
 
 
 class FrameError(ValueError):
@@ -106,9 +109,12 @@ class Frame:
 
         The payload is `data`, or this frame's arrays with `keep_data=True`, plus any named `arrays`.
         """
-        _check_user_fields(fields)
-        header = {k: v for k, v in self.header.items() if k not in _PER_HOP_KEYS}
-        header.update(fields)
+        header = dict(self.header)
+        for key in _PER_HOP_KEYS:
+            header.pop(key, None)
+        if fields:
+            _check_user_fields(fields)
+            header.update(fields)
         new_arrays: dict[str, np.ndarray] = dict(self.arrays) if keep_data else {}
         if data is not None:
             new_arrays["data"] = np.asarray(data)
@@ -212,15 +218,16 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
         total += nbytes
         if total > max_array_bytes:
             raise FrameError(f"arrays total more than the limit of {max_array_bytes} bytes")
-        buf = _as_buffer(parts[i + 1])
+        part = parts[i + 1]
+        buf = _as_buffer(part)
         if len(buf) != nbytes:
             raise FrameError(f"array {name!r}: shape {tuple(shape)} of {dtype.name} needs {nbytes} bytes, "
                              f"buffer has {len(buf)}")
-        arr = np.frombuffer(buf, dtype=dtype).reshape(shape) if nbytes else np.zeros(shape, dtype)
+        arr = np.ndarray(shape, dtype, buf)
         arr.flags.writeable = False
         arrays[name] = arr
-        if nbytes and not isinstance(parts[i + 1], (bytes, bytearray, memoryview)):
-            wire[name] = (arr, parts[i + 1])
+        if nbytes and not isinstance(part, (bytes, bytearray, memoryview)):   # a zmq.Frame, sent on as it is
+            wire[name] = (arr, part)                                             # if forwarded unchanged
     return Frame(header, arrays, wire)
 
 
@@ -234,14 +241,13 @@ def _as_buffer(part: Any) -> memoryview:
 
 
 def _check_header(header: dict) -> None:
-    for key in _REQUIRED_KEYS:
-        if key not in header:
-            raise FrameError(f"header lacks required key {key!r}")
-    for key, types in _HEADER_TYPES.items():
-        if key in header and (not isinstance(header[key], types) or
-                              (bool not in types and isinstance(header[key], bool))):
+    if not header.keys() >= _REQUIRED_KEYS:
+        raise FrameError(f"header lacks required key(s) {sorted(_REQUIRED_KEYS - header.keys())}")
+    for key, value in header.items():
+        types = _HEADER_TYPES.get(key)
+        if types is not None and type(value) not in types:
             raise FrameError(f"header key {key!r} must be {'/'.join(t.__name__ for t in types)}, "
-                             f"got {type(header[key]).__name__}")
+                             f"got {type(value).__name__}")
     if header["v"] != SCHEMA_VERSION:
         raise FrameError(f"schema version {header['v']} is not supported; expected {SCHEMA_VERSION}")
     if header["seq"] < 0:
@@ -250,19 +256,19 @@ def _check_header(header: dict) -> None:
         raise FrameError(f"cycles must be >= 1, got {header['cycles']}")
     if len(header["arrays"]) > MAX_ARRAYS:
         raise FrameError(f"{len(header['arrays'])} arrays exceed the limit of {MAX_ARRAYS}")
-    if "trail" in header and not all(isinstance(t, str) for t in header["trail"]):
+    if "trail" in header and not set(map(type, header["trail"])) <= _STR:
         raise FrameError("header key 'trail' must be a list of strings")
 
 
 def _check_spec(i: int, spec: Any) -> tuple[str, np.dtype, list[int]]:
-    if not (isinstance(spec, list) and len(spec) == 3 and isinstance(spec[0], str) and isinstance(spec[1], str)
-            and isinstance(spec[2], list)):
+    if not (type(spec) is list and len(spec) == 3 and type(spec[0]) is str and type(spec[1]) is str
+            and type(spec[2]) is list):
         raise FrameError(f"arrays[{i}] must be [name, dtype, shape], got {spec!r}")
     name, dtype_name, shape = spec
-    if dtype_name not in ALLOWED_DTYPES:
+    dtype = _WIRE_DTYPE.get(dtype_name)
+    if dtype is None:
         raise FrameError(f"array {name!r}: dtype {dtype_name!r} is not allowed; expected one of "
                          f"{sorted(ALLOWED_DTYPES)}")
-    if len(shape) > MAX_NDIM or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0
-                                        for n in shape):
+    if len(shape) > MAX_NDIM or not all(type(n) is int and n >= 0 for n in shape):
         raise FrameError(f"array {name!r}: shape {shape!r} must be at most {MAX_NDIM} non-negative integers")
-    return name, _WIRE_DTYPE[dtype_name], shape
+    return name, dtype, shape

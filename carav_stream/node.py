@@ -26,6 +26,7 @@ from carav_stream.frames import Frame, FrameError, decode, encode
 from carav_stream.registry import Registry
 
 HEARTBEAT_S = 0.5
+CONTROL_S = 0.01         # while frames flow, the control socket is looked at no more often than this
 RECOVERY_STALL_S = 2.0   # after a crash: how long a full input buffer waits for a partner before giving up
 MAX_REPORTED_REJECTS = 20
 
@@ -51,10 +52,7 @@ class NodeRunner:
         self.control.connect(spec["control"])
         self.registry = Registry(spec.get("block_paths", []))
         self.generation = spec.get("generation", 0)
-        self.block_type = spec["type"]
-        self.block: Block = self.registry.get(self.block_type).cls(**spec["params"])
-        self.cls = type(self.block)
-        self.out_names = {p.name for p in self.cls.outputs}
+        self.use_block(self.registry.get(spec["type"]).cls(**spec["params"]), spec["type"])
         sec = spec.get("security") or {}
         self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
                                      sec["curve_authorized"]) if sec else None
@@ -92,7 +90,18 @@ class NodeRunner:
         self.stopping = False
         self.pending_swap: dict[str, Any] | None = None
         self.next_hb = 0.0
+        self.next_control = 0.0
         self.seq = spec.get("start_seq", 0)
+
+    def use_block(self, block: Block, block_type: str) -> None:
+        """Run `block` from now on; the per-frame stamps of this node and block are prepared here once."""
+        self.block, self.cls, self.block_type = block, type(block), block_type
+        self.out_names = {p.name for p in self.cls.outputs}
+        self.arg_names = [p.name for p in self.cls.inputs]             # process() arguments, in order
+        version = f"{self.cls.version}#{self.generation}"
+        self.hop = f"{self.name}:{block_type}@{version}"              # this node's entry in a frame's trail
+        self.stamp = {"node": self.name, "block": block_type, "block_version": version}
+        self.streams = {p.name: f"{self.name}.{p.name}" for p in self.cls.outputs}
 
     def connect(self, edge: str) -> zmq.Socket:
         return transport.connect_output(self.ctx, self.endpoints[edge], self.spec["queue_frames"], self.curve,
@@ -121,7 +130,15 @@ class NodeRunner:
                 "block": self.block_type, "generation": self.generation}
 
     def idle(self) -> None:
-        """Serve control messages and heartbeats; called between frames and while blocked."""
+        """Serve control messages and heartbeats at most every CONTROL_S; called between frames and every
+        transport.TICK_S while blocked in ZeroMQ."""
+        now = time.monotonic()
+        if now >= self.next_control:
+            self.next_control = now + CONTROL_S
+            self.serve_control()
+
+    def serve_control(self) -> None:
+        """Send a heartbeat if one is due and handle every queued control message."""
         now = time.monotonic()
         if now >= self.next_hb:
             self.tell("hb", counters=self.counters())
@@ -156,9 +173,8 @@ class NodeRunner:
             self.tell("swap_failed", id=msg.get("id"), error=f"{type(exc).__name__}: {exc}")
             return
         self.close_block(next_seq=self.seq)
-        self.block, self.cls, self.block_type = new, type(new), msg["block"]
-        self.out_names = {p.name for p in self.cls.outputs}
         self.generation += 1
+        self.use_block(new, msg["block"])
         self.first_seq_of_block = None
         self.tell("swapped", id=msg.get("id"), block=self.block_type, version=self.cls.version,
                   generation=self.generation, next_seq=self.seq)
@@ -175,11 +191,14 @@ class NodeRunner:
             self.n_reports += 1
             self.tell("reject", port=port, reason=reason, count=self.c_rejected[port])
 
-    def receive(self, port: str) -> None:
+    def receive(self, port: str, wait: bool) -> None:
+        """Take messages from `port`: with `wait` one, waiting at most transport.TICK_S (the socket's receive
+        timeout), else what is queued, up to a burst of 64. Each is validated and buffered for pairing, or
+        rejected and counted."""
         sock = self.inputs[port]
-        for _ in range(64):                  # drain a burst, then let the others speak
+        for _ in range(1 if wait else 64):
             try:
-                parts = sock.recv_multipart(flags=zmq.NOBLOCK, copy=False)
+                parts = transport.recv_message(sock, 0 if wait else zmq.NOBLOCK)
             except zmq.Again:
                 return
             try:
@@ -187,12 +206,13 @@ class NodeRunner:
             except FrameError as exc:
                 self.reject(port, str(exc))
                 continue
-            if frame.eos:
+            if frame.header["eos"]:                 # decode guarantees the key
                 self.eos[port] = frame.header.get("count")
                 return
-            seq = frame.seq
-            if port in self.last_seq and seq <= self.last_seq[port]:
-                self.reject(port, f"seq {seq} after {self.last_seq[port]}: duplicate or out of order")
+            seq = frame.header["seq"]
+            last = self.last_seq.get(port)
+            if last is not None and seq <= last:
+                self.reject(port, f"seq {seq} after {last}: duplicate or out of order")
                 continue
             self.last_seq[port] = seq
             self.c_in[port] += 1
@@ -205,7 +225,8 @@ class NodeRunner:
             if len(self.cls.outputs) != 1:
                 raise TypeError(f"{self.cls.__name__}.process returned one Frame but the block has "
                                 f"{len(self.cls.outputs)} outputs; return a dict {{port: Frame}}")
-            result = {self.cls.outputs[0].name: result}
+            self.send(self.cls.outputs[0].name, result, context)
+            return
         for port, frame in result.items():
             if frame is None:
                 continue
@@ -216,17 +237,18 @@ class NodeRunner:
     def send(self, port: str, frame: Frame, context: Frame | None) -> None:
         h = frame.header
         if context is not None:
-            seq, cycle = context.seq, context.cycle
-            trail = list(h.get("trail", context.header.get("trail", [])))
-            t_created = h.get("t_created_s", context.header.get("t_created_s", time.time()))
+            ch = context.header
+            seq = ch["seq"]
+            cycle = ch.get("cycle", seq)
+            trail = [*h.get("trail", ch.get("trail", ())), self.hop]
+            t_created = h.get("t_created_s", ch.get("t_created_s", time.time()))
         else:
-            seq, cycle, trail, t_created = self.seq, h.get("cycle", self.seq), [], h.get("t_created_s", time.time())
+            seq, cycle, trail = self.seq, h.get("cycle", self.seq), [self.hop]
+            t_created = h.get("t_created_s", time.time())
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
-        hop = f"{self.name}:{self.block_type}@{self.cls.version}#{self.generation}"
-        parts = encode(frame, stream=f"{self.name}.{port}", seq=seq, cycle=cycle, t_created_s=t_created,
-                       t_sent_s=time.time(), node=self.name, block=self.block_type,
-                       block_version=f"{self.cls.version}#{self.generation}", trail=trail + [hop])
+        parts = encode(frame, stream=self.streams[port], seq=seq, cycle=cycle, t_created_s=t_created,
+                       t_sent_s=time.time(), trail=trail, **self.stamp)
         self.c_out[port] += 1
         for i, (edge, _) in enumerate(self.outputs.get(port, [])):
             if self.deliver(port, i, parts):
@@ -258,7 +280,7 @@ class NodeRunner:
         while True:
             if self.pending_swap:
                 self.apply_swap()
-            heads = {p: self.buffers[p][0] for p in ports if self.buffers[p]}
+            heads = {p: b[0] for p, b in self.buffers.items() if b}
             if not heads:
                 return
             if self.cls.merge_inputs:
@@ -266,7 +288,7 @@ class NodeRunner:
                 self.run_block("process", [self.buffers[port].popleft()], port)
                 continue
             if len(heads) == len(ports):
-                seqs = {f.seq for f in heads.values()}
+                seqs = {f.header["seq"] for f in heads.values()}
                 if len(seqs) == 1:
                     frames = [self.buffers[p].popleft() for p in ports]
                     self.stalled_since = None
@@ -296,14 +318,13 @@ class NodeRunner:
 
     def run_block(self, what: str, frames: list[Frame], port: str | None = None) -> None:
         context = frames[0]
-        self.seq = context.seq
+        self.seq = seq = context.header["seq"]
         if self.first_seq_of_block is None:
-            self.first_seq_of_block = context.seq
+            self.first_seq_of_block = seq
         t0 = time.thread_time()
         if what == "process":
             full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
-            args = [full.get(p.name) for p in self.cls.inputs]
-            result = self.block.process(*args)
+            result = self.block.process(*map(full.get, self.arg_names))
         else:
             result = self.block.unpaired(port, context)
         self.busy_s += time.thread_time() - t0
@@ -311,7 +332,7 @@ class NodeRunner:
         self.consumed += len(frames)
         self.cycles += context.header.get("cycles", 1)
         self.emit(result, context)
-        self.seq = context.seq + 1
+        self.seq = seq + 1
         self.idle()
 
     # -- main loops ----------------------------------------------------------------------------------------
@@ -319,7 +340,7 @@ class NodeRunner:
         max_cycles = self.spec.get("max_cycles", 0)
         while not self.go:
             self.control.poll(100)
-            self.idle()
+            self.serve_control()
         while not self.stopping and (not max_cycles or self.cycles < max_cycles):
             if self.pending_swap:
                 self.apply_swap()
@@ -340,20 +361,25 @@ class NodeRunner:
         poller = zmq.Poller()
         poller.register(self.control, zmq.POLLIN)
         while True:
-            self.idle()
             self.pump()
-            if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
-                return
-            for p, sock in self.inputs.items():
-                want = p not in self.eos and len(self.buffers[p]) < self.limit
-                if want and sock not in poller:
-                    poller.register(sock, zmq.POLLIN)
-                elif not want and sock in poller:
-                    poller.unregister(sock)
-            events = dict(poller.poll(HEARTBEAT_S * 1000))
-            for p, sock in self.inputs.items():
-                if sock in events:
-                    self.receive(p)
+            wanted = [p for p, b in self.buffers.items() if p not in self.eos and len(b) < self.limit]
+            if len(self.in_ports) == 1 and wanted:   # one input, nothing to pair: wait inside ZeroMQ's receive
+                self.receive(wanted[0], wait=True)
+            else:                                    # several inputs (or none wanted): wait for any, or control
+                if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
+                    return
+                for p, sock in self.inputs.items():
+                    if p in wanted and sock not in poller:
+                        poller.register(sock, zmq.POLLIN)
+                    elif p not in wanted and sock in poller:
+                        poller.unregister(sock)
+                events = dict(poller.poll(transport.TICK_S * 1000))
+                if self.control in events:
+                    self.serve_control()
+                for p in wanted:
+                    if self.inputs[p] in events:
+                        self.receive(p, wait=False)
+            self.idle()
 
     def run(self) -> int:
         self.block.start()
@@ -373,7 +399,7 @@ class NodeRunner:
         deadline = time.monotonic() + self.spec["drain_timeout_s"]
         while not self.released and time.monotonic() < deadline:
             self.control.poll(HEARTBEAT_S * 1000)
-            self.idle()
+            self.serve_control()
         return 0
 
 

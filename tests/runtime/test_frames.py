@@ -84,6 +84,14 @@ def good_parts(**override):
     (good_parts(arrays=[["data", "float32", [2, 3]], ["x", "int8", [1]]]), "announces 2 array(s)"),
     (good_parts()[:1], "announces 1 array(s) but the message has 0"),
     ([good_parts()[0], b"\x00" * 23], "buffer has 23"),
+    (good_parts(seq=True), "'seq' must be int"),
+    (good_parts(t_created_s=True), "'t_created_s' must be float/int"),
+    (good_parts(stream=b"a.b"), "'stream' must be str"),
+    (good_parts(cycles=0), "cycles must be >= 1"),
+    (good_parts(trail=["a:x@1#0", 3]), "list of strings"),
+    ([msgpack.packb({"v": 1, "stream": "a.b", "seq": 1, "eos": False, "arrays": []})], "lacks required key(s) ['cycle']"),
+    (good_parts(arrays=[["data", ["float32"], [2, 3]]]), "must be [name, dtype, shape]"),
+    (good_parts(arrays=[["data", "float32", [True, 6]]]), "non-negative integers"),
 ])
 def test_decoder_rejects_bad_messages_with_the_reason(parts, reason):
     with pytest.raises(FrameError, match=None) as info:
@@ -132,3 +140,28 @@ def test_derive_inherits_cycle_fields_but_not_per_hop_provenance():
 def test_end_of_stream_is_an_explicit_frame():
     out = decode(encode(end_of_stream(12), stream="a.b"))
     assert out.eos and out.seq == 12 and out.payload is None
+
+
+def test_arrays_forwarded_unchanged_are_sent_as_the_received_zmq_frames():
+    zmq = pytest.importorskip("zmq")
+    ctx = zmq.Context()
+    a, b = ctx.socket(zmq.PAIR), ctx.socket(zmq.PAIR)
+    try:
+        a.bind("inproc://forward")
+        b.connect("inproc://forward")
+        arr = np.arange(20000, dtype=np.complex64).reshape(100, 200)
+        a.send_multipart(encode(Frame.of(arr), seq=4, stream="s.p", trail=["s:src@1#0"]), copy=False)
+        assert b.poll(5000)
+        received = b.recv_multipart(copy=False)
+        frame = decode(received)
+        parts = encode(frame.derive(keep_data=True), seq=4, stream="p.out", trail=["s:src@1#0", "p:pass@1#0"])
+        assert parts[1] is received[1]                       # no new buffer, no copy
+        changed = encode(frame.derive(np.ones(3)), seq=4, stream="p.out")
+        assert changed[1] is not received[1]
+        out = decode([bytes(p) for p in parts])
+        np.testing.assert_array_equal(out.payload, arr)
+        assert out.header["trail"] == ["s:src@1#0", "p:pass@1#0"] and not out.payload.flags.writeable
+    finally:
+        a.close(linger=0)
+        b.close(linger=0)
+        ctx.term()
