@@ -3,9 +3,10 @@
 For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mode:
   pipeline       the 8-node graph of graphs/demo.toml (smart attacker from half the run on), one process per
                  node, run by the supervisor, frames of --batch cycles; cycles/s from go to the last sink
-  fused          carav_stream.chain.run_chain in this process, in batches of the same --batch cycles (the
-                 same work per cycle, the same vectorisation; scene templates built before the clock starts,
-                 as the channel node builds them before the run starts)
+  fused          carav_stream.chain.run_chain in one fresh process started like a node (the same allocator
+                 and BLAS settings, supervisor.NODE_ENV), in batches of the same --batch cycles (the same
+                 work per cycle, the same vectorisation; scene templates built before the clock starts, as
+                 the channel node builds them before the run starts)
 Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
 rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time.
 Noise and attacks are fresh and i.i.d. in every cycle and every cycle is processed in full.
@@ -14,7 +15,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -23,9 +27,9 @@ from carav_stream.chain import run_chain
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
 from carav_stream.graph import load_graph
-from carav_stream.supervisor import Supervisor
+from carav_stream.supervisor import NODE_ENV, Supervisor
 
-CASES = (("table1", "beat", 2000), ("table1", "waveform", 200), ("awr1642", "beat", 1000))
+CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000))
 GRAPH = """
 seed = 5
 batch = {batch}
@@ -69,13 +73,24 @@ def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, folde
     return summary["throughput_cycles_per_s"], busy
 
 
-def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> float:
+def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, float]:
+    """cycles/s and CPU us per cycle of run_chain in a fresh process started as the supervisor starts a node."""
+    args = json.dumps([preset, fidelity, n, method, batch])
+    out = subprocess.run([sys.executable, "-m", "carav_stream.bench.pipeline", args], env={**NODE_ENV, **os.environ},
+                         capture_output=True, text=True, timeout=1800)
+    if out.returncode:
+        raise RuntimeError(f"fused run of {preset}/{fidelity} failed:\n{out.stderr[-2000:]}")
+    rate, cpu_us = json.loads(out.stdout.splitlines()[-1])
+    return rate, cpu_us
+
+
+def _fused_worker(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, float]:
     scene = scene_of(preset)
     echo_templates(scene, fidelity)   # built once per scene, like the channel node does before the run starts
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     run_chain(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
               method=method, fidelity=fidelity, batch=batch)
-    return n / (time.perf_counter() - t0)
+    return n / (time.perf_counter() - t0), (time.process_time() - c0) / n * 1e6
 
 
 def run(args: argparse.Namespace) -> int:
@@ -90,12 +105,14 @@ def run(args: argparse.Namespace) -> int:
             rate_radar = scene_of(preset).cycles_per_s
             for batch in batches:
                 runs = {"pipeline": [], "fused": []}
-                busy_runs = []
+                busy_runs, fused_cpu = [], []
                 for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
                     rate, busy = _pipeline(preset, fidelity, n, args.method, batch, Path(folder))
                     runs["pipeline"].append(rate)
                     busy_runs.append(busy)
-                    runs["fused"].append(_fused(preset, fidelity, n, args.method, batch))
+                    rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
+                    runs["fused"].append(rate)
+                    fused_cpu.append(cpu_us)
                 busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
                 bottleneck = max(busy, key=busy.get)
                 fused = statistics.median(runs["fused"])
@@ -108,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
                     if mode == "pipeline":
                         rec["bottleneck_node"] = bottleneck
                         rec["busy_us_per_cycle"] = busy
+                    else:
+                        rec["cpu_us_per_cycle"] = statistics.median(fused_cpu)
                     records.append(rec)
                     print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {rate:9.1f} cycles/s  real-time "
                           f"x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}"
@@ -116,3 +135,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         args.json.write_text(json.dumps(records, indent=2))
     return 0
+
+
+if __name__ == "__main__":          # the fused worker: python -m carav_stream.bench.pipeline '[preset, ...]'
+    print(json.dumps(_fused_worker(*json.loads(sys.argv[1]))))

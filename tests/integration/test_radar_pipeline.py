@@ -240,3 +240,4 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(carav):
     for r in records:
         assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
     assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")
+    assert all(r["cpu_us_per_cycle"] > 0 for r in records if r["mode"] == "fused")   # measured in its own process
