@@ -9,16 +9,25 @@ and low-pass filtering happen in the channel at waveform fidelity); a strong att
 the clipped-sample count of every cycle is recorded. With the attacker node down, a cycle is framed as it was
 received, without attack, and marked attack_lost.
 
-Ports   in  rx       float32 | complex64 (cycles, n_chirps, n_samples)   signal at the ADC input
-        in  attack   attacker's signal for the same cycles (optional; (cycles, 1, n_samples) = every chirp)
+A reactive repeater (attack header gate_by_on_air) sends its reply to every chirp; only the replies to chirps
+actually on the air reach the receiver: a = gate_by_emission(replies, rx's on_air) (carav_stream/radar/
+attackers.py), and attack_active says whether it answered a chirp. Without the rx frame's on_air (bool (cycles,
+n_chirps)) such an attack cannot be rendered: the node fails, naming the frame, like any attack that does not fit.
+
+Ports   in  rx       float32 | complex64 (cycles, n_chirps, n_samples)   signal at the ADC input (+ "on_air")
+        in  attack   attacker's signal for the same cycles (optional; (cycles, 1, n_samples) = every chirp;
+                     gate_by_on_air: (1 | cycles, n_chirps, n_samples) replies [+ "tail"])
         out frames   int16 (cycles, n_chirps, n_samples[, 2 for I/Q]), or float32 | complex64 samples for an
                      ideal ADC; per_cycle clipped (and attack_active), header attack_model
 Graph   adc = { type = "adc_framer" }
 """
+import numpy as np
+
 from carav_stream.block import Block, In, Out, Param
 from carav_stream.cycles import n_cycles, per_cycle
 from carav_stream.radar.streams import scene_of
 from carav_stream.frames import Frame
+from carav_stream.radar.attackers import gate_by_emission
 from carav_stream.radar.synth import adc_codes
 
 
@@ -34,19 +43,47 @@ class AdcFramer(Block):
     def process(self, rx: Frame, attack: Frame | None = None) -> Frame:
         x, per, extra = rx.payload, {}, {}
         if attack is not None:
-            a = attack.payload
-            if n_cycles(attack) != x.shape[0] or a is not None and (
-                    a.dtype != x.dtype or a.ndim != 3 or a.shape[::2] != x.shape[::2] or a.shape[1] not in (1, x.shape[1])):
-                shape = "no payload" if a is None else f"{a.dtype} {a.shape}"
-                raise ValueError(f"attack frame seq {attack.seq} ({n_cycles(attack)} cycles, {shape}) does not fit "
-                                 f"the received {x.dtype} {x.shape}")
+            a, per["attack_active"] = self.attack_of(rx, attack)
             if a is not None:
                 x = x + a
-            per["attack_active"] = per_cycle(attack).get("attack_active", [False] * x.shape[0])
             extra["attack_model"] = attack.header.get("attack_model", "unknown")
         codes, clipped = adc_codes(self.scene_obj, x)
         per["clipped"] = clipped.tolist()
         return rx.derive(codes, per_cycle=per, **extra)
+
+    @staticmethod
+    def attack_of(rx: Frame, attack: Frame) -> tuple[np.ndarray | None, list]:
+        """The attack signal for rx's cycles (None: silent throughout) and its per-cycle attack_active."""
+        x, a, n = rx.payload, attack.payload, rx.payload.shape[0]
+        gated = attack.header.get("gate_by_on_air", False)
+        tail = attack.arrays.get("tail") if gated is True else None
+        # a reactive repeater's replies are the same for every cycle (1 row) and differ from chirp to chirp
+        rows, chirps = ((1, n), (x.shape[1],)) if gated is True else ((n,), (1, x.shape[1]))
+        if type(gated) is not bool or n_cycles(attack) != n or a is not None and (
+                a.dtype != x.dtype or a.ndim != 3 or a.shape[0] not in rows or a.shape[1] not in chirps
+                or a.shape[2] != x.shape[2]) or tail is not None and (a is None or tail.shape != a.shape
+                                                                      or tail.dtype != a.dtype):
+            shape = "no payload" if a is None else f"{a.dtype} {a.shape}"
+            shape += "" if tail is None else f", tail {tail.dtype} {tail.shape}"
+            raise ValueError(f"attack frame seq {attack.seq} ({n_cycles(attack)} cycles, {shape}, gate_by_on_air "
+                             f"{gated!r}) does not fit the received {x.dtype} {x.shape}")
+        per = per_cycle(attack)
+        if gated is False:
+            return a, per.get("attack_active", [False] * n)
+        on, on_air, problems = per.get("attack_active"), rx.arrays.get("on_air"), []
+        if on_air is None or on_air.dtype != np.bool_ or on_air.shape != x.shape[:2]:
+            problems.append("no on_air in rx" if on_air is None else f"rx's on_air is {on_air.dtype} {on_air.shape}")
+        if on is None or not all(type(v) is bool for v in on):
+            problems.append(f"attack_active is {on!r}, not one bool per cycle")
+        elif a is None and any(on):
+            problems.append(f"the attack is switched on ({on}) but sends no replies")
+        if problems:
+            raise ValueError(f"frame seq {rx.seq} (cycles {rx.cycle}..{rx.cycle + n - 1}): a reactive attack is gated "
+                             f"by the channel's on-air emission, bool {x.shape[:2]}; " + "; ".join(problems))
+        if a is None:
+            return None, on
+        a, active = gate_by_emission(a, tail, on_air, np.array(on, dtype=bool))
+        return a, active.tolist()
 
     def unpaired(self, port: str, frame: Frame) -> Frame | None:
         if port == "attack":

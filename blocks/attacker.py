@@ -7,15 +7,22 @@ it never receives the activation sequence, nor the victim's received signal. Mod
 Gaussian, paper V.D), smart (one sequence repeated over every chirp, V.E; sent as one row per cycle, shape
 (cycles, 1, n_samples), which the receiver adds to every chirp), secondary_antenna (a moving transmitter,
 V.G; needs fidelity = "waveform"), ghost (chirp-synchronised spoofer planting a false target), ramp (power
-rising over cycles), lfsr_predictor (learns an LFSR activation source from past cycles' emission). Each
-model's parameters (rarms = sigma_a / sigma_n, start_cycle, ...) are documented in
-carav_stream/radar/attackers.py; a parameter the chosen model does not take is refused by name. The
-chirp-reactive repeater (`reactive`) needs the current chirp's emission, which this node never receives: it
-runs in the library and sweeps only.
+rising over cycles), lfsr_predictor (learns an LFSR activation source from past cycles' emission), reactive
+(a repeater answering each chirp after its latency). Each model's parameters (rarms = sigma_a / sigma_n,
+start_cycle, ...) are documented in carav_stream/radar/attackers.py; a parameter the chosen model does not
+take is refused by name.
+
+The reactive repeater answers whatever is on the air: its reply to chirp k exists only if chirp k was
+transmitted. The node cannot tell which chirps of a cycle are (it hears the emission one cycle late), so it
+sends its reply to every chirp, the same for every cycle (shape (1, n_chirps, n_samples), and at waveform fidelity array
+"tail", the reply to chirp k-1 still arriving in chirp k) with header gate_by_on_air = true; the receiver
+keeps the replies to the chirps on the air (attackers.gate_by_emission). Its per-cycle attack_active says
+whether the repeater is switched on; the receiver reports whether it answered a chirp.
 
 Ports   in  air      bool (cycles, n_chirps)    row i: the emission of the cycle before cycle i
-        out attack   float32 | complex64 (cycles, n_chirps | 1, n_samples), or no payload when the model is
-                     silent for the whole frame; per_cycle attack_active, header attack_model
+        out attack   float32 | complex64 (cycles, n_chirps | 1, n_samples), reactive: (1, n_chirps, n_samples)
+                     [+ "tail"]; no payload when the model is silent for the whole frame; per_cycle
+                     attack_active, header attack_model [, gate_by_on_air]
 Graph   attacker = { type = "attacker", model = "smart", rarms = 3.0, start_cycle = 200 }
 """
 import numpy as np
@@ -24,8 +31,6 @@ from carav_stream.block import Block, BlockError, In, Out, Param
 from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
 from carav_stream.frames import Frame
 from carav_stream.radar.attackers import KINDS, Attacker, make_attacker
-
-PIPELINE_MODELS = tuple(k for k in KINDS if k != "reactive")
 
 
 def _model_params() -> tuple[Param, ...]:
@@ -41,7 +46,7 @@ def _model_params() -> tuple[Param, ...]:
 class AttackerBlock(Block):
     inputs = (In("air", kind="air", dtypes=("bool",), doc="past cycles' on-air emission"),)
     outputs = (Out("attack", kind="attack", dtypes=("float32", "complex64", "none"), doc="attack signal"),)
-    params = (Param("model", str, "none", "attack model", choices=PIPELINE_MODELS),
+    params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)),
               Param("scene", str, "table1", "preset name or scene file"),
               Param("seed", int, NO_SEED, "simulation seed; -1 = OS entropy"),
               Param("fidelity", str, "beat", "must match the channel's", choices=("beat", "waveform")),
@@ -64,6 +69,8 @@ class AttackerBlock(Block):
             raise ValueError(f"air frame seq {air.seq}: expected (cycles, {self.scene_obj.n_chirps}) chirps, "
                              f"got shape {heard.shape}")
         c0, n = air.cycle, heard.shape[0]
+        if self.attack.uses_live_emission:   # reactive: the receiver gates its replies by the on-air chirps
+            return self.replies(c0, n)
         if self.attack.listens:   # hear cycle c-1, then attack cycle c: one cycle at a time
             a, active = None, np.zeros(n, dtype=bool)
             for i in range(n):
@@ -78,3 +85,14 @@ class AttackerBlock(Block):
             a, active = self.attack.emit(n, c0, self.rng, None, fidelity=self.fidelity, compact=True)
         return Frame.of(a, per_cycle={"attack_active": active.tolist()}, attack_model=self.model,
                         cycle=c0, cycles=n)
+
+    def replies(self, c0: int, n: int) -> Frame:
+        """The reactive repeater's reply to every chirp (rho-independent), for the receiver to gate."""
+        on = self.attack.on_cycles(n, c0)
+        fields = dict(per_cycle={"attack_active": on.tolist()}, attack_model=self.model, gate_by_on_air=True,
+                      cycle=c0, cycles=n)
+        if not on.any():
+            return Frame.of(None, **fields)
+        main, tail = self.attack.response(self.fidelity)
+        out = Frame.of(main[None], **fields)
+        return out if tail is None else out.derive(keep_data=True, arrays={"tail": tail[None]})

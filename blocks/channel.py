@@ -3,7 +3,9 @@
     R_k[m] = n_k[m] + rho(k) x_k[m]        (the attacker's a_k[m] is added at the receiver, adc_framer)
 
 Ports   in  tx    bool (cycles, n_chirps)                               transmitted chirps of the cycles
-        out rx    float32 | complex64 (cycles, n_chirps, n_samples)     signal at the ADC input, no attack
+        out rx    float32 | complex64 (cycles, n_chirps, n_samples)     signal at the ADC input, no attack;
+                  + array "on_air" bool (cycles, n_chirps)               the same cycles' emission, which
+                                                                        gates a reactive repeater's replies
         out air   bool (cycles, n_chirps)                               row i: the on-air emission of the cycle
                                                                         BEFORE cycle i (header air_cycle = the
                                                                         first row's): all an attacker may have
@@ -46,4 +48,5 @@ class Channel(Block):
         rx = channel(self.scene_obj, transmit(self.scene_obj, rho, cycle, self.fidelity), self.rng, cycle)
         air = np.concatenate([self.heard[None], rho[:-1]])
         self.heard = rho[-1].copy()
-        return {"rx": tx.derive(rx, fidelity=self.fidelity), "air": tx.derive(air, air_cycle=cycle - 1)}
+        return {"rx": tx.derive(rx, arrays={"on_air": rho}, fidelity=self.fidelity),
+                "air": tx.derive(air, air_cycle=cycle - 1)}

@@ -8,6 +8,11 @@ cycle i (``_listen``), except the reactive repeater, whose output in a chirp is 
 signal delayed by its reaction latency (zero on silent chirps). Attackers are stateful (what they
 have heard); use one object for consecutive batches, in cycle order.
 
+The reactive repeater is two pure steps, so that a receiver can model its physics without the attacker
+ever knowing rho: ``ReactiveAttacker.response(fidelity)`` is what it answers to a chirp (independent of
+rho), and :func:`gate_by_emission` keeps the answers to the chirps actually on the air. ``emit`` runs both;
+the pipeline's attacker node sends the response and its receiver (adc_framer) gates it.
+
 Common parameters: ``start_cycle`` (int, default 0) and ``n_active_cycles`` (int or None = forever).
 RMS levels are ``rarms`` = sigma_a / sigma_n, per-sample RMS while on (E|a|^2 = sigma_a^2, for I-only
 and I/Q alike).
@@ -97,6 +102,10 @@ class Attacker:
             return False
         return self.n_active_cycles is None or cycle < self.start_cycle + self.n_active_cycles
 
+    def on_cycles(self, n_cycles: int, cycle0: int) -> np.ndarray:
+        """bool (n_cycles,): whether the model is switched on in cycles cycle0 .. cycle0 + n_cycles - 1."""
+        return np.array([self.is_on(cycle0 + i) for i in range(n_cycles)], dtype=bool)
+
     def peak_amplitude(self) -> float:
         """Expected peak |a| (about 3 RMS for Gaussian signals) for the ADC-saturation check."""
         return 0.0
@@ -127,7 +136,7 @@ class Attacker:
 
         A listening model (``listens``) hears ``observation``'s row i after producing cycle i; with
         ``observation=None`` it hears nothing here (a streaming node feeds it with ``listen``)."""
-        on = np.array([self.is_on(cycle0 + i) for i in range(n_cycles)], dtype=bool)
+        on = self.on_cycles(n_cycles, cycle0)
         if self.uses_live_emission and observation is None:
             raise ValueError(f"attacker {self.kind!r} needs observation= (the victim's on-air emission)")
         if observation is not None and (observation.cycle0 != cycle0 or observation.emission.shape[0] != n_cycles):
@@ -311,7 +320,11 @@ class _ReplicaAttacker(Attacker):
             else:
                 main, tail = physics.waveform_replica(self.scene, tau0_s, alpha, amp)
                 tail = tail.astype(self.dtype)
-            self._cache = (main.astype(self.dtype), tail)
+            main = main.astype(self.dtype)
+            for x in (main, tail):
+                if x is not None:
+                    x.setflags(write=False)   # shared by every cycle (and sent by a node without a copy)
+            self._cache = (main, tail)
             self._cache_key = key
         return self._cache
 
@@ -350,16 +363,57 @@ class ReactiveAttacker(_ReplicaAttacker):
                                       f"us) starts after the sampling window ends at {end * 1e6:.3g} us")]
         return []
 
-    def _cycle(self, a_c, cycle, rng, live, fidelity):
+    def response(self, fidelity: str) -> tuple[np.ndarray, np.ndarray | None]:
+        """What it answers in a cycle in which it is on, whatever the victim transmits (rho-independent):
+        ``main`` (n_chirps, n_samples), its reply to chirp k heard in chirp k, and at waveform fidelity
+        ``tail``, its reply to chirp k-1 still arriving in chirp k (None at beat fidelity); scene dtype,
+        read-only, the same for every cycle. :func:`gate_by_emission` keeps the replies to chirps on air."""
         alpha = 2.0 * (self.velocity_mps - self.scene.radar_speed_mps) / C_MPS
-        main, tail = self._replica(self.delay_s(), alpha, self.delay_s(), fidelity)
-        live = np.asarray(live, dtype=bool)
-        a_c[live] += main[live]
-        if tail is not None:
-            prev = np.zeros_like(live)
-            prev[1:] = live[:-1]
-            a_c[prev] += tail[prev]
-        return bool(live.any())
+        return self._replica(self.delay_s(), alpha, self.delay_s(), fidelity)
+
+    def _cycle(self, a_c, cycle, rng, live, fidelity):
+        main, tail = self.response(fidelity)
+        a, active = gate_by_emission(main, tail, np.asarray(live, dtype=bool)[None])
+        a_c[...] = a[0]
+        return bool(active[0])
+
+
+def gate_by_emission(main: np.ndarray, tail: np.ndarray | None, on_air: np.ndarray,
+                     on: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A repeater's answers kept where the victim's chirps were on the air (the reactive attack a_k[m]).
+
+        a[c, k] = live[c, k] main[k] + live[c, k-1] tail[k]     (k >= 1; chirp 0 gets no tail)
+        live[c, k] = on_air[c, k] and on[c]
+
+    main: (n_chirps, n_samples), or (1 | n_cycles, n_chirps, n_samples), from ``ReactiveAttacker.response``;
+    tail: the same shape or None (beat fidelity); on_air: bool (n_cycles, n_chirps), chirp k of cycle c was
+    transmitted; on: bool (n_cycles,), the repeater is switched on (None = every cycle).
+    Returns a, (n_cycles, n_chirps, n_samples) of main's dtype, and attack_active bool (n_cycles,) = a
+    chirp of the cycle was answered. Pure; the same floating-point operations for any batch of cycles.
+    """
+    on_air = np.asarray(on_air)
+    if on_air.dtype != np.bool_ or on_air.ndim != 2:
+        raise ValueError(f"on_air: expected bool (n_cycles, n_chirps), got {on_air.dtype} {on_air.shape}")
+    n_cycles, n_chirps = on_air.shape
+    rows = main.shape[-2:]
+    if main.ndim not in (2, 3) or rows[0] != n_chirps or main.ndim == 3 and main.shape[0] not in (1, n_cycles):
+        raise ValueError(f"main: expected ([1 | {n_cycles},] {n_chirps}, n_samples) for on_air {on_air.shape}, "
+                         f"got {main.shape}")
+    if tail is not None and (tail.shape != main.shape or tail.dtype != main.dtype):
+        raise ValueError(f"tail: expected {main.dtype} {main.shape} like main, got {tail.dtype} {tail.shape}")
+    live = on_air
+    if on is not None:
+        on = np.asarray(on, dtype=bool)
+        if on.shape != (n_cycles,):
+            raise ValueError(f"on: expected bool ({n_cycles},), got shape {on.shape}")
+        live = on_air & on[:, None]
+    a = np.zeros((n_cycles,) + rows, main.dtype)
+    a[live] += np.broadcast_to(main, a.shape)[live]
+    if tail is not None:
+        prev = np.zeros_like(live)
+        prev[:, 1:] = live[:, :-1]
+        a[prev] += np.broadcast_to(tail, a.shape)[prev]
+    return a, live.any(axis=1)
 
 
 class SecondaryAntennaAttacker(Attacker):

@@ -117,7 +117,11 @@ def test_attacker_parameters_are_checked_by_model_with_names():
     with pytest.raises(BlockError, match='fidelity = "waveform"'):
         AttackerBlock(model="secondary_antenna")
     with pytest.raises(BlockError, match="must be one of"):
-        AttackerBlock(model="reactive")
+        AttackerBlock(model="reactiv")
+    with pytest.raises(BlockError, match="unknown parameter for attacker 'reactive'"):
+        AttackerBlock(model="reactive", range_m=30.0)
+    assert AttackerBlock(model="reactive", distance_m=20.0, latency_s=0.0).model_params == {"distance_m": 20.0,
+                                                                                          "latency_s": 0.0}
     assert AttackerBlock(model="smart", rarms=2).model_params == {"rarms": 2.0}
 
 
@@ -137,3 +141,82 @@ def test_csv_sink_writes_one_row_per_cycle_from_per_cycle_and_header_fields(tmp_
         "cycle,port,attack_active,reason,range_m,method", "4,estimates,False,,43.0,ml", "6,estimates,True,,,ml",
         "5,alarms,,attack,,", "2,alarms,,,,"]
     assert sink.summary() == {"rows": 4, "malformed_frames": 1}
+
+
+def front_end(fidelity: str, seed: int = 4, **attack):
+    """channel -> attacker -> adc in-process, every frame through the codec: a function of (rho, cycle0, seq)."""
+    from carav_blocks.adc_framer import AdcFramer
+    from carav_blocks.channel import Channel
+    channel, attacker, adc = (Channel(seed=seed, fidelity=fidelity), AttackerBlock(seed=seed, fidelity=fidelity,
+                                                                                    **attack), AdcFramer())
+    channel.start()
+    attacker.start()
+
+    def run(rho, cycle0, seq):
+        out = channel.process(wire(Frame.of(rho, cycle=cycle0, cycles=rho.shape[0]), seq))
+        rx, air = wire(out["rx"], seq), wire(out["air"], seq)
+        attack = wire(attacker.process(air), seq)
+        return rx, air, attack, adc.process(rx, attack)
+    return run
+
+
+@pytest.mark.parametrize("fidelity", ["beat", "waveform"])
+def test_reactive_attack_gated_at_the_receiver_equals_the_library_bit_for_bit(fidelity):
+    from carav_stream.radar.attackers import make_attacker
+    from carav_stream.radar.streams import scene_of, seed_streams
+    from carav_stream.radar.synth import simulate_cycles
+    scene, params = scene_of("table1"), {"rarms": 3.0, "start_cycle": 5, "n_active_cycles": 14}
+    run = front_end(fidelity, model="reactive", **params)
+    streams, lib_streams = seed_streams(4), seed_streams(4)
+    lib_attacker, reported = make_attacker("reactive", scene, **params), []
+    for seq, cycle0 in enumerate(range(0, 32, 8)):
+        rho = streams.activation.next(8, scene.n_chirps)
+        rho[1] = rho[2] = False        # never with a Manchester source: an all-silent cycle, before and while on
+        rx, air, attack, frames = run(rho, cycle0, seq)
+        lib = simulate_cycles(scene, rho, lib_streams.noise, attacker=lib_attacker, rng_attack=lib_streams.attack,
+                              fidelity=fidelity, cycle0=cycle0)
+        assert frames.payload.tobytes() == lib.codes.tobytes()
+        assert frames.header["per_cycle"]["attack_active"] == lib.attack_active.tolist()
+        reported += frames.header["per_cycle"]["attack_active"]
+        assert frames.header["per_cycle"]["clipped"] == lib.clipped.tolist()
+        np.testing.assert_array_equal(rx.arrays["on_air"], rho)                 # the receiver's view
+        assert list(air.arrays) == ["data"] and air.header["air_cycle"] == cycle0 - 1   # the attacker's: unchanged
+        on = [5 <= c < 19 for c in range(cycle0, cycle0 + 8)]
+        assert attack.header["gate_by_on_air"] is True and attack.header["per_cycle"]["attack_active"] == on
+        if any(on):   # its replies to every chirp, once for all cycles (broadcast by the receiver)
+            assert attack.payload.shape == (1, scene.n_chirps, scene.n_samples)
+            assert sorted(attack.arrays) == (["data", "tail"] if fidelity == "waveform" else ["data"])
+        else:
+            assert attack.payload is None and not attack.arrays
+    # on in cycles 5..18, but it answers nothing in the silent cycles 9, 10, 17 and 18
+    assert reported == [5 <= c < 19 and c % 8 not in (1, 2) for c in range(32)]
+
+
+def test_adc_refuses_a_gated_attack_it_cannot_gate_naming_the_frame():
+    from carav_blocks.adc_framer import AdcFramer
+    rho = np.tile(RHO, (2, 1))
+    rx, _, attack, _ = front_end("beat", model="reactive", rarms=3.0)(rho, 0, 6)
+    adc, data = AdcFramer(), rx.payload
+    cases = {
+        "no on_air in rx": wire(Frame.of(data, cycle=0, cycles=2), 6),
+        r"rx's on_air is bool \(2, 32\)": wire(Frame.of(data, cycle=0, cycles=2).derive(
+            keep_data=True, arrays={"on_air": rho[:, :32]}), 6),
+        r"rx's on_air is uint8 \(2, 64\)": wire(Frame.of(data, cycle=0, cycles=2).derive(
+            keep_data=True, arrays={"on_air": rho.view(np.uint8)}), 6),
+    }
+    for problem, bad_rx in cases.items():
+        with pytest.raises(ValueError, match=r"frame seq 6 \(cycles 0..1\): a reactive attack is gated .*" + problem):
+            adc.process(bad_rx, attack)
+    no_active = wire(Frame.of(attack.payload, cycles=2, gate_by_on_air=True), 6)
+    with pytest.raises(ValueError, match="attack_active is None, not one bool per cycle"):
+        adc.process(rx, no_active)
+    silent_but_on = wire(Frame.of(None, cycles=2, gate_by_on_air=True, per_cycle={"attack_active": [True, False]}), 6)
+    with pytest.raises(ValueError, match=r"switched on \(\[True, False\]\) but sends no replies"):
+        adc.process(rx, silent_but_on)
+    not_a_flag = wire(Frame.of(attack.payload, cycles=2, gate_by_on_air=1, per_cycle={"attack_active": [True] * 2}), 6)
+    with pytest.raises(ValueError, match="attack frame seq 6 .* gate_by_on_air 1\\) does not fit"):
+        adc.process(rx, not_a_flag)
+    ungated = wire(Frame.of(attack.payload, cycles=2, per_cycle={"attack_active": [True] * 2}), 6)   # flag lost
+    with pytest.raises(ValueError, match=r"attack frame seq 6 .*float32 \(1, 64, 1100\).* does not fit"):
+        adc.process(rx, ungated)
+    assert adc.process(rx, attack).header["per_cycle"]["attack_active"] == [True, True]

@@ -61,13 +61,12 @@ def by_cycle(records: list[dict]) -> dict[int, dict]:
     return out
 
 
-def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
-    n = 120   # 7 frames of 16 cycles and a last one of 8
-    run = carav.run(graph(carav, n, 'model = "smart", rarms = 3.0, start_cycle = 60'))
-    assert run.wait(120) == 0, run.stderr()
-    lib = run_chain(scene_of("table1"), n, seed=21, attack="smart", attack_params={"rarms": 3.0, "start_cycle": 60})
+def assert_equals_the_library(carav, run, lib, n: int, batch: int = 16) -> dict:
+    """The run's per-cycle Q, verdicts, activation rows, estimates and csv rows equal `lib` (run_chain's) bit for
+    bit; returns the run's summary."""
     records = read_jsonl(carav.workdir / "verdicts.jsonl")
-    assert [(v["seq"], v["cycle"], v["cycles"]) for v in records] == [(i, 16 * i, 16 if i < 7 else 8) for i in range(8)]
+    assert [(v["seq"], v["cycle"], v["cycles"]) for v in records] == [
+        (i, batch * i, min(batch, n - batch * i)) for i in range(-(-n // batch))]
     verdicts = by_cycle(records)
     assert sorted(verdicts) == list(range(n))
     np.testing.assert_array_equal([verdicts[c]["q"] for c in range(n)], lib.q)            # bit for bit
@@ -82,17 +81,24 @@ def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
     assert [r["port"] == "alarms" for r in rows] == lib.alarm.tolist()
     assert [r["range_m"] for r in rows if r["port"] == "estimates"] == [repr(float(x)) for x in lib.range_m[~lib.alarm, 0]]
     s = run.summary()
-    assert s["lost"] == 0 and s["cycles"] == n and s["cycles_judged"] == n and s["attacked_cycles"] == 60
+    assert s["lost"] == 0 and s["cycles"] == n and s["cycles_judged"] == n
+    return s
+
+
+def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
+    n = 120   # 7 frames of 16 cycles and a last one of 8
+    run = carav.run(graph(carav, n, 'model = "smart", rarms = 3.0, start_cycle = 60'))
+    assert run.wait(120) == 0, run.stderr()
+    lib = run_chain(scene_of("table1"), n, seed=21, attack="smart", attack_params={"rarms": 3.0, "start_cycle": 60})
+    s = assert_equals_the_library(carav, run, lib, n)
+    assert s["attacked_cycles"] == 60
     assert s["detected"] == int(lib.alarm[60:].sum()) and s["false_alarms"] == int(lib.alarm[:60].sum())
 
 
-def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
-    n = 40
-    run = carav.run(graph(carav, n, 'model = "lfsr_predictor", rarms = 3.0', batch=8))
-    assert run.wait(120) == 0, run.stderr()
+def assert_attacker_heard_only_the_past_emission(carav, run, n: int, batch: int) -> None:
     rho = np.concatenate([r["data"] for r in read_jsonl(carav.workdir / "rho.jsonl")])
     seen = read_jsonl(carav.workdir / "attacker_inputs.jsonl")   # exactly the frames sent to the attacker
-    assert len(seen) == n // 8
+    assert len(seen) == -(-n // batch)
     forbidden = {"rho", "activation", "tx", "active_chirps", "per_cycle"}
     heard = []
     for frame in seen:
@@ -104,6 +110,30 @@ def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
         assert heard[c] == rho[c - 1].tolist()   # cycle c hears cycle c - 1: one cycle late, never current
     s = run.summary()
     assert set(s["per_node"]["attacker"]["in"]) == {"air"}   # its one input: nothing of the received signal
+
+
+def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
+    n = 40
+    run = carav.run(graph(carav, n, 'model = "lfsr_predictor", rarms = 3.0', batch=8))
+    assert run.wait(120) == 0, run.stderr()
+    assert_attacker_heard_only_the_past_emission(carav, run, n, batch=8)
+
+
+@pytest.mark.parametrize("fidelity", ["beat", "waveform"])
+def test_reactive_repeater_gated_at_the_receiver_equals_the_library_and_never_hears_rho(carav, fidelity):
+    n = 40   # frames of 16, 16 and 8 cycles: on from cycle 8 to 31, silent throughout the last frame
+    params = {"rarms": 3.0, "distance_m": 20.0, "latency_s": 2e-7, "start_cycle": 8, "n_active_cycles": 24}
+    run = carav.run(graph(carav, n, "model = \"reactive\", " + ", ".join(f"{k} = {v!r}" for k, v in params.items()),
+                          seed=25, fidelity=fidelity))
+    assert run.wait(120) == 0, run.stderr()
+    lib = run_chain(scene_of("table1"), n, seed=25, attack="reactive", attack_params=params, fidelity=fidelity)
+    assert lib.attack_active.tolist() == [8 <= c < 32 for c in range(n)]
+    s = assert_equals_the_library(carav, run, lib, n)
+    judged = by_cycle(read_jsonl(carav.workdir / "judged.jsonl"))
+    assert [judged[c]["attack_active"] for c in range(n)] == lib.attack_active.tolist()
+    assert [judged[c]["attack_model"] for c in range(n)] == ["reactive"] * n
+    assert s["attacked_cycles"] == 24
+    assert_attacker_heard_only_the_past_emission(carav, run, n, batch=16)
 
 
 def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector_dies(carav):
@@ -179,7 +209,7 @@ def test_every_committed_graph_validates():
     from carav_stream.graph import load_graph
     names = {g.stem for g in GRAPHS}
     assert {"demo", "table1_random", "table1_smart", "awr1642_smart", "secondary_antenna", "no_attack",
-            "two_hosts"} <= names
+            "two_hosts", "reactive"} <= names
     for g in GRAPHS:
         load_graph(g)
 

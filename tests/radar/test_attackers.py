@@ -263,3 +263,89 @@ def test_streaming_listener_fed_one_cycle_late_equals_batch(small_scene):
         a, _ = att.emit(1, c, rng, None)
         att.listen(emission[c])
         assert np.array_equal(a[0], batch[c])
+
+
+def _previous_reactive_cycle(a_c, main, tail, live):
+    """The reactive repeater's cycle as the library computed it before the response/gating split."""
+    a_c[live] += main[live]
+    if tail is not None:
+        prev = np.zeros_like(live)
+        prev[1:] = live[:-1]
+        a_c[prev] += tail[prev]
+    return bool(live.any())
+
+
+def _on_air_patterns(n_chirps, seed):
+    """Random emission rows, plus an all-silent, an all-active and a lone-last-chirp cycle."""
+    rows = np.random.default_rng(seed).random((6, n_chirps)) < 0.5
+    rows[1], rows[2], rows[4] = False, True, False
+    rows[4, -1] = True
+    return rows
+
+
+@pytest.mark.parametrize("iq", [False, True])
+@pytest.mark.parametrize("fidelity", ["beat", "waveform"])
+def test_reactive_gating_reproduces_the_per_cycle_model_bit_for_bit(small_scene, iq, fidelity):
+    from carav_stream.radar import physics
+    from carav_stream.radar.attackers import gate_by_emission
+    s = small_scene(iq=iq, sigma_n=1.0)
+    params = dict(distance_m=15.0, velocity_mps=5.0, latency_s=0.4e-6, rarms=4.0, start_cycle=1, n_active_cycles=4)
+    att = make_attacker("reactive", s, **params)
+    dtype = np.complex64 if iq else np.float32
+    # the response is exactly the replica of physics, one row per chirp, cast once to the scene's dtype
+    delay, alpha, amp = att.delay_s(), 2.0 * (5.0 - s.radar_speed_mps) / C, 4.0 * (1.0 if iq else math.sqrt(2.0))
+    if fidelity == "beat":
+        ref_main, ref_tail = physics.beat_samples(s, delay, alpha, amp, delay).astype(dtype), None
+    else:
+        ref_main, ref_tail = (x.astype(dtype) for x in physics.waveform_replica(s, delay, alpha, amp))
+    main, tail = att.response(fidelity)
+    assert main.dtype == dtype and main.tobytes() == ref_main.tobytes()
+    assert (tail is None) == (fidelity == "beat") and (tail is None or tail.tobytes() == ref_tail.tobytes())
+    on_air = _on_air_patterns(s.n_chirps, seed=11)
+    on = att.on_cycles(6, 0)
+    assert on.tolist() == [False, True, True, True, True, False]
+    expected = np.zeros((6, s.n_chirps, s.n_samples), dtype)
+    expected_active = np.array([_previous_reactive_cycle(expected[i], main, tail, on_air[i]) if on[i] else False
+                                for i in range(6)])
+    assert expected_active.tolist() == [False, False, True, True, True, False]   # cycle 1: on, but all silent
+    a, active = gate_by_emission(main, tail, on_air, on)
+    assert a.dtype == dtype and a.tobytes() == expected.tobytes() and active.tolist() == expected_active.tolist()
+    a1, active1 = gate_by_emission(main[None], None if tail is None else tail[None], on_air, on)   # one row, broadcast
+    assert a1.tobytes() == expected.tobytes() and np.array_equal(active1, active)
+    emitted, emitted_active = att.emit(6, 0, None, Observation(on_air, 0), fidelity=fidelity)   # library path
+    assert emitted.tobytes() == expected.tobytes() and np.array_equal(emitted_active, expected_active)
+    # cycle by cycle or as one batch: the same numbers
+    singles = [gate_by_emission(main, tail, on_air[i: i + 1], on[i: i + 1])[0][0] for i in range(6)]
+    assert np.stack(singles).tobytes() == expected.tobytes()
+
+
+def test_reactive_response_does_not_depend_on_what_is_on_air(small_scene):
+    s = small_scene(iq=True, sigma_n=1.0)
+    att = make_attacker("reactive", s, rarms=2.0)
+    before = [x.copy() for x in att.response("waveform")]
+    silent, busy = np.zeros((3, s.n_chirps), bool), np.ones((3, s.n_chirps), bool)
+    for emission in (silent, busy, _on_air_patterns(s.n_chirps, seed=2)[:3]):
+        att.emit(3, 0, None, Observation(emission, 0), fidelity="waveform")
+        after = att.response("waveform")
+        assert all(np.array_equal(x, y) for x, y in zip(before, after))
+    fresh = make_attacker("reactive", s, rarms=2.0).response("waveform")
+    assert all(np.array_equal(x, y) for x, y in zip(before, fresh))
+    # a reply for every chirp, silent or not: gating is the receiver's business
+    delay_m = int(np.ceil(att.delay_s() * s.fs_hz))
+    assert np.all(np.abs(before[0][:, delay_m + 17:]).min(axis=1) > 0)
+    assert not any(x.flags.writeable for x in att.response("waveform"))
+
+
+def test_reactive_gating_refuses_arrays_that_do_not_fit(small_scene):
+    from carav_stream.radar.attackers import gate_by_emission
+    s = small_scene()
+    main, _ = make_attacker("reactive", s).response("beat")
+    on_air = np.ones((2, s.n_chirps), bool)
+    with pytest.raises(ValueError, match=r"on_air: expected bool \(n_cycles, n_chirps\), got int64"):
+        gate_by_emission(main, None, on_air.astype(np.int64))
+    with pytest.raises(ValueError, match=r"main: expected \(\[1 \| 3,\] 8, n_samples\)"):
+        gate_by_emission(np.stack([main, main]), None, np.ones((3, s.n_chirps), bool))
+    with pytest.raises(ValueError, match="tail: expected float32"):
+        gate_by_emission(main, main[:4], on_air)
+    with pytest.raises(ValueError, match=r"on: expected bool \(2,\)"):
+        gate_by_emission(main, None, on_air, np.ones(3, bool))
