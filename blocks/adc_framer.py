@@ -35,7 +35,7 @@ class AdcFramer(Block):
     inputs = (In("rx", kind="rx", dtypes=("float32", "complex64")),
               In("attack", kind="attack", dtypes=("float32", "complex64", "none"), required=False))
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64")),)
-    params = (Param("scene", str, "table1", "preset name or scene file (ADC bits, full scale)"),)
+    params = (Param("scene", str, "table1", "preset name or scene file (ADC bits, full scale)", file=True),)
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)

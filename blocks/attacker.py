@@ -47,7 +47,7 @@ class AttackerBlock(Block):
     inputs = (In("air", kind="air", dtypes=("bool",), doc="past cycles' on-air emission"),)
     outputs = (Out("attack", kind="attack", dtypes=("float32", "complex64", "none"), doc="attack signal"),)
     params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)),
-              Param("scene", str, "table1", "preset name or scene file"),
+              Param("scene", str, "table1", "preset name or scene file", file=True),
               Param("seed", int, NO_SEED, "simulation seed; -1 = OS entropy"),
               Param("fidelity", str, "beat", "must match the channel's", choices=("beat", "waveform")),
               *_model_params())

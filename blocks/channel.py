@@ -27,7 +27,7 @@ class Channel(Block):
     inputs = (In("tx", kind="tx", dtypes=("bool",)),)
     outputs = (Out("rx", kind="rx", dtypes=("float32", "complex64"), doc="ADC input, echoes + noise"),
                Out("air", kind="air", dtypes=("bool",), doc="each cycle's previous cycle's emission"))
-    params = (Param("scene", str, "table1", "preset name or scene file"),
+    params = (Param("scene", str, "table1", "preset name or scene file", file=True),
               Param("seed", int, NO_SEED, "simulation seed; -1 = OS entropy"),
               Param("fidelity", str, "beat", "beat or waveform", choices=("beat", "waveform")))
 

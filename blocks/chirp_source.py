@@ -22,7 +22,7 @@ from carav_stream.frames import Frame
 class ChirpSource(Block):
     outputs = (Out("tx", kind="tx", dtypes=("bool",), doc="transmitted chirps of the cycles"),
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private: detector only)"))
-    params = (Param("scene", str, "table1", "preset name or scene file"),
+    params = (Param("scene", str, "table1", "preset name or scene file", file=True),
               Param("seed", int, NO_SEED, "simulation seed; -1 = secure activation sequence"),
               Param("activation", str, "auto", "activation source", choices=("auto", "secure", "seeded", "lfsr")),
               Param("batch", int, 16, "cycles per frame", low=1, high=4096))

@@ -33,7 +33,7 @@ class RangeEstimator(Block):
     outputs = (Out("estimates", kind="estimates", dtypes=("none",)),)
     params = (Param("method", str, "ml", "estimator", choices=METHODS),
               Param("n_targets", int, 1, "targets per cycle", low=1),
-              Param("scene", str, "table1", "preset name or scene file"))
+              Param("scene", str, "table1", "preset name or scene file", file=True))
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)

@@ -29,7 +29,7 @@ class RmsDetector(Block):
     outputs = (Out("verdict", kind="verdict", dtypes=("bool",)),)
     params = (Param("eta", float, 1.5, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
               Param("sigma_n", float, 0.0, "noise RMS per sample; 0 = from the scene", low=0.0),
-              Param("scene", str, "table1", "preset name or scene file"))
+              Param("scene", str, "table1", "preset name or scene file", file=True))
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)

@@ -37,7 +37,7 @@ def _stats(errors: list[float]) -> dict:
 class RunSummary(Block):
     inputs = (In("estimates", kind="estimates"), In("alarms", kind="alarm", required=False))
     merge_inputs = True
-    params = (Param("scene", str, "table1", "preset name or scene file (truth)"),
+    params = (Param("scene", str, "table1", "preset name or scene file (truth)", file=True),
               Param("every_s", float, 0.0, "console line period; 0 = none", low=0.0))
 
     def check_params(self) -> None:

@@ -47,7 +47,9 @@ _TYPE_NAMES = {int: "int", float: "float", str: "str", bool: "bool", list: "list
 
 @dataclass(frozen=True)
 class Param:
-    """A typed parameter. `low`/`high` bound numbers (inclusive unless `strict`), `choices` enumerates values."""
+    """A typed parameter. `low`/`high` bound numbers (inclusive unless `strict`), `choices` enumerates values.
+    `file`: the value may name a file the block reads; a relative name written in a graph file is taken
+    relative to the graph file's folder when that file exists there (see carav_stream.graph)."""
 
     name: str
     type: type
@@ -58,6 +60,7 @@ class Param:
     strict: bool = False
     choices: tuple[Any, ...] | None = None
     unit: str = ""
+    file: bool = False
 
     @property
     def required(self) -> bool:

@@ -192,7 +192,8 @@ def cmd_blocks(args: argparse.Namespace) -> int:
         for p in cls.params:
             default = "(required)" if p.default is REQUIRED else f"= {p.default!r}"
             unit = f" [{p.unit}]" if p.unit else ""
-            print(f"  param {p.name:<11} {p.type.__name__:<6} {default:<14} {p.doc}{unit}")
+            where = " (a relative file name in a graph is looked up next to the graph first)" if p.file else ""
+            print(f"  param {p.name:<11} {p.type.__name__:<6} {default:<14} {p.doc}{unit}{where}")
         print()
     for c in reg.conflicts:
         print(f"carav: {c}", file=sys.stderr)

@@ -16,6 +16,12 @@
     [security] curve_server_cert, curve_client_cert, curve_authorized   (ZeroMQ CURVE on tcp edges)
 
 Every problem is reported at once, each located: `demo.toml: blocks.detector.eta: must be > 0, got -1.5`.
+
+Relative file names: `block_paths` and `[security]` key files are relative to the graph file. A parameter that
+names a file a block reads (`Param(file=True)`, e.g. `scene = "my_scene.toml"`) is taken relative to the graph
+file's folder when the file exists there, so a graph and its scene file travel together; otherwise (preset
+names, files elsewhere) the value is left as written, and relative paths are then relative to the working
+directory, as are `--set` values and output files (`path` of the sinks).
 """
 from __future__ import annotations
 
@@ -157,6 +163,7 @@ def load_graph(path: str | Path, overrides: list[str] = (), extra_block_paths: l
         node = _node(name, spec, where, hosts, restart_default, problems)
         if node:
             nodes[name] = node
+    from_file = {n: dict(node.params) for n, node in nodes.items()}
     _apply_overrides(nodes, overrides, where, problems)
     classes: dict[str, type[Block]] = {}
     for node in nodes.values():
@@ -164,6 +171,7 @@ def load_graph(path: str | Path, overrides: list[str] = (), extra_block_paths: l
             classes[node.name] = registry.get(node.type).cls
         except RegistryError as exc:
             problems.append(f"{where}: blocks.{node.name}.type: {exc}")
+    _resolve_files(path.parent, nodes, classes, graph_params, from_file)
     _apply_graph_params(nodes, classes, graph_params, where, problems)
     for node in nodes.values():
         if node.name in classes:
@@ -272,6 +280,25 @@ def _apply_overrides(nodes: dict[str, Node], overrides: list[str], where: str, p
             problems.append(f"--set {item!r}: unknown node {node!r}; nodes are {sorted(nodes)}")
         else:
             nodes[node].params[param] = parse_value(value.strip())
+
+
+def _resolve_files(folder: Path, nodes: dict[str, Node], classes: dict[str, type[Block]],
+                   graph_params: dict[str, Any], from_file: dict[str, dict[str, Any]]) -> None:
+    """Values of file parameters written in the graph file (not `--set`) that name a file in the graph
+    file's folder become absolute paths to it."""
+    def resolve(value: Any) -> Any:
+        if isinstance(value, str) and value and not Path(value).is_absolute() and (folder / value).is_file():
+            return str((folder / value).resolve())
+        return value
+
+    file_params = {n: {p.name for p in cls.params if p.file} for n, cls in classes.items()}
+    for key in set().union(*file_params.values()) & graph_params.keys():
+        graph_params[key] = resolve(graph_params[key])
+    for n, names in file_params.items():
+        params, written = nodes[n].params, from_file[n]
+        for key in names & written.keys():
+            if params.get(key) is written[key]:          # still the graph file's value, not a --set override
+                params[key] = resolve(params[key])
 
 
 def with_graph_params(cls: type[Block], graph_params: dict[str, Any], explicit: dict[str, Any]) -> dict[str, Any]:

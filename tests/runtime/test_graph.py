@@ -164,3 +164,69 @@ def test_a_value_error_from_check_params_becomes_a_block_error_naming_it():
 
     with pytest.raises(BlockError, match="x: no such scene file"):
         NeedsFile()
+
+
+READER = '''
+from pathlib import Path
+from carav_stream.block import Block, BlockError, In, Param
+
+
+class TableReader(Block):
+    inputs = (In("inp", kind="numbers", dtypes=("float64",)),)
+    params = (Param("table", str, "builtin", "builtin, or a file this block reads", file=True),)
+
+    def check_params(self):
+        if self.table != "builtin" and not Path(self.table).is_file():
+            raise BlockError(f"table file {self.table!r} not found")
+
+    def process(self, inp):
+        return None
+'''
+
+
+def reader_graph(folder: Path, table_line: str, node_table: str = "") -> Path:
+    (folder / "my_blocks").mkdir(parents=True)
+    (folder / "my_blocks" / "table_reader.py").write_text(READER)
+    extra = f", table = {node_table!r}" if node_table else ""
+    path = folder / "g.toml"
+    path.write_text(f'block_paths = ["{TOYS}", "my_blocks"]\n{table_line}\nconnections = ["src.out -> r.inp"]\n'
+                    f'[blocks]\nsrc = {{ type = "counter_source" }}\nr = {{ type = "table_reader"{extra} }}\n')
+    return path
+
+
+def test_a_file_parameter_written_in_a_graph_is_relative_to_the_graph_folder(tmp_path, monkeypatch):
+    folder, elsewhere = tmp_path / "project", tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    path = reader_graph(folder, "", node_table="tables/t.csv")
+    (folder / "tables").mkdir()
+    (folder / "tables" / "t.csv").write_text("1,2\n")
+    monkeypatch.chdir(elsewhere)
+    g = load_graph(path)
+    assert g.nodes["r"].params["table"] == str((folder / "tables" / "t.csv").resolve())
+    # a --set value is the user's, relative to the working directory: not found from here, and located
+    assert any("blocks.r" in p and "'tables/t.csv' not found" in p
+               for p in problems_of(path, ["r.table=tables/t.csv"]))
+    (elsewhere / "mine.csv").write_text("3\n")
+    assert load_graph(path, ["r.table=mine.csv"]).nodes["r"].params["table"] == "mine.csv"
+
+
+def test_a_graph_wide_file_parameter_is_resolved_and_other_values_are_left_as_written(tmp_path, monkeypatch):
+    folder = tmp_path / "project"
+    path = reader_graph(folder, 'table = "t.csv"')
+    (folder / "t.csv").write_text("1\n")
+    monkeypatch.chdir(tmp_path)
+    g = load_graph(path)
+    assert g.nodes["r"].params["table"] == str((folder / "t.csv").resolve())
+    assert g.params["table"] == str((folder / "t.csv").resolve())     # a swapped-in block gets it too
+    (folder / "t.csv").unlink()
+    assert any("'t.csv' not found" in p for p in problems_of(path))            # not there: left as written
+    path.write_text(path.read_text().replace('table = "t.csv"', 'table = "builtin"'))
+    assert load_graph(path).nodes["r"].params["table"] == "builtin"             # a name, not a file
+
+
+def test_radar_blocks_read_their_scene_file_relative_to_the_graph():
+    from carav_stream.registry import Registry
+    registry = Registry([])
+    with_scene = [b for b in registry.names() if any(p.name == "scene" for p in registry.get(b).cls.params)]
+    assert len(with_scene) >= 7
+    assert all(p.file for b in with_scene for p in registry.get(b).cls.params if p.name == "scene")
