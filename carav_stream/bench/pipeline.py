@@ -73,10 +73,14 @@ def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, folde
     return summary["throughput_cycles_per_s"], busy
 
 
+_WORKER = ("import json, sys; from carav_stream.bench.pipeline import _fused_worker; "
+           "print(json.dumps(_fused_worker(*json.loads(sys.argv[1]))))")
+
+
 def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, float]:
     """cycles/s and CPU us per cycle of run_chain in a fresh process started as the supervisor starts a node."""
     args = json.dumps([preset, fidelity, n, method, batch])
-    out = subprocess.run([sys.executable, "-m", "carav_stream.bench.pipeline", args], env={**NODE_ENV, **os.environ},
+    out = subprocess.run([sys.executable, "-c", _WORKER, args], env={**NODE_ENV, **os.environ},
                          capture_output=True, text=True, timeout=1800)
     if out.returncode:
         raise RuntimeError(f"fused run of {preset}/{fidelity} failed:\n{out.stderr[-2000:]}")
@@ -137,5 +141,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-if __name__ == "__main__":          # the fused worker: python -m carav_stream.bench.pipeline '[preset, ...]'
-    print(json.dumps(_fused_worker(*json.loads(sys.argv[1]))))
+if __name__ == "__main__":
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.bench.pipeline"))
