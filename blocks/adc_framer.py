@@ -18,7 +18,8 @@ Ports   in  rx       float32 | complex64 (cycles, n_chirps, n_samples)   signal 
         in  attack   attacker's signal for the same cycles (optional; (cycles, 1, n_samples) = every chirp;
                      gate_by_on_air: (1 | cycles, n_chirps, n_samples) replies [+ "tail"])
         out frames   int16 (cycles, n_chirps, n_samples[, 2 for I/Q]), or float32 | complex64 samples for an
-                     ideal ADC; per_cycle clipped (and attack_active), header attack_model
+                     ideal ADC; per_cycle clipped, nonfinite (NaN/Inf input samples, coded 0: the detector
+                     judges such a cycle invalid) (and attack_active), header attack_model
 Graph   adc = { type = "adc_framer" }
 """
 import numpy as np
@@ -47,8 +48,9 @@ class AdcFramer(Block):
             if a is not None:
                 x = x + a
             extra["attack_model"] = attack.header.get("attack_model", "unknown")
-        codes, clipped = adc_codes(self.scene_obj, x)
+        codes, clipped, nonfinite = adc_codes(self.scene_obj, x)
         per["clipped"] = clipped.tolist()
+        per["nonfinite"] = nonfinite.tolist()   # NaN/Inf samples at the input: the detector judges the cycle invalid
         return rx.derive(codes, per_cycle=per, **extra)
 
     @staticmethod

@@ -8,15 +8,17 @@ Ports   in  frames    ADC frames of the cycles: int16 codes (the scene's lsb mak
                       complex64 samples
         in  rho       bool (cycles, n_chirps)    activation sequences (private edge)
         out verdict   bool (cycles, n_chirps) = rho, for target processing; header eta, per_cycle q, c, alarm,
-                      invalid, raised_by ("D0" | "D1" | "invalid" | "no_rho"), k_max, rbar; frames whose rho
-                      never comes get alarm verdicts (reason "no_rho"), never clean ones
+                      invalid, raised_by ("D0" | "D1" | "invalid" | "no_rho" | "bad_rho"), k_max, rbar; frames
+                      whose rho never comes get alarm verdicts (reason "no_rho"), never clean ones; a cycle whose
+                      rho is not balanced (half its chirps active) or whose ADC reported NaN/Inf input samples
+                      (per_cycle nonfinite) gets an invalid verdict
 Params  eta (float, 1.5): threshold; sigma_n (float, 0 = the scene's noise RMS); scene (lsb, noise RMS)
 Graph   detector = { type = "rms_detector", eta = 1.5 }
 """
 import numpy as np
 
 from carav_stream.block import Block, In, Out, Param
-from carav_stream.cycles import n_cycles
+from carav_stream.cycles import n_cycles, per_cycle
 from carav_stream.radar.streams import scene_of
 from carav_stream.radar.synth import adc_chirp_rms
 from carav_stream.detect.detector import detect_from_rms
@@ -41,11 +43,28 @@ class RmsDetector(Block):
         if r.ndim != 2 or x.ndim != (4 if x.dtype == np.int16 and self.scene_obj.iq else 3) or x.shape[:2] != r.shape:
             raise ValueError(f"frame seq {frames.seq}: frames {x.dtype} {x.shape} and rho {r.shape} do not describe "
                              "the same cycles and chirps")
-        d = detect_from_rms(adc_chirp_rms(self.scene_obj, x), r, self.sigma, self.eta)
-        raised_by = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
-        return frames.derive(r, eta=self.eta, per_cycle={
-            "q": d.q.tolist(), "c": d.c.tolist(), "alarm": d.alarm.tolist(), "invalid": d.invalid.tolist(),
-            "raised_by": raised_by.tolist(), "k_max": d.k_max.tolist(), "rbar": d.rbar.tolist()})
+        nonfinite = per_cycle(frames).get("nonfinite")   # the ADC's count of NaN/Inf input samples
+        if not (isinstance(nonfinite, list) and len(nonfinite) == r.shape[0]):
+            nonfinite = None
+        rms = adc_chirp_rms(self.scene_obj, x, nonfinite)
+        balanced = r.sum(axis=1) == r.shape[1] // 2
+        if balanced.all():
+            d = detect_from_rms(rms, r, self.sigma, self.eta)
+            fields = {"q": d.q, "c": d.c, "alarm": d.alarm, "invalid": d.invalid, "k_max": d.k_max, "rbar": d.rbar}
+            raised_by = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
+        else:   # a sequence without exactly half its chirps active was not made by the source: invalid, alarm
+            fields = {"q": np.full(r.shape[0], np.inf), "c": np.full(r.shape[0], np.inf),
+                      "alarm": np.ones(r.shape[0], bool), "invalid": np.ones(r.shape[0], bool),
+                      "k_max": np.full(r.shape[0], -1), "rbar": np.full(r.shape[0], np.nan)}
+            raised_by = np.full(r.shape[0], "bad_rho", dtype=object)
+            if balanced.any():
+                d = detect_from_rms(rms[balanced], r[balanced], self.sigma, self.eta)
+                for key, value in (("q", d.q), ("c", d.c), ("alarm", d.alarm), ("invalid", d.invalid),
+                                   ("k_max", d.k_max), ("rbar", d.rbar)):
+                    fields[key][balanced] = value
+                raised_by[balanced] = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
+        return frames.derive(r, eta=self.eta, per_cycle={**{k: v.tolist() for k, v in fields.items()},
+                                                         "raised_by": raised_by.tolist()})
 
     def unpaired(self, port: str, frame: Frame) -> Frame | None:
         if port == "rho":

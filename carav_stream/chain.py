@@ -53,7 +53,7 @@ def run_chain(scene: Scene, n_cycles: int, *, seed: int | None = None, attack: s
         rho = streams.activation.next(n, scene.n_chirps)
         cyc = simulate_cycles(scene, rho, streams.noise, attacker=attacker, rng_attack=streams.attack,
                               fidelity=fidelity, cycle0=c0)
-        det = detect_from_rms(adc_chirp_rms(scene, cyc.codes), rho, sigma, eta)
+        det = detect_from_rms(adc_chirp_rms(scene, cyc.codes, cyc.nonfinite), rho, sigma, eta)
         rng = np.full((n, n_targets), np.nan)
         vel = np.full((n, n_targets), np.nan)
         clean = ~det.alarm

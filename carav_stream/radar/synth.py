@@ -66,6 +66,7 @@ class Cycles:
     clipped: int64 (n_cycles,), samples per cycle at the ADC rails (I or Q).
     attack_active: bool (n_cycles,), the attacker emitted something in the cycle.
     codes: what the ADC delivered (:func:`adc_codes`): int16 codes, or the samples of an ideal ADC.
+    nonfinite: int64 (n_cycles,), samples per cycle that were NaN/Inf at the ADC input (such a cycle is invalid).
     """
 
     frames: np.ndarray
@@ -76,6 +77,7 @@ class Cycles:
     rho: np.ndarray
     cycle0: int
     codes: np.ndarray | None = None
+    nonfinite: np.ndarray | None = None
 
 
 def resolve_fidelity(fidelity: str, attacker=None) -> str:
@@ -204,18 +206,34 @@ def adc(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     same units; clipped int64 (n_cycles,) = samples whose I or Q hit a rail. ``adc_bits = 0`` is an
     ideal ADC (a copy, no clipping). Equal to ``from_codes(scene, *adc_codes(scene, rx)[:1])``.
     """
-    codes, clipped = adc_codes(scene, rx)
-    return from_codes(scene, codes), clipped
+    codes, clipped, nonfinite = adc_codes(scene, rx)
+    return _with_nonfinite(from_codes(scene, codes), rx, nonfinite), clipped
 
 
-def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _with_nonfinite(frames: np.ndarray, rx: np.ndarray, nonfinite: np.ndarray) -> np.ndarray:
+    """The ADC's samples with NaN where rx held a NaN/Inf (only cycles that had one are looked at)."""
+    for i in np.flatnonzero(nonfinite):
+        frames[i][~np.isfinite(rx[i])] = np.nan
+    return frames
+
+
+def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the ADC delivers: integer codes, int16 (n_cycles, n_chirps, n_samples), or for I/Q
-    (n_cycles, n_chirps, n_samples, 2) with I then Q; and clipped as in :func:`adc`. An ideal ADC
-    (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx instead (float32 | complex64).
+    (n_cycles, n_chirps, n_samples, 2) with I then Q; clipped as in :func:`adc`; and nonfinite, int64
+    (n_cycles,): samples whose I or Q was NaN or Inf at the ADC input (a simulation fault, not a signal: their
+    code is 0, they are not counted as clipped, and :func:`adc_chirp_rms` makes such a cycle's RMS NaN, so the
+    detector judges it invalid). The scaling is float32 arithmetic, ``rint(x * float32(1 / lsb))``: a value
+    within about 1e-4 LSB of a half code (near full scale) may round to the other neighbour than exact
+    arithmetic would. An ideal ADC (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx
+    instead (float32 | complex64; non-finite samples stay as they are and are counted).
     """
     n_cycles = rx.shape[0]
     if not 0 < scene.adc_bits <= 16:
-        return rx.copy(), np.zeros(n_cycles, dtype=np.int64)
+        flat = rx.reshape(n_cycles, -1)
+        nonfinite = np.zeros(n_cycles, dtype=np.int64)
+        for i in np.flatnonzero(~np.isfinite(flat.sum(axis=1))):
+            nonfinite[i] = np.count_nonzero(~np.isfinite(flat[i]))
+        return rx.copy(), np.zeros(n_cycles, dtype=np.int64), nonfinite
     lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
     hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
     lo = np.float32(-(2 ** (scene.adc_bits - 1)))
@@ -223,23 +241,35 @@ def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     np.rint(codes, out=codes)
     flat = codes.reshape(n_cycles, math.prod(codes.shape[1:]))
     clipped = np.zeros(n_cycles, dtype=np.int64)
-    # two fast reductions find the cycles that hit a rail; only those are counted and clipped
-    for i in np.flatnonzero((flat.max(axis=1, initial=lo) > hi) | (flat.min(axis=1, initial=hi) < lo)):
-        over = (flat[i] > hi) | (flat[i] < lo)
-        if scene.iq:
-            over = over.view(np.uint16)           # a sample's I and Q flags share two bytes: any -> != 0
+    nonfinite = np.zeros(n_cycles, dtype=np.int64)
+    # two fast reductions find the cycles that hit a rail or hold a NaN/Inf (NaN propagates through max);
+    # only those are counted and fixed
+    top, bottom = flat.max(axis=1, initial=lo), flat.min(axis=1, initial=hi)
+    for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
+        row = flat[i]
+        bad = ~np.isfinite(row)
+        over = ((row > hi) | (row < lo)) & ~bad
+        if scene.iq:   # a sample's I and Q flags share two bytes: any -> != 0
+            over, bad = over.view(np.uint16), bad.view(np.uint16)
         clipped[i] = np.count_nonzero(over)
-        np.clip(flat[i], lo, hi, out=flat[i])
+        nonfinite[i] = np.count_nonzero(bad)
+        row[~np.isfinite(row)] = 0.0
+        np.clip(row, lo, hi, out=row)
     out = codes.astype(np.int16)
-    return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped
+    return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped, nonfinite
 
 
-def adc_chirp_rms(scene: Scene, codes: np.ndarray) -> np.ndarray:
+def adc_chirp_rms(scene: Scene, codes: np.ndarray, nonfinite: np.ndarray | None = None) -> np.ndarray:
     """RMS of every chirp in sqrt(W) (n_cycles, n_chirps) from what the ADC delivered: exact sums over
-    int16 codes, or :func:`chirp_rms` of an ideal ADC's samples (NaN for a chirp with a NaN/Inf sample)."""
+    int16 codes, or :func:`chirp_rms` of an ideal ADC's samples (NaN for a chirp with a NaN/Inf sample).
+    ``nonfinite`` (from :func:`adc_codes`): the cycles with a count above 0 get NaN rows (invalid)."""
     if codes.dtype != np.int16:
-        return chirp_rms(codes)
-    return chirp_rms_codes(codes, scene.adc_full_scale / 2 ** (scene.adc_bits - 1), scene.iq)
+        rms = chirp_rms(codes)
+    else:
+        rms = chirp_rms_codes(codes, scene.adc_full_scale / 2 ** (scene.adc_bits - 1), scene.iq)
+    if nonfinite is not None:
+        rms[np.asarray(nonfinite) > 0] = np.nan
+    return rms
 
 
 def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:
@@ -268,6 +298,7 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
     frames = np.empty((n_cycles, scene.n_chirps, scene.n_samples), dtype)
     clean = np.empty_like(frames) if return_clean else None
     clipped = np.zeros(n_cycles, dtype=np.int64)
+    nonfinite = np.zeros(n_cycles, dtype=np.int64)
     active = np.zeros(n_cycles, dtype=bool)
     codes = []
     # Stages run on chunks of about 2 MB: the same numbers (every stage draws cycle by cycle), but the
@@ -282,11 +313,11 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
             clean[i:j] = out[1]
         if attacker is not None:
             rx, active[i:j] = attacker.apply(rx, cycle0 + i, rng_attack, observe(tx), fidelity=fid)
-        chunk, clipped[i:j] = adc_codes(scene, rx)
+        chunk, clipped[i:j], nonfinite[i:j] = adc_codes(scene, rx)
         codes.append(chunk)
-        frames[i:j] = from_codes(scene, chunk)
+        frames[i:j] = _with_nonfinite(from_codes(scene, chunk), rx, nonfinite[i:j])
     codes = np.concatenate(codes) if codes else adc_codes(scene, frames)[0]
-    return Cycles(frames, clean, clipped, active, fid, rho, cycle0, codes)
+    return Cycles(frames, clean, clipped, active, fid, rho, cycle0, codes, nonfinite)
 
 
 def echo_energy_per_chirp(scene: Scene, rho: np.ndarray, fidelity: str = "beat") -> np.ndarray:

@@ -93,7 +93,7 @@ def test_detector_judges_int16_codes_exactly_like_the_samples_they_stand_for():
     rho[:, 1::2] = True
     rx = np.random.default_rng(1).normal(0, scene.sigma_n, (3, 64, 1100)).astype(np.float32)
     rx[2, :4] *= 5   # an attacked cycle
-    codes, _ = adc_codes(scene, rx)
+    codes, _, _ = adc_codes(scene, rx)
     assert codes.dtype == np.int16
     got = det.process(wire(Frame.of(codes, cycles=3), 1), wire(Frame.of(rho, cycles=3), 1)).header["per_cycle"]
     lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
@@ -220,3 +220,46 @@ def test_adc_refuses_a_gated_attack_it_cannot_gate_naming_the_frame():
     with pytest.raises(ValueError, match=r"attack frame seq 6 .*float32 \(1, 64, 1100\).* does not fit"):
         adc.process(rx, ungated)
     assert adc.process(rx, attack).header["per_cycle"]["attack_active"] == [True, True]
+
+
+@pytest.mark.parametrize("iq", [False, True])
+def test_adc_codes_count_nan_and_inf_inputs_apart_from_clipping(iq):
+    from carav_stream.radar.scene import load_scene
+    from carav_stream.radar.synth import adc, adc_codes
+    scene = load_scene("table1", {"iq": iq})
+    dtype = np.complex64 if iq else np.float32
+    rx = np.zeros((3, 64, 1100), dtype)
+    rx[1, 3, 5] = np.nan
+    rx[1, 7, 9] = np.inf
+    rx[2, 0, 0] = -np.inf
+    rx[2, 0, 1] = 10 * scene.adc_full_scale          # a real clip beside a non-finite sample
+    if iq:
+        rx[1, 3, 6] = complex(0.0, np.nan)            # Q alone non-finite: one sample
+    codes, clipped, nonfinite = adc_codes(scene, rx)
+    assert nonfinite.tolist() == [0, 3 if iq else 2, 1] and clipped.tolist() == [0, 0, 1]
+    assert codes.dtype == np.int16 and codes[1, 3, 5].tolist() == ([0, 0] if iq else 0)
+    frames, _ = adc(scene, rx)                        # the float path keeps them visible
+    assert np.isnan(frames[1, 3, 5]) and np.isnan(frames[2, 0, 0]) and np.isfinite(frames[0]).all()
+
+
+def test_detector_judges_invalid_a_cycle_with_nonfinite_adc_input_or_an_unbalanced_rho():
+    from carav_stream.radar.synth import adc_codes
+    scene = scene_of_table1()
+    rx = np.random.default_rng(4).normal(0, scene.sigma_n, (4, 64, 1100)).astype(np.float32)
+    rx[1, 2, 3] = np.nan
+    codes, _, nonfinite = adc_codes(scene, rx)
+    rho = np.zeros((4, 64), bool)
+    rho[:, ::2] = True
+    rho[3, 1] = True                                   # 33 active chirps: not made by the source
+    frame = wire(Frame.of(codes, cycles=4, per_cycle={"nonfinite": nonfinite.tolist()}), 5)
+    per = RmsDetector(eta=1.5).process(frame, wire(Frame.of(rho, cycles=4), 5)).header["per_cycle"]
+    assert per["invalid"] == [False, True, False, True] and per["alarm"] == [False, True, False, True]
+    assert per["raised_by"][1] == "invalid" and per["raised_by"][3] == "bad_rho"
+    out = Gate().process(frame, wire(Frame.of(rho, cycles=4, per_cycle=per), 5))
+    assert out["clean"].header["per_cycle"]["cycle_index"] == [5, 7]
+    assert out["alarms"].header["per_cycle"]["reason"] == ["invalid", "invalid"]
+
+
+def scene_of_table1():
+    from carav_stream.radar.streams import scene_of
+    return scene_of("table1")
