@@ -27,6 +27,7 @@ from carav_stream.registry import Registry
 
 HEARTBEAT_S = 0.5
 CONTROL_S = 0.01         # while frames flow, the control socket is looked at no more often than this
+CRASH_FLUSH_S = 1.0      # after a crash: how long frames already sent get to leave before the process exits
 RECOVERY_STALL_S = 2.0   # after a crash: how long a full input buffer waits for a partner before giving up
 MAX_REPORTED_REJECTS = 20
 
@@ -423,11 +424,6 @@ def main(argv: list[str]) -> int:
             if runner:
                 for sock in runner.inputs.values():
                     sock.close(linger=0)
-                for edges in runner.outputs.values():   # what it already sent is valid: 1 s to leave,
-                    for _, sock in edges:                # but a crashed node must not hang on a full queue
-                        sock.close(linger=1000)
-                if runner.curve:
-                    runner.curve.close()
                 ctl = runner.control
             else:
                 ctl = ctx.socket(zmq.DEALER)
@@ -436,6 +432,18 @@ def main(argv: list[str]) -> int:
             ctl.send(msgpack.packb({"type": "error", "node": spec["name"], "pid": os.getpid(),
                                     "error": f"{type(exc).__name__}: {exc}", "traceback": tb,
                                     "counters": runner.counters() if runner else {}}, use_bin_type=True))
+            if runner:
+                # What it already sent is valid and must leave, but ZeroMQ drops what is still queued towards a
+                # full consumer once the socket closes (linger does not help): the process stays up for
+                # CRASH_FLUSH_S with its outputs open (the supervisor restarts it only after it exits), then
+                # drops the rest, which the supervisor counts as lost.
+                if runner.outputs:
+                    time.sleep(CRASH_FLUSH_S)
+                for edges in runner.outputs.values():
+                    for _, sock in edges:
+                        sock.close(linger=0)
+                if runner.curve:
+                    runner.curve.close()
             ctl.close(linger=2000)
             ctx.term()                     # flushes the report to the supervisor
         except Exception:
