@@ -44,25 +44,20 @@ class RmsDetector(Block):
             raise ValueError(f"frame seq {frames.seq}: frames {x.dtype} {x.shape} and rho {r.shape} do not describe "
                              "the same cycles and chirps")
         nonfinite = per_cycle(frames).get("nonfinite")   # the ADC's count of NaN/Inf input samples
-        if not (isinstance(nonfinite, list) and len(nonfinite) == r.shape[0]):
-            nonfinite = None
+        if nonfinite is not None and not (isinstance(nonfinite, list) and len(nonfinite) == r.shape[0]
+                                          and all(type(v) is int for v in nonfinite)):
+            nonfinite = [1] * r.shape[0]                  # malformed: every cycle is judged invalid (fail closed)
         rms = adc_chirp_rms(self.scene_obj, x, nonfinite)
-        balanced = r.sum(axis=1) == r.shape[1] // 2
-        if balanced.all():
-            d = detect_from_rms(rms, r, self.sigma, self.eta)
-            fields = {"q": d.q, "c": d.c, "alarm": d.alarm, "invalid": d.invalid, "k_max": d.k_max, "rbar": d.rbar}
-            raised_by = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
-        else:   # a sequence without exactly half its chirps active was not made by the source: invalid, alarm
-            fields = {"q": np.full(r.shape[0], np.inf), "c": np.full(r.shape[0], np.inf),
-                      "alarm": np.ones(r.shape[0], bool), "invalid": np.ones(r.shape[0], bool),
-                      "k_max": np.full(r.shape[0], -1), "rbar": np.full(r.shape[0], np.nan)}
-            raised_by = np.full(r.shape[0], "bad_rho", dtype=object)
-            if balanced.any():
-                d = detect_from_rms(rms[balanced], r[balanced], self.sigma, self.eta)
-                for key, value in (("q", d.q), ("c", d.c), ("alarm", d.alarm), ("invalid", d.invalid),
-                                   ("k_max", d.k_max), ("rbar", d.rbar)):
-                    fields[key][balanced] = value
-                raised_by[balanced] = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
+        # a sequence without exactly half its chirps active was not made by the source: invalid, alarm
+        n, balanced = r.shape[0], r.sum(axis=1) == r.shape[1] // 2
+        fields = {"q": np.full(n, np.inf), "c": np.full(n, np.inf), "alarm": np.ones(n, bool),
+                  "invalid": np.ones(n, bool), "k_max": np.full(n, -1), "rbar": np.full(n, np.nan)}
+        raised_by = np.full(n, "bad_rho", dtype=object)
+        if balanced.any():
+            d = detect_from_rms(rms[balanced], r[balanced], self.sigma, self.eta)
+            for key in fields:
+                fields[key][balanced] = getattr(d, key)
+            raised_by[balanced] = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
         return frames.derive(r, eta=self.eta, per_cycle={**{k: v.tolist() for k, v in fields.items()},
                                                          "raised_by": raised_by.tolist()})
 

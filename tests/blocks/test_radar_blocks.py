@@ -255,6 +255,8 @@ def test_detector_judges_invalid_a_cycle_with_nonfinite_adc_input_or_an_unbalanc
     per = RmsDetector(eta=1.5).process(frame, wire(Frame.of(rho, cycles=4), 5)).header["per_cycle"]
     assert per["invalid"] == [False, True, False, True] and per["alarm"] == [False, True, False, True]
     assert per["raised_by"][1] == "invalid" and per["raised_by"][3] == "bad_rho"
+    garbled = wire(Frame.of(codes, cycles=4, per_cycle={"nonfinite": ["0", 0, 0, 0]}), 6)
+    assert RmsDetector(eta=1.5).process(garbled, wire(Frame.of(rho, cycles=4), 6)).header["per_cycle"]["invalid"] == [True] * 4
     out = Gate().process(frame, wire(Frame.of(rho, cycles=4, per_cycle=per), 5))
     assert out["clean"].header["per_cycle"]["cycle_index"] == [5, 7]
     assert out["alarms"].header["per_cycle"]["reason"] == ["invalid", "invalid"]
