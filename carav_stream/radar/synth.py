@@ -249,12 +249,12 @@ def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
         row = flat[i]
         bad = ~np.isfinite(row)
         over = ((row > hi) | (row < lo)) & ~bad
+        row[bad] = 0.0
+        np.clip(row, lo, hi, out=row)
         if scene.iq:   # a sample's I and Q flags share two bytes: any -> != 0
             over, bad = over.view(np.uint16), bad.view(np.uint16)
         clipped[i] = np.count_nonzero(over)
         nonfinite[i] = np.count_nonzero(bad)
-        row[~np.isfinite(row)] = 0.0
-        np.clip(row, lo, hi, out=row)
     out = codes.astype(np.int16)
     return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped, nonfinite
 
