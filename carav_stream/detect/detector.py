@@ -149,9 +149,11 @@ def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
     n_samples = c.shape[-2] if iq else c.shape[-1]
     flat = c.reshape(-1, n_samples * (2 if iq else 1))
     sumsq = np.empty(flat.shape[0])
-    for i in range(0, flat.shape[0], 256):   # float64 chunks that stay in cache
+    # float64 chunks that stay in cache; a stacked (1 x n) @ (n x 1) product per chirp runs about twice as fast as
+    # einsum here and is as exact: every partial sum is an integer below 2^53, whatever the order or FMA
+    for i in range(0, flat.shape[0], 256):
         x = flat[i: i + 256].astype(np.float64)
-        sumsq[i: i + 256] = np.einsum("...i,...i->...", x, x)
+        np.matmul(x[:, None, :], x[:, :, None], out=sumsq[i: i + 256, None, None])
     return float(lsb) * np.sqrt(sumsq / max(n_samples, 1)).reshape(lead)
 
 
