@@ -62,18 +62,21 @@ _HEADER_TYPES: dict[str, tuple[type, ...]] = {
 }
 _REQUIRED_KEYS = frozenset({"v", "stream", "seq", "cycle", "arrays", "eos"})
 _STR = frozenset({str})
+_INT = frozenset({int})
 
 
 class FrameError(ValueError):
     """A message that is not a valid frame; the text says what is wrong and where."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Frame:
     """A header dict plus named arrays (the first, usually "data", is the payload).
 
     Frames are immutable by convention: arrays received from the wire are read-only views of the message
-    buffers, and a block must never modify an array after returning it (sends do not copy).
+    buffers, and a block must never modify an array after returning it (sends do not copy). Derive a new
+    frame (`derive`, `with_header`) instead of changing one. (Not a frozen dataclass: a frozen __init__ costs about
+    three times as much, 0.49 against 0.17 us, and the runtime builds two frames per message at every hop.)
     """
 
     header: dict[str, Any] = field(default_factory=dict)
@@ -120,7 +123,7 @@ class Frame:
             new_arrays["data"] = np.asarray(data)
         if arrays:
             new_arrays.update({k: np.asarray(a) for k, a in arrays.items()})
-        wire = {k: w for k, w in self.wire.items() if new_arrays.get(k) is w[0]}
+        wire = {k: w for k, w in self.wire.items() if new_arrays.get(k) is w[0]} if self.wire else {}
         return Frame(header, new_arrays, wire)
 
     def with_header(self, **fields: Any) -> "Frame":
@@ -148,19 +151,24 @@ def _pack_default(obj: Any) -> Any:
                     "use plain numbers, strings, lists or dicts, and put arrays in the payload")
 
 
-def encode(frame: Frame, **stamp: Any) -> list[Any]:
+def header_packer() -> msgpack.Packer:
+    """A reusable msgpack packer for `encode` (faster than a packer per call); one per thread, never shared."""
+    return msgpack.Packer(use_bin_type=True, default=_pack_default)
+
+
+def encode(frame: Frame, packer: msgpack.Packer | None = None, /, **stamp: Any) -> list[Any]:
     """The multipart message for `frame`: [header bytes, buffer, ...]; buffers are not copied when contiguous.
 
     `stamp` adds runtime fields (stream, node, block, ...) to the header; "v" and "arrays" are set here.
+    `packer` (from header_packer(), owned by the calling thread) saves building one per message.
     """
-    header = dict(frame.header)
-    header.update(stamp)
-    header["v"] = SCHEMA_VERSION
+    header = {**frame.header, **stamp, "v": SCHEMA_VERSION}
     header.setdefault("eos", False)
     header.setdefault("cycle", header.get("seq", 0))
     specs, buffers = [], []
+    wire = frame.wire
     for name, array in frame.arrays.items():
-        received = frame.wire.get(name)
+        received = wire.get(name) if wire else None
         if received is not None and received[0] is array:   # forwarded unchanged: resend the received part
             specs.append([name, _NAME_OF[array.dtype], list(array.shape)])
             buffers.append(received[1])
@@ -175,10 +183,11 @@ def encode(frame: Frame, **stamp: Any) -> list[Any]:
         if not array.flags.c_contiguous:
             array = np.ascontiguousarray(array)  # the one copy a non-contiguous view needs
         specs.append([name, dtype_name, list(array.shape)])
-        buffers.append(memoryview(array.reshape(-1).view(np.uint8)) if array.size else b"")
+        buffers.append(memoryview(array).cast("B") if array.size else b"")
     header["arrays"] = specs
     try:
-        head = msgpack.packb(header, use_bin_type=True, default=_pack_default)
+        head = packer.pack(header) if packer is not None else msgpack.packb(header, use_bin_type=True,
+                                                                             default=_pack_default)
     except (TypeError, ValueError, OverflowError) as exc:
         raise FrameError(f"header cannot be encoded: {exc}") from exc
     return [head, *buffers]
@@ -223,21 +232,19 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
         if len(buf) != nbytes:
             raise FrameError(f"array {name!r}: shape {tuple(shape)} of {dtype.name} needs {nbytes} bytes, "
                              f"buffer has {len(buf)}")
-        arr = np.ndarray(shape, dtype, buf)
-        arr.flags.writeable = False
-        arrays[name] = arr
+        arrays[name] = arr = np.ndarray(shape, dtype, buf.toreadonly())   # a read-only view, no copy
         if nbytes and not isinstance(part, (bytes, bytearray, memoryview)):   # a zmq.Frame, sent on as it is
             wire[name] = (arr, part)                                             # if forwarded unchanged
     return Frame(header, arrays, wire)
 
 
 def _as_buffer(part: Any) -> memoryview:
+    buffer = getattr(part, "buffer", None)     # zmq.Frame received with copy=False
+    if type(buffer) is memoryview:
+        return buffer
     if isinstance(part, (bytes, bytearray, memoryview)):
         return memoryview(part)
-    buffer = getattr(part, "buffer", None)   # zmq.Frame received with copy=False
-    if buffer is None:
-        raise FrameError(f"message part of type {type(part).__name__} is not a byte buffer")
-    return buffer
+    raise FrameError(f"message part of type {type(part).__name__} is not a byte buffer")
 
 
 def _check_header(header: dict) -> None:
@@ -269,6 +276,6 @@ def _check_spec(i: int, spec: Any) -> tuple[str, np.dtype, list[int]]:
     if dtype is None:
         raise FrameError(f"array {name!r}: dtype {dtype_name!r} is not allowed; expected one of "
                          f"{sorted(ALLOWED_DTYPES)}")
-    if len(shape) > MAX_NDIM or not all(type(n) is int and n >= 0 for n in shape):
+    if len(shape) > MAX_NDIM or not set(map(type, shape)) <= _INT or min(shape, default=0) < 0:
         raise FrameError(f"array {name!r}: shape {shape!r} must be at most {MAX_NDIM} non-negative integers")
     return name, dtype, shape

@@ -22,7 +22,7 @@ import zmq
 
 from carav_stream import transport
 from carav_stream.block import Block
-from carav_stream.frames import Frame, FrameError, decode, encode
+from carav_stream.frames import Frame, FrameError, decode, encode, header_packer
 from carav_stream.registry import Registry
 
 HEARTBEAT_S = 0.5
@@ -83,7 +83,9 @@ class NodeRunner:
         self.processed = 0
         self.consumed = 0                                # input frames handed to the block
         self.cycles = spec.get("start_cycles", 0)        # cycles those frames carried (header `cycles`)
-        self.busy_s = 0.0                                # CPU time spent inside the block's own code
+        # Time inside the block's own calls, by the wall clock: a thread CPU clock is a system call (about 1 us
+        # on a VM) and two per frame cost a pass node measurably; counters() reads the process's CPU (cpu_s).
+        self.busy_s = 0.0
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
         self.go = not self.cls.is_source()
@@ -93,6 +95,7 @@ class NodeRunner:
         self.next_hb = 0.0
         self.next_control = 0.0
         self.seq = spec.get("start_seq", 0)
+        self.packer = header_packer()
 
     def use_block(self, block: Block, block_type: str) -> None:
         """Run `block` from now on; the per-frame stamps of this node and block are prepared here once."""
@@ -128,6 +131,7 @@ class NodeRunner:
                 "rejected": dict(self.c_rejected), "unpaired": dict(self.c_unpaired),
                 "undeliverable": dict(self.c_undeliverable),
                 "processed": self.processed, "consumed": self.consumed, "cycles": self.cycles, "busy_s": self.busy_s,
+                "cpu_s": time.process_time(),
                 "block": self.block_type, "generation": self.generation}
 
     def idle(self) -> None:
@@ -248,7 +252,7 @@ class NodeRunner:
             t_created = h.get("t_created_s", time.time())
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
-        parts = encode(frame, stream=self.streams[port], seq=seq, cycle=cycle, t_created_s=t_created,
+        parts = encode(frame, self.packer, stream=self.streams[port], seq=seq, cycle=cycle, t_created_s=t_created,
                        t_sent_s=time.time(), trail=trail, **self.stamp)
         self.c_out[port] += 1
         for i, (edge, _) in enumerate(self.outputs.get(port, [])):
@@ -261,6 +265,12 @@ class NodeRunner:
         """Send on edge i of `port`, blocking under back-pressure; connect afresh if its consumer was
         restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
         edge, sock = self.outputs[port][i]
+        if not self.cut and not self.reconnect:   # the usual case: one attempt without the bookkeeping below
+            try:
+                transport.send_message(sock, parts)
+                return True
+            except zmq.Again:
+                self.idle()
         while edge not in self.cut:
             if edge in self.reconnect:
                 sock = self.renew(port, i)
@@ -278,6 +288,16 @@ class NodeRunner:
     def pump(self) -> None:
         """Process every frame set that is complete (all inputs at the same seq) or can never complete."""
         ports = self.in_ports
+        if len(ports) == 1 and not self.cls.merge_inputs:   # one input: every frame is complete, in order
+            buf = self.buffers[ports[0]]
+            while True:
+                if self.pending_swap:
+                    self.apply_swap()
+                    if self.cls.merge_inputs:   # the new block merges: the general loop below takes over
+                        break
+                if not buf:
+                    return
+                self.run_block("process", [buf.popleft()])
         while True:
             if self.pending_swap:
                 self.apply_swap()
@@ -322,13 +342,16 @@ class NodeRunner:
         self.seq = seq = context.header["seq"]
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
-        t0 = time.thread_time()
+        t0 = time.perf_counter()
         if what == "process":
-            full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
-            result = self.block.process(*map(full.get, self.arg_names))
+            if self.arg_names == self.in_ports and not self.cls.merge_inputs:   # every input connected
+                result = self.block.process(*frames)
+            else:
+                full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
+                result = self.block.process(*map(full.get, self.arg_names))
         else:
             result = self.block.unpaired(port, context)
-        self.busy_s += time.thread_time() - t0
+        self.busy_s += time.perf_counter() - t0
         self.processed += 1
         self.consumed += len(frames)
         self.cycles += context.header.get("cycles", 1)
@@ -346,9 +369,9 @@ class NodeRunner:
             if self.pending_swap:
                 self.apply_swap()
             self.block.cycle_budget = max_cycles - self.cycles if max_cycles else None
-            t0 = time.thread_time()
+            t0 = time.perf_counter()
             result = self.block.generate(self.seq)
-            self.busy_s += time.thread_time() - t0
+            self.busy_s += time.perf_counter() - t0
             if result is None:
                 break
             self.processed += 1
@@ -361,25 +384,28 @@ class NodeRunner:
     def run_filter(self) -> None:
         poller = zmq.Poller()
         poller.register(self.control, zmq.POLLIN)
+        single = self.in_ports[0] if len(self.in_ports) == 1 else None
         while True:
             self.pump()
+            if single is not None and single not in self.eos and len(self.buffers[single]) < self.limit:
+                self.receive(single, wait=True)   # one input, nothing to pair: wait inside ZeroMQ's receive
+                self.idle()
+                continue
+            # several inputs, or none wanted (end of stream, full buffer): wait for any, or for control
             wanted = [p for p, b in self.buffers.items() if p not in self.eos and len(b) < self.limit]
-            if len(self.in_ports) == 1 and wanted:   # one input, nothing to pair: wait inside ZeroMQ's receive
-                self.receive(wanted[0], wait=True)
-            else:                                    # several inputs (or none wanted): wait for any, or control
-                if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
-                    return
-                for p, sock in self.inputs.items():
-                    if p in wanted and sock not in poller:
-                        poller.register(sock, zmq.POLLIN)
-                    elif p not in wanted and sock in poller:
-                        poller.unregister(sock)
-                events = dict(poller.poll(transport.TICK_S * 1000))
-                if self.control in events:
-                    self.serve_control()
-                for p in wanted:
-                    if self.inputs[p] in events:
-                        self.receive(p, wait=False)
+            if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
+                return
+            for p, sock in self.inputs.items():
+                if p in wanted and sock not in poller:
+                    poller.register(sock, zmq.POLLIN)
+                elif p not in wanted and sock in poller:
+                    poller.unregister(sock)
+            events = dict(poller.poll(transport.TICK_S * 1000))
+            if self.control in events:
+                self.serve_control()
+            for p in wanted:
+                if self.inputs[p] in events:
+                    self.receive(p, wait=False)
             self.idle()
 
     def run(self) -> int:

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from carav_stream.frames import (ALLOWED_DTYPES, MAX_HEADER_BYTES, SCHEMA_VERSION, Frame, FrameError, decode,
-                                 encode, end_of_stream)
+                                 encode, end_of_stream, header_packer)
 
 header_values = st.recursive(
     st.none() | st.booleans() | st.integers(-2**63, 2**63 - 1) | st.floats(allow_nan=False) | st.text(max_size=20),
@@ -119,6 +119,17 @@ def test_header_with_non_plain_value_is_refused_at_encode():
         encode(Frame.of(None, when=object()), seq=0, stream="a.b")
 
 
+@settings(max_examples=40)
+@given(headers=st.lists(user_headers, min_size=1, max_size=4), seq=st.integers(0, 2**40))
+def test_a_reused_header_packer_encodes_what_a_fresh_one_does(headers, seq):
+    packer = header_packer()           # the node keeps one for all its messages
+    for header in headers:
+        with pytest.raises(FrameError):                      # a failed header must not leave residue behind
+            encode(Frame.of(None, bad=object()), packer, seq=seq, stream="a.b")
+        frame = Frame.of(np.arange(4.0), **{**header, "q": np.float32(0.5)})
+        assert encode(frame, packer, seq=seq, stream="a.b")[0] == encode(frame, seq=seq, stream="a.b")[0]
+
+
 def test_numpy_scalars_in_headers_become_plain_numbers():
     out = decode(encode(Frame.of(None, q=np.float32(1.5), n=np.int64(3)), seq=0, stream="a.b"))
     assert out.header["q"] == 1.5 and out.header["n"] == 3
@@ -154,6 +165,9 @@ def test_arrays_forwarded_unchanged_are_sent_as_the_received_zmq_frames():
         assert b.poll(5000)
         received = b.recv_multipart(copy=False)
         frame = decode(received)
+        assert not frame.payload.flags.writeable             # a view of the (writable) received buffer
+        with pytest.raises(ValueError):
+            frame.payload[0, 0] = 1
         parts = encode(frame.derive(keep_data=True), seq=4, stream="p.out", trail=["s:src@1#0", "p:pass@1#0"])
         assert parts[1] is received[1]                       # no new buffer, no copy
         changed = encode(frame.derive(np.ones(3)), seq=4, stream="p.out")
