@@ -83,9 +83,7 @@ class NodeRunner:
         self.processed = 0
         self.consumed = 0                                # input frames handed to the block
         self.cycles = spec.get("start_cycles", 0)        # cycles those frames carried (header `cycles`)
-        # Time inside the block's own calls, by the wall clock: a thread CPU clock is a system call (about 1 us
-        # on a VM) and two per frame cost a pass node measurably; counters() reads the process's CPU (cpu_s).
-        self.busy_s = 0.0
+        self.busy_s = 0.0                                # CPU time spent inside the block's own code
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
         self.go = not self.cls.is_source()
@@ -131,7 +129,7 @@ class NodeRunner:
                 "rejected": dict(self.c_rejected), "unpaired": dict(self.c_unpaired),
                 "undeliverable": dict(self.c_undeliverable),
                 "processed": self.processed, "consumed": self.consumed, "cycles": self.cycles, "busy_s": self.busy_s,
-                "cpu_s": time.process_time(),
+                "cpu_s": time.process_time(),           # the whole node process, ZeroMQ I/O thread included
                 "block": self.block_type, "generation": self.generation}
 
     def idle(self) -> None:
@@ -342,7 +340,7 @@ class NodeRunner:
         self.seq = seq = context.header["seq"]
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
-        t0 = time.perf_counter()
+        t0 = time.thread_time()
         if what == "process":
             if self.arg_names == self.in_ports and not self.cls.merge_inputs:   # every input connected
                 result = self.block.process(*frames)
@@ -351,7 +349,7 @@ class NodeRunner:
                 result = self.block.process(*map(full.get, self.arg_names))
         else:
             result = self.block.unpaired(port, context)
-        self.busy_s += time.perf_counter() - t0
+        self.busy_s += time.thread_time() - t0
         self.processed += 1
         self.consumed += len(frames)
         self.cycles += context.header.get("cycles", 1)
@@ -369,9 +367,9 @@ class NodeRunner:
             if self.pending_swap:
                 self.apply_swap()
             self.block.cycle_budget = max_cycles - self.cycles if max_cycles else None
-            t0 = time.perf_counter()
+            t0 = time.thread_time()
             result = self.block.generate(self.seq)
-            self.busy_s += time.perf_counter() - t0
+            self.busy_s += time.thread_time() - t0
             if result is None:
                 break
             self.processed += 1
