@@ -186,8 +186,7 @@ def encode(frame: Frame, packer: msgpack.Packer | None = None, /, **stamp: Any) 
         buffers.append(memoryview(array).cast("B") if array.size else b"")
     header["arrays"] = specs
     try:
-        head = packer.pack(header) if packer is not None else msgpack.packb(header, use_bin_type=True,
-                                                                             default=_pack_default)
+        head = (packer or header_packer()).pack(header)
     except (TypeError, ValueError, OverflowError) as exc:
         raise FrameError(f"header cannot be encoded: {exc}") from exc
     return [head, *buffers]
