@@ -263,12 +263,6 @@ class NodeRunner:
         """Send on edge i of `port`, blocking under back-pressure; connect afresh if its consumer was
         restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
         edge, sock = self.outputs[port][i]
-        if not self.cut and not self.reconnect:   # the usual case: one attempt without the bookkeeping below
-            try:
-                transport.send_message(sock, parts)
-                return True
-            except zmq.Again:
-                self.idle()
         while edge not in self.cut:
             if edge in self.reconnect:
                 sock = self.renew(port, i)
