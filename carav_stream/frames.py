@@ -19,6 +19,9 @@ Reserved header keys (the runtime stamps them; blocks set their own fields besid
     node, block, block_version   provenance of the node and block version that produced the frame
     trail          list   ["node:block@version", ...] every hop the cycle went through
     eos            bool   end of stream: an explicit frame, never an empty payload
+    resume         bool   first message of a producer's fresh connection to a restarted consumer (header only):
+                          frames before `seq` on this stream went with the old connection, the next has
+                          seq >= `seq`
 
 Decoding validates everything before any use and never builds objects from the wire: msgpack ext types are
 refused, dtypes come from a whitelist of plain numeric types, and shape, size and header types are checked.
@@ -49,7 +52,7 @@ _NAME_OF = {np.dtype(n).newbyteorder(o): n for n in ALLOWED_DTYPES for o in "<>=
 _WIRE_DTYPE = {n: np.dtype(n).newbyteorder("<") for n in ALLOWED_DTYPES}
 
 RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "cycles", "t_created_s", "t_sent_s", "arrays",
-                           "node", "block", "block_version", "trail", "eos"})
+                           "node", "block", "block_version", "trail", "eos", "resume"})
 # Keys a derived frame does not inherit: the runtime stamps them anew at every hop.
 _PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block", "block_version"})
 
@@ -58,7 +61,7 @@ _PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block",
 _HEADER_TYPES: dict[str, tuple[type, ...]] = {
     "v": (int,), "stream": (str,), "seq": (int,), "cycle": (int,), "cycles": (int,), "t_created_s": (float, int),
     "t_sent_s": (float, int), "arrays": (list,), "node": (str,), "block": (str,), "block_version": (str,),
-    "trail": (list,), "eos": (bool,),
+    "trail": (list,), "eos": (bool,), "resume": (bool,),
 }
 _REQUIRED_KEYS = frozenset({"v", "stream", "seq", "cycle", "arrays", "eos"})
 _STR = frozenset({str})

@@ -63,7 +63,10 @@ class NodeRunner:
         self.endpoints = {e["edge"]: e["connect"] for edges in spec["outputs"].values() for e in edges}
         self.outputs: dict[str, list[tuple[str, zmq.Socket]]] = {
             port: [(e["edge"], self.connect(e["edge"])) for e in edges] for port, edges in spec["outputs"].items()}
-        self.reconnect: set[str] = set()                 # edges whose consumer was restarted
+        self.edge_of = {edge: (port, i) for port, edges in self.outputs.items() for i, (edge, _) in enumerate(edges)}
+        self.reconnect: set[str] = set()                 # edges whose consumer was restarted, not yet resumed
+        self.sent_seq: dict[str, int] = {}               # per edge: seq of the last frame ZeroMQ took
+        self.eos_sent = False
         self.limit = max(4, 4 * spec["queue_frames"])    # frames buffered per input while pairing
         # After a crash, partners lost with the dead node can never arrive: a node restarted, or fed by a
         # restarted node, must not hold frames for them forever (its full buffer would stall the graph).
@@ -72,6 +75,7 @@ class NodeRunner:
         self.buffers = {p: collections.deque() for p in self.in_ports}
         self.eos: dict[str, int | None] = {}          # port -> announced count (None: upstream gone)
         self.last_seq: dict[str, int] = {}
+        self.handled = -1            # pairing inputs: last seq handed to the block (a later partner is late)
         self.c_in = collections.Counter()
         self.c_out = collections.Counter()
         self.c_sent = collections.Counter()              # per edge
@@ -109,15 +113,27 @@ class NodeRunner:
         return transport.connect_output(self.ctx, self.endpoints[edge], self.spec["queue_frames"], self.curve,
                                         int(self.spec["drain_timeout_s"] * 1000))
 
-    def renew(self, port: str, i: int) -> zmq.Socket:
-        """A fresh connection for edge i of `port`: a connection to a consumer that died may never recover.
-        What the old socket still held is lost with it, and the counters show it as lost on that edge."""
-        edge, old = self.outputs[port][i]
-        old.close(linger=0)
+    def resume(self, edge: str) -> None:
+        """Connect afresh to the restarted consumer of `edge` (a connection to a consumer that died may never
+        recover) and tell it first where the stream resumes: the frames the old connection still held are lost
+        with it (the counters show them as lost on that edge), and the new consumer must not wait for them to
+        pair its other inputs. Done at once, even while this node is blocked elsewhere, because that consumer
+        may be what it is blocked on."""
+        port, i = self.edge_of[edge]
+        self.outputs[port][i][1].close(linger=0)
         sock = self.connect(edge)
         self.outputs[port][i] = (edge, sock)
+        marker = Frame({"seq": max(self.sent_seq.get(edge, -1) + 1, self.seq), "resume": True})
+        parts = [encode(marker, stream=f"{self.name}.{port}", node=self.name, block=self.block_type)]
+        if self.eos_sent:   # this node had finished: the new consumer needs the end of stream too
+            parts.append(encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
+                                stream=f"{self.name}.{port}", node=self.name, block=self.block_type))
+        try:
+            for msg in parts:             # a fresh connection has room: ZeroMQ queues them at once
+                transport.send_message(sock, msg)
+        except zmq.Again:                 # it had not: the next serve_control connects afresh and tries again
+            return
         self.reconnect.discard(edge)
-        return sock
 
     # -- control plane -------------------------------------------------------------------------------------
     def tell(self, kind: str, **fields: Any) -> None:
@@ -163,9 +179,11 @@ class NodeRunner:
             elif kind == "cut":                 # a downstream node died for good: stop feeding it
                 self.cut.update(msg.get("edges", []))
             elif kind == "reconnect":           # a downstream node was restarted: connect afresh
-                self.reconnect.update(msg.get("edges", []))
+                self.reconnect.update(e for e in msg.get("edges", []) if e in self.edge_of)
             elif kind == "recover":             # an upstream node was restarted: partners may be lost
                 self.recovering = True
+        for edge in [*self.reconnect]:
+            self.resume(edge)
 
     def apply_swap(self) -> None:
         msg, self.pending_swap = self.pending_swap, None
@@ -209,13 +227,24 @@ class NodeRunner:
             except FrameError as exc:
                 self.reject(port, str(exc))
                 continue
-            if frame.header["eos"]:                 # decode guarantees the key
-                self.eos[port] = frame.header.get("count")
+            h = frame.header
+            seq = h["seq"]
+            if h["eos"]:                            # decode guarantees the key
+                self.eos[port] = h.get("count")
                 return
-            seq = frame.header["seq"]
             last = self.last_seq.get(port)
+            if "resume" in h:                       # a producer's fresh connection: nothing before seq comes
+                if h["resume"] is not True or frame.arrays:
+                    self.reject(port, "a resume marker must say resume = true and carry no arrays")
+                elif last is None or seq - 1 > last:
+                    self.last_seq[port] = seq - 1
+                continue
             if last is not None and seq <= last:
                 self.reject(port, f"seq {seq} after {last}: duplicate or out of order")
+                continue
+            if seq <= self.handled:
+                self.reject(port, f"seq {seq} came after the node handled seq {self.handled} without it "
+                                  "(its partner was given up)")
                 continue
             self.last_seq[port] = seq
             self.c_in[port] += 1
@@ -256,19 +285,26 @@ class NodeRunner:
         for i, (edge, _) in enumerate(self.outputs.get(port, [])):
             if self.deliver(port, i, parts):
                 self.c_sent[edge] += 1
+                self.sent_seq[edge] = seq
             else:
                 self.c_undeliverable[edge] += 1
 
     def deliver(self, port: str, i: int, parts: list[Any]) -> bool:
-        """Send on edge i of `port`, blocking under back-pressure; connect afresh if its consumer was
+        """Send on edge i of `port`, blocking under back-pressure; on the fresh connection if its consumer was
         restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
-        edge, sock = self.outputs[port][i]
-        while edge not in self.cut:
-            if edge in self.reconnect:
-                sock = self.renew(port, i)
-            if transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut or edge in self.reconnect):
+        edges = self.outputs[port]
+        while True:
+            edge, sock = edges[i]
+            if edge in self.cut:
+                return False
+            if edge in self.reconnect:          # not resumed yet (no room for the marker): try again
+                self.resume(edge)
+                if edge in self.reconnect:
+                    time.sleep(transport.TICK_S)
+                    self.idle()
+                    continue
+            if transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut or edges[i][1] is not sock):
                 return True
-        return False
 
     def send_eos(self) -> None:
         for port, edges in self.outputs.items():
@@ -276,6 +312,7 @@ class NodeRunner:
                 parts = encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
                                stream=f"{self.name}.{port}", node=self.name, block=self.block_type)
                 self.deliver(port, i, parts)
+        self.eos_sent = True
 
     def pump(self) -> None:
         """Process every frame set that is complete (all inputs at the same seq) or can never complete."""
@@ -300,23 +337,28 @@ class NodeRunner:
                 port = next(iter(heads))
                 self.run_block("process", [self.buffers[port].popleft()], port)
                 continue
-            if len(heads) == len(ports):
-                seqs = {f.header["seq"] for f in heads.values()}
-                if len(seqs) == 1:
-                    frames = [self.buffers[p].popleft() for p in ports]
-                    self.stalled_since = None
-                    self.run_block("process", frames)
-                    continue
-                top = max(seqs)
-                port = next(p for p, f in heads.items() if f.seq < top)
-            else:
-                finished = [p for p in ports if not self.buffers[p] and p in self.eos]
-                if not finished and not self.given_up():
-                    return
-                port = min(heads, key=lambda p: heads[p].seq)
-            frame = self.buffers[port].popleft()
-            self.c_unpaired[port] += 1
-            self.run_block("unpaired", [frame], port)
+            seq = min(f.seq for f in heads.values())
+            group = [p for p in ports if p in heads and heads[p].seq == seq]
+            if len(group) == len(ports):
+                frames = [self.buffers[p].popleft() for p in ports]
+                self.stalled_since = None
+                self.handled = seq
+                self.run_block("process", frames)
+                continue
+            if not any(self.lacks(p, seq) for p in ports) and not self.given_up():
+                return                          # a partner may still come
+            self.handled = seq                  # a partner that comes after this is late (receive refuses it)
+            for p in group:
+                self.c_unpaired[p] += 1
+                self.run_block("unpaired", [self.buffers[p].popleft()], p)
+
+    def lacks(self, port: str, seq: int) -> bool:
+        """Input `port` can never supply a frame with `seq`: it holds a later one, it received one past `seq`
+        (or its producer said it resumed past it), or its stream has ended."""
+        buf = self.buffers[port]
+        if buf:
+            return buf[0].seq > seq
+        return port in self.eos or self.last_seq.get(port, -1) >= seq
 
     def given_up(self) -> bool:
         """In recovery only: a full buffer has waited RECOVERY_STALL_S for an empty partner input, which in a

@@ -136,8 +136,15 @@ def test_numpy_scalars_in_headers_become_plain_numbers():
 
 
 def test_blocks_cannot_set_reserved_header_fields():
-    with pytest.raises(FrameError, match="reserved"):
-        Frame.of(np.zeros(2), seq=5)
+    for field in ("seq", "eos", "resume"):
+        with pytest.raises(FrameError, match="reserved"):
+            Frame.of(np.zeros(2), **{field: True})
+
+
+def test_a_resume_marker_must_say_true_or_false():
+    assert decode(encode(Frame({"seq": 3, "resume": True}), stream="a.b")).header["resume"] is True
+    with pytest.raises(FrameError, match="'resume' must be bool"):
+        decode(encode(Frame({"seq": 3, "resume": 1}), stream="a.b"))
 
 
 def test_derive_inherits_cycle_fields_but_not_per_hop_provenance():

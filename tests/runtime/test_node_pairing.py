@@ -1,0 +1,149 @@
+"""A node's pairing of inputs by seq and its restart protocol, driven in-process on real ZeroMQ sockets.
+
+When a consumer is restarted, each producer connects afresh and first sends a `resume` marker: the frames its
+old connection held are gone, so the new consumer must not wait for them to pair its other inputs (waiting
+deadlocks a graph whose producers are blocked behind that consumer). A partner that comes after its seq was
+handled without it is refused, never handed to the block: a second, out-of-order output would follow.
+"""
+import time
+
+import msgpack
+import numpy as np
+import pytest
+import zmq
+
+from carav_stream import node as node_mod
+from carav_stream import transport
+from carav_stream.frames import Frame, decode, encode
+from carav_stream.node import NodeRunner
+from tests.integration.conftest import TOYS
+
+EDGE = "p.out -> sink.inp"
+
+
+@pytest.fixture
+def harness(tmp_path):
+    """A `pairer` node (inputs a and b, output out) with the test holding its control ROUTER, a PUSH socket into
+    each input and the PULL socket its output edge connects to."""
+    ctx = zmq.Context()
+    ep = {k: transport.ipc_endpoint(tmp_path, k) for k in ("ctl", "a", "b", "out")}
+    router = ctx.socket(zmq.ROUTER)
+    router.bind(ep["ctl"])
+    sink = transport.bind_input(ctx, ep["out"], hwm=100)
+    spec = {"name": "p", "type": "pairer", "params": {}, "control": ep["ctl"], "block_paths": [str(TOYS)],
+            "inputs": {"a": ep["a"], "b": ep["b"]}, "outputs": {"out": [{"edge": EDGE, "connect": ep["out"]}]},
+            "queue_frames": 2, "drain_timeout_s": 1.0, "security": {}}
+    runner = NodeRunner(spec)
+    runner.block.start()
+    feeds = {p: transport.connect_output(ctx, ep[p], hwm=100, linger_ms=0) for p in ("a", "b")}
+
+    class H:
+        node = runner
+
+        @staticmethod
+        def feed(port, *seqs, resume=None, marker=None):
+            """Frames with `seqs` into `port`, then a resume marker at seq `resume` (or the header `marker`)."""
+            for seq in seqs:
+                f = Frame({}, {"data": np.full(2, float(seq))})
+                transport.send_message(feeds[port], encode(f, stream=f"up.{port}", seq=seq))
+            if resume is not None:
+                marker = {"seq": resume, "resume": True}
+            if marker is not None:
+                transport.send_message(feeds[port], encode(Frame(marker), stream=f"up.{port}"))
+
+        @staticmethod
+        def settle():
+            """Receive everything fed so far and pump it."""
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline:
+                for p in ("a", "b"):
+                    runner.receive(p, wait=False)
+                runner.pump()
+                time.sleep(0.02)
+                if not any(runner.inputs[p].poll(0) for p in ("a", "b")):
+                    runner.pump()
+                    return
+
+        @staticmethod
+        def outputs():
+            out = []
+            while sink.poll(200):
+                out.append(decode(transport.recv_message(sink)).header)
+            return [(h["seq"], h.get("handled"), h.get("port"), h.get("resume")) for h in out]
+
+        @staticmethod
+        def control(**msg):
+            router.send_multipart([b"p", msgpack.packb(msg)])
+
+    yield H
+    for s in (*feeds.values(), sink, router, runner.control, *runner.inputs.values(),
+              *(s for edges in runner.outputs.values() for _, s in edges)):
+        s.close(linger=0)
+    ctx.term()
+
+
+def test_frames_pair_by_seq_and_a_skipped_seq_goes_alone_once_the_other_input_is_past_it(harness):
+    harness.feed("a", 0, 1, 2, 3)
+    harness.feed("b", 0, 2, 3)
+    harness.settle()
+    assert harness.outputs() == [(0, "paired", None, None), (1, "alone", "a", None), (2, "paired", None, None),
+                                 (3, "paired", None, None)]
+
+
+def test_an_unmatched_frame_waits_for_its_partner_while_one_may_still_come(harness):
+    harness.feed("a", 0, 1)
+    harness.settle()
+    assert harness.outputs() == [] and harness.node.c_unpaired == {}
+    harness.feed("b", 0, 1)
+    harness.settle()
+    assert harness.outputs() == [(0, "paired", None, None), (1, "paired", None, None)]
+
+
+def test_a_resume_marker_releases_the_frames_whose_partners_went_with_the_old_connection(harness):
+    # a restarted consumer: input b's producer resumed at seq 3, so frames 0-2 on a can never pair
+    harness.feed("a", 0, 1, 2, 3, 4)
+    harness.feed("b", resume=3)
+    harness.settle()
+    assert harness.node.recovering is False                      # no timer: the marker says so at once
+    assert harness.outputs() == [(0, "alone", "a", None), (1, "alone", "a", None), (2, "alone", "a", None)]
+    harness.feed("b", 3, 4)
+    harness.settle()
+    assert harness.outputs() == [(3, "paired", None, None), (4, "paired", None, None)]
+    assert harness.node.c_in == {"a": 5, "b": 2} and harness.node.c_rejected == {}
+
+
+def test_a_malformed_resume_marker_is_rejected_and_releases_nothing(harness):
+    harness.feed("a", 0, 1)
+    harness.feed("b", marker={"seq": 5, "resume": False})
+    harness.settle()
+    assert harness.outputs() == [] and harness.node.c_rejected == {"b": 1}
+
+
+def test_a_partner_arriving_after_its_seq_was_given_up_is_refused_not_processed(harness, monkeypatch):
+    monkeypatch.setattr(node_mod, "RECOVERY_STALL_S", 0.0)
+    harness.node.recovering = True                             # fed by a restarted node: partners may be lost
+    harness.feed("a", *range(harness.node.limit))              # a full buffer with no partner in sight
+    harness.settle()
+    first = harness.outputs()
+    assert first and first[0] == (0, "alone", "a", None)
+    gone = first[-1][0]
+    harness.feed("b", *range(gone + 1))                        # the partners, too late
+    harness.feed("b", gone + 1)                                # and the first one in time
+    harness.settle()
+    assert harness.node.c_rejected == {"b": gone + 1}          # refused, counted, never handed to the block
+    assert harness.outputs() == [(gone + 1, "paired", None, None)]
+
+
+def test_a_producer_reconnects_at_once_and_tells_the_restarted_consumer_where_it_resumes(harness):
+    node = harness.node
+    for seq in range(3):
+        node.send("out", Frame({}, {"data": np.zeros(2)}), Frame({"seq": seq}))
+    assert [s for s, *_ in harness.outputs()] == [0, 1, 2]
+    node.seq = 3
+    harness.control(type="reconnect", edges=[EDGE, "not.an -> edge.of_this_node"])
+    time.sleep(0.1)
+    node.serve_control()                                       # no frame to send: it reconnects anyway
+    assert node.reconnect == set()
+    node.send("out", Frame({}, {"data": np.zeros(2)}), Frame({"seq": 3}))
+    assert harness.outputs() == [(3, None, None, True), (3, None, None, None)]   # the marker comes first
+    assert node.c_sent[EDGE] == 4                                                # a marker is not a frame
