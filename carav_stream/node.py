@@ -6,6 +6,12 @@ for a source, until it generated its cycles or was told to stop). Control messag
 heartbeats travel on a DEALER socket to the supervisor's ROUTER. A block exception ends the process with the
 block's traceback reported to the supervisor; a bad message is rejected, counted and reported, and the node
 keeps running.
+
+Restarts: when a node's consumer is restarted, the node connects afresh at once (what the old connection held
+is lost and counted) and first sends a header-only frame {resume: true, seq: X}: nothing before X comes on that
+stream. A pairing node releases a frame without its partner as soon as another input shows the partner can never
+come (it holds a later seq, received or resumed past it, or ended); a partner arriving after its seq was handled
+is rejected, so the block sees every seq once and outputs stay in order.
 """
 from __future__ import annotations
 

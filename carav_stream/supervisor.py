@@ -61,6 +61,7 @@ class NodeState:
     counters: dict[str, Any] = field(default_factory=dict)
     dead_counters: list[dict[str, Any]] = field(default_factory=list)   # of crashed incarnations
     restarts: int = 0
+    unreported: int = 0        # incarnations that died without a final report (SIGKILL, hang)
     history: list[dict[str, Any]] = field(default_factory=list)
     lost: dict[str, int] = field(default_factory=dict)
     rejects: list[str] = field(default_factory=list)
@@ -281,6 +282,7 @@ class Supervisor:
         detail = st.error or self.log_tail(st.name)
         self.log(f"carav: node {st.name!r} ({st.spec['type']}) failed: {reason}\n{_indent(detail)}")
         st.grace = False
+        st.unreported += st.error is None     # no last words: its counters are those of its last heartbeat
         st.dead_counters.append(st.counters)
         st.counters = {}
         policy = self.graph.nodes[st.name].restart
@@ -475,6 +477,9 @@ class Supervisor:
         result: dict[str, Any] = {
             "graph": str(self.graph.path), "run": self.run_id, "host": self.host or LOCAL_HOST,
             "cycles": cycles, "lost": lost, "lost_by_edge": edge_loss,
+            # nodes that died without a final report: the counts on their edges (and so `lost`) are estimates,
+            # off by what they did after their last heartbeat
+            "estimated_counts": sorted(n for n, st in self.nodes.items() if st.unreported),
             "rejected": sum(sum(p["rejected"].values()) for p in per_node.values()),
             "unpaired": sum(sum(p["unpaired"].values()) for p in per_node.values()),
             "restarts": sum(st.restarts for st in self.nodes.values()),

@@ -163,6 +163,7 @@ def test_crashed_block_restarts_by_policy_and_the_loss_is_accounted(carav):
     s = run.summary()
     got = [l["seq"] for l in read_jsonl(carav.workdir / "out.jsonl")]
     assert s["restarts"] == 1 and got[-1] == 399 and got == sorted(set(got))
+    assert s["estimated_counts"] == []      # the crash was reported with final counters: the counts are exact
     assert got[:50] == list(range(50))
     # every cycle is either delivered or counted lost: none vanishes silently
     assert len(got) + s["lost"] == 400, (len(got), s["lost"], s["lost_by_edge"])
