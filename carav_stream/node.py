@@ -132,8 +132,7 @@ class NodeRunner:
         marker = Frame({"seq": max(self.sent_seq.get(edge, -1) + 1, self.seq), "resume": True})
         parts = [encode(marker, stream=f"{self.name}.{port}", node=self.name, block=self.block_type)]
         if self.eos_sent:   # this node had finished: the new consumer needs the end of stream too
-            parts.append(encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
-                                stream=f"{self.name}.{port}", node=self.name, block=self.block_type))
+            parts.append(self.eos_message(port, edge))
         try:
             for msg in parts:             # a fresh connection has room: ZeroMQ queues them at once
                 transport.send_message(sock, msg)
@@ -312,12 +311,15 @@ class NodeRunner:
             if transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut or edges[i][1] is not sock):
                 return True
 
+    def eos_message(self, port: str, edge: str) -> list[Any]:
+        """End of stream on `edge`, with the count of frames sent on it for the consumer to check."""
+        return encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
+                      stream=f"{self.name}.{port}", node=self.name, block=self.block_type)
+
     def send_eos(self) -> None:
         for port, edges in self.outputs.items():
             for i, (edge, _) in enumerate(edges):
-                parts = encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
-                               stream=f"{self.name}.{port}", node=self.name, block=self.block_type)
-                self.deliver(port, i, parts)
+                self.deliver(port, i, self.eos_message(port, edge))
         self.eos_sent = True
 
     def pump(self) -> None:

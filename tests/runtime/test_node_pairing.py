@@ -69,7 +69,8 @@ def harness(tmp_path):
             out = []
             while sink.poll(200):
                 out.append(decode(transport.recv_message(sink)).header)
-            return [(h["seq"], h.get("handled"), h.get("port"), h.get("resume")) for h in out]
+            return [(h["seq"], h.get("handled"), h.get("port"), h.get("resume") or ("eos" if h["eos"] else None))
+                    for h in out]
 
         @staticmethod
         def control(**msg):
@@ -147,3 +148,15 @@ def test_a_producer_reconnects_at_once_and_tells_the_restarted_consumer_where_it
     node.send("out", Frame({}, {"data": np.zeros(2)}), Frame({"seq": 3}))
     assert harness.outputs() == [(3, None, None, True), (3, None, None, None)]   # the marker comes first
     assert node.c_sent[EDGE] == 4                                                # a marker is not a frame
+
+
+def test_a_finished_producer_also_repeats_its_end_of_stream_to_the_restarted_consumer(harness):
+    node = harness.node
+    node.send("out", Frame({}, {"data": np.zeros(2)}), Frame({"seq": 0}))
+    node.seq = 1
+    node.send_eos()
+    assert [(s, r) for s, _, _, r in harness.outputs()] == [(0, None), (1, "eos")]
+    harness.control(type="reconnect", edges=[EDGE])
+    time.sleep(0.1)
+    node.serve_control()
+    assert [(s, r) for s, _, _, r in harness.outputs()] == [(1, True), (1, "eos")]   # resume at 1, then the end of stream again
