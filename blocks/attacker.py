@@ -61,7 +61,7 @@ class AttackerBlock(Block):
                              "(graph-wide, so that the channel renders the same fidelity)")
 
     def start(self) -> None:
-        self.rng = seed_streams(self.seed).attack
+        self.rng = seed_streams(self.seed, instance=self.instance).attack
 
     def process(self, air: Frame) -> Frame:
         heard = np.asarray(air.payload, dtype=bool)

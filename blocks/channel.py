@@ -35,7 +35,7 @@ class Channel(Block):
         self.scene_obj = scene_of(self.scene)
 
     def start(self) -> None:
-        self.rng = seed_streams(self.seed).noise
+        self.rng = seed_streams(self.seed, instance=self.instance).noise
         echo_templates(self.scene_obj, self.fidelity)   # built once (cached) before the first cycle
         self.heard = np.zeros(self.scene_obj.n_chirps, dtype=bool)
 

@@ -32,7 +32,7 @@ class ChirpSource(Block):
         seed_streams(self.seed, self.activation)
 
     def start(self) -> None:
-        self.streams = seed_streams(self.seed, self.activation)
+        self.streams = seed_streams(self.seed, self.activation, self.instance)
 
     def generate(self, seq: int) -> dict[str, Frame]:
         n = min(self.batch, self.cycle_budget or self.batch)

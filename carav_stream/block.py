@@ -111,6 +111,10 @@ class Block:
     # streams, merged in arrival order (process gets one frame, None for the other inputs).
     merge_inputs: ClassVar[bool] = False
     cycle_budget: int | None = None   # sources: set by the runtime before each generate()
+    # (incarnation, generation), set by the runtime before start(): (0, 0) for the block a run starts with; a
+    # restarted process counts incarnations, a block swapped in counts generations. A block drawing from a
+    # seeded random stream derives it from this too, so that a new instance never replays what one before drew.
+    instance: tuple[int, int] = (0, 0)
 
     def __init__(self, **values: Any) -> None:
         problems = self.param_problems(values)

@@ -59,7 +59,10 @@ class NodeRunner:
         self.control.connect(spec["control"])
         self.registry = Registry(spec.get("block_paths", []))
         self.generation = spec.get("generation", 0)
-        self.use_block(self.registry.get(spec["type"]).cls(**spec["params"]), spec["type"])
+        self.incarnation = spec.get("incarnation", 0)     # restarts of this node before this process
+        block = self.registry.get(spec["type"]).cls(**spec["params"])
+        block.instance = (self.incarnation, self.generation)
+        self.use_block(block, spec["type"])
         sec = spec.get("security") or {}
         self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
                                      sec["curve_authorized"]) if sec else None
@@ -194,6 +197,7 @@ class NodeRunner:
         msg, self.pending_swap = self.pending_swap, None
         try:
             new = self.registry.get(msg["block"]).cls(**msg.get("params", {}))
+            new.instance = (self.incarnation, self.generation + 1)
             new.start()
         except Exception as exc:   # the old block keeps running; the supervisor tells the user why
             self.tell("swap_failed", id=msg.get("id"), error=f"{type(exc).__name__}: {exc}")

@@ -292,6 +292,7 @@ class Supervisor:
             if not self.graph.edges_into(st.name):   # a source resumes where its incarnations left off
                 st.spec["start_seq"], st.spec["start_cycles"] = st.total("processed"), st.total("cycles")
             st.spec["recovering"] = True
+            st.spec["incarnation"] = st.restarts       # its blocks' seeded streams must not replay the last ones
             self.log(f"carav: restarting {st.name!r} ({st.restarts}/{policy.max_restarts})")
             self.spawn(st)
             self.pending_go.add(st.name)

@@ -3,6 +3,10 @@
 With a seed, SeedSequence(seed) spawns three independent streams (activation, noise, attack), each drawn in
 cycle order by the block that owns it, so a pipeline and the in-process chain give the same numbers bit for
 bit. Without a seed (NO_SEED) the activation sequence comes from the OS's secure generator.
+
+A block restarted after a crash, or swapped in mid-run, is another `instance` (Block.instance): its streams
+come from SeedSequence(seed, spawn_key=instance), still reproducible but independent of the first instance's,
+which it would otherwise replay from the start (noise, attacks or activation sequences seen before).
 """
 from __future__ import annotations
 
@@ -24,13 +28,15 @@ class Streams:
     attack: np.random.Generator
 
 
-def seed_streams(seed: int | None, activation: str = "auto") -> Streams:
-    """The three random streams of a run. seed None/-1: secure activation, OS-seeded noise and attack."""
+def seed_streams(seed: int | None, activation: str = "auto", instance: tuple[int, int] = (0, 0)) -> Streams:
+    """The three random streams of a run. seed None/-1: secure activation, OS-seeded noise and attack.
+    `instance` other than (0, 0): the streams of a restarted or swapped-in block (module docstring)."""
     if seed is None or seed == NO_SEED:
         if activation not in ("auto", "secure"):
             raise ValueError(f"activation {activation!r} needs a seed (simulation only)")
         return Streams(ActivationSource("secure"), np.random.default_rng(), np.random.default_rng())
-    s_act, s_noise, s_attack = np.random.SeedSequence(seed).spawn(3)
+    root = np.random.SeedSequence(seed, spawn_key=tuple(instance) if any(instance) else ())
+    s_act, s_noise, s_attack = root.spawn(3)
     kind = "seeded" if activation == "auto" else activation
     act_seed = int(s_act.generate_state(1, np.uint32)[0]) | 1   # odd: never the LFSR's all-zero state
     return Streams(ActivationSource(kind, seed=act_seed), np.random.default_rng(s_noise),

@@ -160,3 +160,21 @@ def test_a_finished_producer_also_repeats_its_end_of_stream_to_the_restarted_con
     time.sleep(0.1)
     node.serve_control()
     assert [(s, r) for s, _, _, r in harness.outputs()] == [(1, True), (1, "eos")]   # resume at 1, then the end of stream again
+
+
+def test_the_runtime_tells_each_block_which_instance_it_is(harness, tmp_path):
+    node = harness.node
+    assert node.block.instance == (0, 0)
+    harness.control(type="swap", block="pairer", params={}, id=1)
+    time.sleep(0.1)
+    node.serve_control()
+    node.apply_swap()
+    assert node.generation == 1 and node.block.instance == (0, 1)          # swapped in: a new generation
+    restarted = NodeRunner({**node.spec, "incarnation": 2, "generation": 1})
+    try:
+        assert restarted.block.instance == (2, 1)                          # a restarted process: a new incarnation
+    finally:
+        restarted.control.close(linger=0)
+        for s in (*restarted.inputs.values(), *(s for e in restarted.outputs.values() for _, s in e)):
+            s.close(linger=0)
+        restarted.ctx.term()
