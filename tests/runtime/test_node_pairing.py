@@ -19,6 +19,7 @@ from carav_stream.node import NodeRunner
 from tests.integration.conftest import TOYS
 
 EDGE = "p.out -> sink.inp"
+QUIET_S = 0.5     # in-process ipc messages arrive within milliseconds: this long a silence means nothing is coming
 
 
 @pytest.fixture
@@ -35,6 +36,9 @@ def harness(tmp_path):
             "queue_frames": 2, "drain_timeout_s": 1.0, "security": {}}
     runner = NodeRunner(spec)
     runner.block.start()
+    runner.tell("ready")                  # the ROUTER drops messages to a peer it has not heard from yet
+    assert router.poll(5000), "the node's control connection did not come up"
+    router.recv_multipart()
     feeds = {p: transport.connect_output(ctx, ep[p], hwm=100, linger_ms=0) for p in ("a", "b")}
 
     class H:
@@ -53,28 +57,32 @@ def harness(tmp_path):
 
         @staticmethod
         def settle():
-            """Receive everything fed so far and pump it."""
-            deadline = time.monotonic() + 5
+            """Receive and pump until the inputs have been quiet for QUIET_S (10 s at most)."""
+            poller = zmq.Poller()
+            for sock in runner.inputs.values():
+                poller.register(sock, zmq.POLLIN)
+            deadline = time.monotonic() + 10
             while time.monotonic() < deadline:
                 for p in ("a", "b"):
                     runner.receive(p, wait=False)
                 runner.pump()
-                time.sleep(0.02)
-                if not any(runner.inputs[p].poll(0) for p in ("a", "b")):
-                    runner.pump()
+                if not poller.poll(QUIET_S * 1000):
                     return
 
         @staticmethod
         def outputs():
             out = []
-            while sink.poll(200):
+            while sink.poll(QUIET_S * 1000):
                 out.append(decode(transport.recv_message(sink)).header)
             return [(h["seq"], h.get("handled"), h.get("port"), h.get("resume") or ("eos" if h["eos"] else None))
                     for h in out]
 
         @staticmethod
         def control(**msg):
+            """Send a control message to the node and have it served (waits for it to arrive, 5 s at most)."""
             router.send_multipart([b"p", msgpack.packb(msg)])
+            assert runner.control.poll(5000), "control message did not arrive"
+            runner.serve_control()
 
     yield H
     for s in (*feeds.values(), sink, router, runner.control, *runner.inputs.values(),
@@ -142,9 +150,7 @@ def test_a_producer_reconnects_at_once_and_tells_the_restarted_consumer_where_it
     assert [s for s, *_ in harness.outputs()] == [0, 1, 2]
     node.seq = 3
     harness.control(type="reconnect", edges=[EDGE, "not.an -> edge.of_this_node"])
-    time.sleep(0.1)
-    node.serve_control()                                       # no frame to send: it reconnects anyway
-    assert node.reconnect == set()
+    assert node.reconnect == set()                             # reconnected at once, with no frame to send
     node.send("out", Frame({}, {"data": np.zeros(2)}), Frame({"seq": 3}))
     assert harness.outputs() == [(3, None, None, True), (3, None, None, None)]   # the marker comes first
     assert node.c_sent[EDGE] == 4                                                # a marker is not a frame
@@ -157,8 +163,6 @@ def test_a_finished_producer_also_repeats_its_end_of_stream_to_the_restarted_con
     node.send_eos()
     assert [(s, r) for s, _, _, r in harness.outputs()] == [(0, None), (1, "eos")]
     harness.control(type="reconnect", edges=[EDGE])
-    time.sleep(0.1)
-    node.serve_control()
     assert [(s, r) for s, _, _, r in harness.outputs()] == [(1, True), (1, "eos")]   # resume at 1, then the end of stream again
 
 
@@ -166,8 +170,6 @@ def test_the_runtime_tells_each_block_which_instance_it_is(harness, tmp_path):
     node = harness.node
     assert node.block.instance == (0, 0)
     harness.control(type="swap", block="pairer", params={}, id=1)
-    time.sleep(0.1)
-    node.serve_control()
     node.apply_swap()
     assert node.generation == 1 and node.block.instance == (0, 1)          # swapped in: a new generation
     restarted = NodeRunner({**node.spec, "incarnation": 2, "generation": 1})
