@@ -5,7 +5,10 @@ old connection held are gone, so the new consumer must not wait for them to pair
 deadlocks a graph whose producers are blocked behind that consumer). A partner that comes after its seq was
 handled without it is refused, never handed to the block: a second, out-of-order output would follow.
 """
+import shutil
+import tempfile
 import time
+from pathlib import Path
 
 import msgpack
 import numpy as np
@@ -23,11 +26,12 @@ QUIET_S = 0.5     # in-process ipc messages arrive within milliseconds: this lon
 
 
 @pytest.fixture
-def harness(tmp_path):
+def harness():
     """A `pairer` node (inputs a and b, output out) with the test holding its control ROUTER, a PUSH socket into
     each input and the PULL socket its output edge connects to."""
     ctx = zmq.Context()
-    ep = {k: transport.ipc_endpoint(tmp_path, k) for k in ("ctl", "a", "b", "out")}
+    run_dir = Path(tempfile.mkdtemp(prefix="np", dir="/tmp"))     # ipc paths must stay short
+    ep = {k: transport.ipc_endpoint(run_dir, k) for k in ("ctl", "a", "b", "out")}
     router = ctx.socket(zmq.ROUTER)
     router.bind(ep["ctl"])
     sink = transport.bind_input(ctx, ep["out"], hwm=100)
@@ -89,6 +93,7 @@ def harness(tmp_path):
               *(s for edges in runner.outputs.values() for _, s in edges)):
         s.close(linger=0)
     ctx.term()
+    shutil.rmtree(run_dir, ignore_errors=True)
 
 
 def test_frames_pair_by_seq_and_a_skipped_seq_goes_alone_once_the_other_input_is_past_it(harness):
@@ -166,7 +171,7 @@ def test_a_finished_producer_also_repeats_its_end_of_stream_to_the_restarted_con
     assert [(s, r) for s, _, _, r in harness.outputs()] == [(1, True), (1, "eos")]   # resume at 1, then the end of stream again
 
 
-def test_the_runtime_tells_each_block_which_instance_it_is(harness, tmp_path):
+def test_the_runtime_tells_each_block_which_instance_it_is(harness):
     node = harness.node
     assert node.block.instance == (0, 0)
     harness.control(type="swap", block="pairer", params={}, id=1)
