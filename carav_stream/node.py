@@ -60,9 +60,7 @@ class NodeRunner:
         self.registry = Registry(spec.get("block_paths", []))
         self.generation = spec.get("generation", 0)
         self.incarnation = spec.get("incarnation", 0)     # restarts of this node before this process
-        block = self.registry.get(spec["type"]).cls(**spec["params"])
-        block.instance = (self.incarnation, self.generation)
-        self.use_block(block, spec["type"])
+        self.use_block(self.new_block(spec["type"], spec["params"], self.generation), spec["type"])
         sec = spec.get("security") or {}
         self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
                                      sec["curve_authorized"]) if sec else None
@@ -108,6 +106,12 @@ class NodeRunner:
         self.seq = spec.get("start_seq", 0)
         self.packer = header_packer()
 
+    def new_block(self, block_type: str, params: dict[str, Any], generation: int) -> Block:
+        """A block of `block_type`, told which instance of this node's blocks it is (Block.instance)."""
+        block = self.registry.get(block_type).cls(**params)
+        block.instance = (self.incarnation, generation)
+        return block
+
     def use_block(self, block: Block, block_type: str) -> None:
         """Run `block` from now on; the per-frame stamps of this node and block are prepared here once."""
         self.block, self.cls, self.block_type = block, type(block), block_type
@@ -132,8 +136,7 @@ class NodeRunner:
         self.outputs[port][i][1].close(linger=0)
         sock = self.connect(edge)
         self.outputs[port][i] = (edge, sock)
-        marker = Frame({"seq": max(self.sent_seq.get(edge, -1) + 1, self.seq), "resume": True})
-        parts = [encode(marker, stream=f"{self.name}.{port}", node=self.name, block=self.block_type)]
+        parts = [self.runtime_message(port, seq=max(self.sent_seq.get(edge, -1) + 1, self.seq), resume=True)]
         if self.eos_sent:   # this node had finished: the new consumer needs the end of stream too
             parts.append(self.eos_message(port, edge))
         try:
@@ -196,8 +199,7 @@ class NodeRunner:
     def apply_swap(self) -> None:
         msg, self.pending_swap = self.pending_swap, None
         try:
-            new = self.registry.get(msg["block"]).cls(**msg.get("params", {}))
-            new.instance = (self.incarnation, self.generation + 1)
+            new = self.new_block(msg["block"], msg.get("params", {}), self.generation + 1)
             new.start()
         except Exception as exc:   # the old block keeps running; the supervisor tells the user why
             self.tell("swap_failed", id=msg.get("id"), error=f"{type(exc).__name__}: {exc}")
@@ -306,19 +308,20 @@ class NodeRunner:
             edge, sock = edges[i]
             if edge in self.cut:
                 return False
-            if edge in self.reconnect:          # not resumed yet (no room for the marker): try again
-                self.resume(edge)
-                if edge in self.reconnect:
-                    time.sleep(transport.TICK_S)
-                    self.idle()
-                    continue
+            if edge in self.reconnect:          # not resumed yet (no room for the marker): serve_control retries
+                time.sleep(transport.TICK_S)
+                self.idle()
+                continue
             if transport.send_blocking(sock, parts, self.idle, lambda: edge in self.cut or edges[i][1] is not sock):
                 return True
 
+    def runtime_message(self, port: str, **header: Any) -> list[Any]:
+        """A header-only message of the runtime's own (end of stream, resume marker) on output `port`."""
+        return encode(Frame(header), stream=f"{self.name}.{port}", node=self.name, block=self.block_type)
+
     def eos_message(self, port: str, edge: str) -> list[Any]:
         """End of stream on `edge`, with the count of frames sent on it for the consumer to check."""
-        return encode(Frame({"seq": self.seq, "eos": True, "count": self.c_sent[edge]}),
-                      stream=f"{self.name}.{port}", node=self.name, block=self.block_type)
+        return self.runtime_message(port, seq=self.seq, eos=True, count=self.c_sent[edge])
 
     def send_eos(self) -> None:
         for port, edges in self.outputs.items():
