@@ -141,13 +141,7 @@ def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector
                         detector=', restart = "on-failure"', batch=4)
     run = carav.run(carav.graph(body))
     judged = carav.workdir / "judged.jsonl"
-    wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
-    pid = int(wait_until(lambda: _pid_of(carav, run, "detector"), 20, "detector pid"))
-    os.kill(pid, signal.SIGKILL)
-    wait_until(lambda: "restarting 'detector'" in run.stderr(), 30, "the supervisor to restart the detector")
-    n_at_restart = len(read_jsonl(judged))
-    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 30, 60, "cycles after the restart")
-    assert carav.cli("stop").returncode == 0
+    _kill_mid_run_and_stop(carav, run, "detector", judged)
     run.wait(60)
     err = run.stderr()
     assert "node 'detector' (rms_detector) failed: exited with signal SIGKILL" in err
@@ -173,12 +167,7 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
     body = CHAIN.format(cycles=0, attacker='model = "none"', seed=24, fidelity="beat", detector="", batch=4)
     run = carav.run(carav.graph(body.replace("[blocks]", '[restart]\npolicy = "on-failure"\n[blocks]')))
     judged = carav.workdir / "judged.jsonl"
-    wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
-    os.kill(int(wait_until(lambda: _pid_of(carav, run, victim), 20, f"{victim} pid")), signal.SIGKILL)
-    wait_until(lambda: f"restarting {victim!r}" in run.stderr(), 30, f"the supervisor to restart {victim}")
-    n_at_restart = len(read_jsonl(judged))
-    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 30, 60, "cycles after the restart")
-    assert carav.cli("stop").returncode == 0
+    n_at_restart = _kill_mid_run_and_stop(carav, run, victim, judged)
     assert run.wait(60) in (0, 3), run.stderr()          # 3: frames died with the killed node (counted lost)
     s = run.summary()
     assert s["restarts"] == 1 and s["estimated_counts"] == [victim] and not s["failures"], s["failures"]
@@ -189,6 +178,18 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
     alarms = by_cycle([r for r in records if r["port"] == "extra"])
     assert not set(estimates) & set(alarms) and len(estimates) + len(alarms) > n_at_restart
     assert all(r["verdict"] == "clean" for r in estimates.values())
+
+
+def _kill_mid_run_and_stop(carav, run, victim: str, judged) -> int:
+    """Once 30 records are judged, SIGKILL `victim`; once the supervisor has restarted it and 30 more records are
+    judged, `carav stop`. Returns the number of records judged when the restart was reported."""
+    wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
+    os.kill(int(wait_until(lambda: _pid_of(carav, run, victim), 20, f"{victim} pid")), signal.SIGKILL)
+    wait_until(lambda: f"restarting {victim!r}" in run.stderr(), 30, f"the supervisor to restart {victim}")
+    n_at_restart = len(read_jsonl(judged))
+    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 30, 60, "cycles after the restart")
+    assert carav.cli("stop").returncode == 0
+    return n_at_restart
 
 
 def _pid_of(carav, run, node):
