@@ -229,11 +229,16 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
         total += nbytes
         if total > max_array_bytes:
             raise FrameError(f"arrays total more than the limit of {max_array_bytes} bytes")
+        if not nbytes and math.prod(d for d in shape if d) > max_array_bytes:
+            raise FrameError(f"array {name!r}: shape {tuple(shape)} is too large (an empty array with more than "
+                             f"{max_array_bytes} elements across its other dimensions)")
         part = parts[i + 1]
         buf = _as_buffer(part)
         if len(buf) != nbytes:
             raise FrameError(f"array {name!r}: shape {tuple(shape)} of {dtype.name} needs {nbytes} bytes, "
                              f"buffer has {len(buf)}")
+        if name in arrays:
+            raise FrameError(f"array name {name!r} appears twice")
         arrays[name] = arr = np.ndarray(shape, dtype, buf.toreadonly())   # a read-only view, no copy
         if nbytes and not isinstance(part, (bytes, bytearray, memoryview)):   # a zmq.Frame, sent on as it is
             wire[name] = (arr, part)                                             # if forwarded unchanged

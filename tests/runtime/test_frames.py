@@ -99,6 +99,19 @@ def test_decoder_rejects_bad_messages_with_the_reason(parts, reason):
     assert reason in str(info.value)
 
 
+@pytest.mark.parametrize("shape", [[2**64 - 1, 0], [2**40, 2**40, 0], [0, 1 << 31]])
+def test_an_empty_array_of_absurd_shape_is_refused_not_a_crash(shape):
+    with pytest.raises(FrameError, match="too large"):
+        decode([good_parts(arrays=[["data", "float32", shape]])[0], b""])
+    assert decode([good_parts(arrays=[["data", "float32", [0, 1 << 20]]])[0], b""]).payload.shape == (0, 1 << 20)
+
+
+def test_an_array_name_given_twice_is_refused():
+    parts = good_parts(arrays=[["data", "float32", [2, 3]], ["data", "float32", [2, 3]]])
+    with pytest.raises(FrameError, match="'data' appears twice"):
+        decode([*parts, parts[1]])
+
+
 def test_decoder_refuses_msgpack_extension_types():
     head = msgpack.packb({"v": 1, "stream": "a.b", "seq": 0, "cycle": 0, "eos": False, "arrays": [],
                           "evil": msgpack.ExtType(42, b"payload")})
