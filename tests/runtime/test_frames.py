@@ -5,8 +5,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from carav_stream.frames import (ALLOWED_DTYPES, MAX_HEADER_BYTES, SCHEMA_VERSION, Frame, FrameError, decode,
-                                 encode, end_of_stream, header_packer)
+from carav_stream.frames import (_HEADER_TYPES, _REQUIRED_KEYS, ALLOWED_DTYPES, MAX_HEADER_BYTES, RESERVED_KEYS,
+                                 SCHEMA_VERSION, Frame, FrameError, decode, encode, end_of_stream, header_packer)
 
 header_values = st.recursive(
     st.none() | st.booleans() | st.integers(-2**63, 2**63 - 1) | st.floats(allow_nan=False) | st.text(max_size=20),
@@ -99,6 +99,24 @@ def test_decoder_rejects_bad_messages_with_the_reason(parts, reason):
     assert reason in str(info.value)
 
 
+@pytest.mark.parametrize("key", sorted(RESERVED_KEYS))
+def test_every_reserved_header_key_is_checked_for_its_exact_type(key):
+    assert key in _HEADER_TYPES
+    for value in (None, {}, "x", 3, 1.5, True, ["a"], b"x"):
+        if type(value) in _HEADER_TYPES[key]:
+            continue
+        with pytest.raises(FrameError, match=f"header key '{key}' must be"):
+            decode(good_parts(**{key: value}))
+
+
+@pytest.mark.parametrize("key", sorted(_REQUIRED_KEYS))
+def test_a_missing_required_header_key_is_named(key):
+    header = msgpack.unpackb(good_parts()[0])
+    del header[key]
+    with pytest.raises(FrameError, match=f"lacks required key\\(s\\) \\['{key}'\\]"):
+        decode([msgpack.packb(header), np.zeros((2, 3), np.float32).tobytes()])
+
+
 @pytest.mark.parametrize("shape", [[2**64 - 1, 0], [2**40, 2**40, 0], [0, 1 << 31]])
 def test_an_empty_array_of_absurd_shape_is_refused_not_a_crash(shape):
     with pytest.raises(FrameError, match="too large"):
@@ -110,6 +128,24 @@ def test_an_array_name_given_twice_is_refused():
     parts = good_parts(arrays=[["data", "float32", [2, 3]], ["data", "float32", [2, 3]]])
     with pytest.raises(FrameError, match="'data' appears twice"):
         decode([*parts, parts[1]])
+
+
+def test_arrays_never_read_are_forwarded_as_the_received_parts():
+    arr = np.arange(12, dtype=np.complex64).reshape(3, 4)
+    head, buffer = encode(Frame.of(arr, note="x"), seq=2, stream="s.p")
+    received = [bytes(head), bytes(buffer)]
+    frame = decode(received)
+    forwarded = frame.derive(keep_data=True, hop=1)
+    parts = encode(forwarded, seq=2, stream="p.out")
+    assert parts[1] is received[1]                                  # the received part, not an array's buffer
+    out = decode(parts)
+    assert out.header["hop"] == 1 and out.header["arrays"] == [["data", "complex64", [3, 4]]]
+    np.testing.assert_array_equal(out.payload, arr)
+    assert forwarded.payload is frame.payload                       # one read-only view, built once, shared
+    assert not frame.payload.flags.writeable
+    assert encode(forwarded, seq=2, stream="p.out")[1] is received[1]   # still forwarded once read
+    replaced = encode(frame.derive(keep_data=True, arrays={"data": np.zeros(2)}), seq=2, stream="p.out")
+    assert replaced[1] is not received[1] and decode(replaced).payload.shape == (2,)
 
 
 def test_decoder_refuses_msgpack_extension_types():
