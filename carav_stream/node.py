@@ -28,7 +28,7 @@ import zmq
 
 from carav_stream import transport
 from carav_stream.block import Block
-from carav_stream.frames import Frame, FrameError, decode, encode, header_packer
+from carav_stream.frames import Frame, FrameError, decode, encode, encode_with_header, header_packer
 from carav_stream.registry import Registry
 
 HEARTBEAT_S = 0.5
@@ -60,12 +60,13 @@ class NodeRunner:
         self.registry = Registry(spec.get("block_paths", []))
         self.generation = spec.get("generation", 0)
         self.incarnation = spec.get("incarnation", 0)     # restarts of this node before this process
-        self.use_block(self.new_block(spec["type"], spec["params"], self.generation), spec["type"])
+        block = self.new_block(spec["type"], spec["params"], self.generation)
+        self.in_ports: list[str] = [p.name for p in type(block).inputs if p.name in spec["inputs"]]
+        self.use_block(block, spec["type"])
         sec = spec.get("security") or {}
         self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
                                      sec["curve_authorized"]) if sec else None
         hwm = spec["queue_frames"]
-        self.in_ports: list[str] = [p.name for p in self.cls.inputs if p.name in spec["inputs"]]
         self.inputs = {p: transport.bind_input(self.ctx, spec["inputs"][p], hwm, self.curve) for p in self.in_ports}
         self.endpoints = {e["edge"]: e["connect"] for edges in spec["outputs"].values() for e in edges}
         self.outputs: dict[str, list[tuple[str, zmq.Socket]]] = {
@@ -117,6 +118,8 @@ class NodeRunner:
         self.block, self.cls, self.block_type = block, type(block), block_type
         self.out_names = {p.name for p in self.cls.outputs}
         self.arg_names = [p.name for p in self.cls.inputs]             # process() arguments, in order
+        # every input connected: process() takes the frame set as it is, in port order
+        self.direct = self.arg_names == self.in_ports and not self.cls.merge_inputs
         version = f"{self.cls.version}#{self.generation}"
         self.hop = f"{self.name}:{block_type}@{version}"              # this node's entry in a frame's trail
         self.stamp = {"node": self.name, "block": block_type, "block_version": version}
@@ -245,7 +248,7 @@ class NodeRunner:
                 return
             last = self.last_seq.get(port)
             if "resume" in h:                       # a producer's fresh connection: nothing before seq comes
-                if h["resume"] is not True or frame.arrays:
+                if h["resume"] is not True or h["arrays"]:
                     self.reject(port, "a resume marker must say resume = true and carry no arrays")
                 elif last is None or seq - 1 > last:
                     self.last_seq[port] = seq - 1
@@ -290,10 +293,11 @@ class NodeRunner:
             t_created = h.get("t_created_s", time.time())
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
-        parts = encode(frame, self.packer, stream=self.streams[port], seq=seq, cycle=cycle, t_created_s=t_created,
-                       t_sent_s=time.time(), trail=trail, **self.stamp)
+        parts = encode_with_header({**h, "stream": self.streams[port], "seq": seq, "cycle": cycle,
+                                    "t_created_s": t_created, "t_sent_s": time.time(), "trail": trail, **self.stamp},
+                                   frame, self.packer)
         self.c_out[port] += 1
-        for i, (edge, _) in enumerate(self.outputs.get(port, [])):
+        for i, (edge, _) in enumerate(self.outputs.get(port, ())):
             if self.deliver(port, i, parts):
                 self.c_sent[edge] += 1
                 self.sent_seq[edge] = seq
@@ -304,6 +308,12 @@ class NodeRunner:
         """Send on edge i of `port`, blocking under back-pressure; on the fresh connection if its consumer was
         restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
         edges = self.outputs[port]
+        if not (self.cut or self.reconnect):      # the usual case: the queue has room and ZeroMQ takes it at once
+            try:
+                transport.send_message(edges[i][1], parts)
+                return True
+            except zmq.Again:
+                pass
         while True:
             edge, sock = edges[i]
             if edge in self.cut:
@@ -393,7 +403,7 @@ class NodeRunner:
             self.first_seq_of_block = seq
         t0 = time.thread_time()
         if what == "process":
-            if self.arg_names == self.in_ports and not self.cls.merge_inputs:   # every input connected
+            if self.direct:
                 result = self.block.process(*frames)
             else:
                 full = {port: context} if self.cls.merge_inputs else dict(zip(self.in_ports, frames))
