@@ -257,7 +257,9 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
     """Validate and decode a multipart message (bytes or zmq.Frame parts); arrays are read-only views."""
     if not parts:
         raise FrameError("empty message: expected a header part")
-    head = _as_buffer(parts[0])
+    head = getattr(parts[0], "buffer", None)      # a zmq.Frame received with copy=False: its memoryview
+    if type(head) is not memoryview:
+        head = _as_buffer(parts[0])
     if len(head) > MAX_HEADER_BYTES:
         raise FrameError(f"header of {len(head)} bytes exceeds the limit of {MAX_HEADER_BYTES}")
     try:
@@ -286,7 +288,9 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
             raise FrameError(f"array {name!r}: shape {tuple(shape)} is too large (an empty array with more than "
                              f"{max_array_bytes} elements across its other dimensions)")
         part = parts[i + 1]
-        buf = _as_buffer(part)
+        buf = getattr(part, "buffer", None)
+        if type(buf) is not memoryview:
+            buf = _as_buffer(part)
         if len(buf) != nbytes:
             raise FrameError(f"array {name!r}: shape {tuple(shape)} of {dtype.name} needs {nbytes} bytes, "
                              f"buffer has {len(buf)}")
@@ -297,9 +301,7 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
 
 
 def _as_buffer(part: Any) -> memoryview:
-    buffer = getattr(part, "buffer", None)     # zmq.Frame received with copy=False
-    if type(buffer) is memoryview:
-        return buffer
+    """A message part that is not a zmq.Frame (decode reads those itself) as a memoryview."""
     if isinstance(part, (bytes, bytearray, memoryview)):
         return memoryview(part)
     raise FrameError(f"message part of type {type(part).__name__} is not a byte buffer")
