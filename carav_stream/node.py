@@ -117,6 +117,7 @@ class NodeRunner:
         """Run `block` from now on; the per-frame stamps of this node and block are prepared here once."""
         self.block, self.cls, self.block_type = block, type(block), block_type
         self.out_names = {p.name for p in self.cls.outputs}
+        self.single_out = self.cls.outputs[0].name if len(self.cls.outputs) == 1 else None
         self.arg_names = [p.name for p in self.cls.inputs]             # process() arguments, in order
         # every input connected: process() takes the frame set as it is, in port order
         self.direct = self.arg_names == self.in_ports and not self.cls.merge_inputs
@@ -236,33 +237,42 @@ class NodeRunner:
                 parts = transport.recv_message(sock, 0 if wait else zmq.NOBLOCK)
             except zmq.Again:
                 return
-            try:
-                frame = decode(parts)
-            except FrameError as exc:
-                self.reject(port, str(exc))
-                continue
-            h = frame.header
-            seq = h["seq"]
-            if h["eos"]:                            # decode guarantees the key
-                self.eos[port] = h.get("count")
+            frame = self.admit(port, parts)
+            if frame is not None:
+                self.buffers[port].append(frame)
+            elif port in self.eos:
                 return
-            last = self.last_seq.get(port)
-            if "resume" in h:                       # a producer's fresh connection: nothing before seq comes
-                if h["resume"] is not True or h["arrays"]:
-                    self.reject(port, "a resume marker must say resume = true and carry no arrays")
-                elif last is None or seq - 1 > last:
-                    self.last_seq[port] = seq - 1
-                continue
-            if last is not None and seq <= last:
-                self.reject(port, f"seq {seq} after {last}: duplicate or out of order")
-                continue
-            if seq <= self.handled:
-                self.reject(port, f"seq {seq} came after the node handled seq {self.handled} without it "
-                                  "(its partner was given up)")
-                continue
-            self.last_seq[port] = seq
-            self.c_in[port] += 1
-            self.buffers[port].append(frame)
+
+    def admit(self, port: str, parts: list[Any]) -> Frame | None:
+        """Decode and check one message from `port`: the data frame to hand on, or None for a message that was
+        rejected (counted and reported), the end of stream (noted in self.eos) or a resume marker (noted)."""
+        try:
+            frame = decode(parts)
+        except FrameError as exc:
+            self.reject(port, str(exc))
+            return None
+        h = frame.header
+        seq = h["seq"]
+        if h["eos"]:                            # decode guarantees the key
+            self.eos[port] = h.get("count")
+            return None
+        last = self.last_seq.get(port)
+        if "resume" in h:                       # a producer's fresh connection: nothing before seq comes
+            if h["resume"] is not True or h["arrays"]:
+                self.reject(port, "a resume marker must say resume = true and carry no arrays")
+            elif last is None or seq - 1 > last:
+                self.last_seq[port] = seq - 1
+            return None
+        if last is not None and seq <= last:
+            self.reject(port, f"seq {seq} after {last}: duplicate or out of order")
+            return None
+        if seq <= self.handled:
+            self.reject(port, f"seq {seq} came after the node handled seq {self.handled} without it "
+                              "(its partner was given up)")
+            return None
+        self.last_seq[port] = seq
+        self.c_in[port] += 1
+        return frame
 
     def emit(self, result: Any, context: Frame | None) -> None:
         if result is None:
@@ -297,7 +307,17 @@ class NodeRunner:
                                     "t_created_s": t_created, "t_sent_s": time.time(), "trail": trail, **self.stamp},
                                    frame, self.packer)
         self.c_out[port] += 1
-        for i, (edge, _) in enumerate(self.outputs.get(port, ())):
+        edges = self.outputs.get(port, ())
+        if len(edges) == 1 and not (self.cut or self.reconnect):   # the usual case: one consumer, room in its
+            edge, sock = edges[0]                                  # queue, and ZeroMQ takes the message at once
+            try:
+                transport.send_message(sock, parts)
+                self.c_sent[edge] += 1
+                self.sent_seq[edge] = seq
+                return
+            except zmq.Again:
+                pass
+        for i, (edge, _) in enumerate(edges):
             if self.deliver(port, i, parts):
                 self.c_sent[edge] += 1
                 self.sent_seq[edge] = seq
@@ -308,12 +328,6 @@ class NodeRunner:
         """Send on edge i of `port`, blocking under back-pressure; on the fresh connection if its consumer was
         restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
         edges = self.outputs[port]
-        if not (self.cut or self.reconnect):      # the usual case: the queue has room and ZeroMQ takes it at once
-            try:
-                transport.send_message(edges[i][1], parts)
-                return True
-            except zmq.Again:
-                pass
         while True:
             edge, sock = edges[i]
             if edge in self.cut:
@@ -414,7 +428,10 @@ class NodeRunner:
         self.processed += 1
         self.consumed += len(frames)
         self.cycles += context.header.get("cycles", 1)
-        self.emit(result, context)
+        if type(result) is Frame and self.single_out is not None:   # the usual result: one frame, one output
+            self.send(self.single_out, result, context)
+        else:
+            self.emit(result, context)
         self.seq = seq + 1
         self.idle()
 
@@ -443,13 +460,10 @@ class NodeRunner:
     def run_filter(self) -> None:
         poller = zmq.Poller()
         poller.register(self.control, zmq.POLLIN)
-        single = self.in_ports[0] if len(self.in_ports) == 1 else None
+        if len(self.in_ports) == 1 and not self.cls.merge_inputs:
+            self.run_single(self.in_ports[0])
         while True:
             self.pump()
-            if single is not None and single not in self.eos and len(self.buffers[single]) < self.limit:
-                self.receive(single, wait=True)   # one input, nothing to pair: wait inside ZeroMQ's receive
-                self.idle()
-                continue
             # several inputs, or none wanted (end of stream, full buffer): wait for any, or for control
             wanted = [p for p, b in self.buffers.items() if p not in self.eos and len(b) < self.limit]
             if all(p in self.eos for p in self.in_ports) and not any(self.buffers.values()):
@@ -466,6 +480,28 @@ class NodeRunner:
                 if self.inputs[p] in events:
                     self.receive(p, wait=False)
             self.idle()
+
+    def run_single(self, port: str) -> None:
+        """The loop of a node with one input that does not merge inputs (most nodes): every frame is complete
+        as it arrives, so each message is received, checked, processed and sent on in one pass, waiting inside
+        ZeroMQ's receive. Returns at the end of the stream, or when a swapped-in block merges inputs (the
+        general loop of run_filter takes over)."""
+        sock, buf = self.inputs[port], self.buffers[port]
+        while port not in self.eos:
+            if self.pending_swap or buf:      # a swap between two frames; frames buffered by the general loop
+                self.pump()
+                if self.cls.merge_inputs:
+                    return
+            try:
+                parts = transport.recv_message(sock, 0)
+            except zmq.Again:                 # nothing for TICK_S: serve control and wait again
+                self.idle()
+                continue
+            frame = self.admit(port, parts)
+            if frame is None:
+                self.idle()
+            else:
+                self.run_block("process", [frame])   # it serves control after the block, as idle() does
 
     def run(self) -> int:
         self.block.start()
