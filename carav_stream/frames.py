@@ -52,6 +52,8 @@ _WIRE_DTYPE = {n: np.dtype(n).newbyteorder("<") for n in ALLOWED_DTYPES}
 
 RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "cycles", "t_created_s", "t_sent_s", "arrays",
                            "node", "block", "block_version", "trail", "eos", "resume"})
+# Reserved keys a block may not set (it may set the cycle fields of a frame it creates)
+_RUNTIME_ONLY_KEYS = RESERVED_KEYS - {"cycle", "cycles", "t_created_s"}
 # Keys a derived frame does not inherit: the runtime stamps them anew at every hop.
 _PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block", "block_version"})
 
@@ -178,9 +180,9 @@ def end_of_stream(seq: int, **fields: Any) -> Frame:
 
 
 def _check_user_fields(fields: Mapping[str, Any]) -> None:
-    bad = sorted(set(fields) & (RESERVED_KEYS - {"cycle", "cycles", "t_created_s"}))
-    if bad:
-        raise FrameError(f"header fields {bad} are reserved for the runtime; choose other names")
+    if not _RUNTIME_ONLY_KEYS.isdisjoint(fields):
+        raise FrameError(f"header fields {sorted(_RUNTIME_ONLY_KEYS.intersection(fields))} are reserved for the "
+                         "runtime; choose other names")
 
 
 def _pack_default(obj: Any) -> Any:
