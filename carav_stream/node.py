@@ -275,6 +275,9 @@ class NodeRunner:
         return frame
 
     def emit(self, result: Any, context: Frame | None) -> None:
+        if type(result) is Frame and self.single_out is not None:   # the usual result: one frame, one output
+            self.send(self.single_out, result, context)
+            return
         if result is None:
             return
         if isinstance(result, Frame):
@@ -428,10 +431,7 @@ class NodeRunner:
         self.processed += 1
         self.consumed += len(frames)
         self.cycles += context.header.get("cycles", 1)
-        if type(result) is Frame and self.single_out is not None:   # the usual result: one frame, one output
-            self.send(self.single_out, result, context)
-        else:
-            self.emit(result, context)
+        self.emit(result, context)
         self.seq = seq + 1
         self.idle()
 
