@@ -227,14 +227,13 @@ class NodeRunner:
             self.n_reports += 1
             self.tell("reject", port=port, reason=reason, count=self.c_rejected[port])
 
-    def receive(self, port: str, wait: bool) -> None:
-        """Take messages from `port`: with `wait` one, waiting at most transport.TICK_S (the socket's receive
-        timeout), else what is queued, up to a burst of 64. Each is validated and buffered for pairing, or
-        rejected and counted."""
+    def receive(self, port: str) -> None:
+        """Take what is queued on `port`, up to a burst of 64 messages, without waiting. Each is validated and
+        buffered for pairing, or rejected and counted."""
         sock = self.inputs[port]
-        for _ in range(1 if wait else 64):
+        for _ in range(64):
             try:
-                parts = transport.recv_message(sock, 0 if wait else zmq.NOBLOCK)
+                parts = transport.recv_message(sock, zmq.NOBLOCK)
             except zmq.Again:
                 return
             frame = self.admit(port, parts)
@@ -359,16 +358,6 @@ class NodeRunner:
     def pump(self) -> None:
         """Process every frame set that is complete (all inputs at the same seq) or can never complete."""
         ports = self.in_ports
-        if len(ports) == 1 and not self.cls.merge_inputs:   # one input: every frame is complete, in order
-            buf = self.buffers[ports[0]]
-            while True:
-                if self.pending_swap:
-                    self.apply_swap()
-                    if self.cls.merge_inputs:   # the new block merges: the general loop below takes over
-                        break
-                if not buf:
-                    return
-                self.run_block("process", [buf.popleft()])
         while True:
             if self.pending_swap:
                 self.apply_swap()
@@ -478,7 +467,7 @@ class NodeRunner:
                 self.serve_control()
             for p in wanted:
                 if self.inputs[p] in events:
-                    self.receive(p, wait=False)
+                    self.receive(p)
             self.idle()
 
     def run_single(self, port: str) -> None:
@@ -486,10 +475,10 @@ class NodeRunner:
         as it arrives, so each message is received, checked, processed and sent on in one pass, waiting inside
         ZeroMQ's receive. Returns at the end of the stream, or when a swapped-in block merges inputs (the
         general loop of run_filter takes over)."""
-        sock, buf = self.inputs[port], self.buffers[port]
+        sock = self.inputs[port]
         while port not in self.eos:
-            if self.pending_swap or buf:      # a swap between two frames; frames buffered by the general loop
-                self.pump()
+            if self.pending_swap:             # a swap between two frames
+                self.apply_swap()
                 if self.cls.merge_inputs:
                     return
             try:

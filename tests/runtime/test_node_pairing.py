@@ -68,7 +68,7 @@ def harness():
             deadline = time.monotonic() + 10
             while time.monotonic() < deadline:
                 for p in ("a", "b"):
-                    runner.receive(p, wait=False)
+                    runner.receive(p)
                 runner.pump()
                 if not poller.poll(QUIET_S * 1000):
                     return
