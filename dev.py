@@ -3,6 +3,8 @@
 
     python3 dev.py demo [carav run options]   run the default graph graphs/demo.toml and print its summary
     python3 dev.py test [pytest options]      run the whole test suite
+                                              (a quick loop without processes: -m "not integration")
+    python3 dev.py lint                       ruff: lint and import order of the whole tree
     python3 dev.py carav ARGS...              any carav command inside the project's environment
 
 The environment is rebuilt when pyproject.toml changes (its hash is stamped into .venv).
@@ -48,10 +50,12 @@ def main(argv: list[str]) -> int:
         cmd = [str(BIN / "carav"), "run", str(ROOT / "graphs" / "demo.toml"), *rest]
     elif command == "test":
         cmd = [str(BIN / "python"), "-m", "pytest", *rest]
+    elif command == "lint":
+        cmd = [str(BIN / "ruff"), "check", *rest, str(ROOT)]
     elif command == "carav":
         cmd = [str(BIN / "carav"), *rest]
     else:
-        print(f"dev.py: unknown command {command!r}; expected demo, test or carav", file=sys.stderr)
+        print(f"dev.py: unknown command {command!r}; expected demo, test, lint or carav", file=sys.stderr)
         return 2
     code = subprocess.run(cmd, cwd=ROOT).returncode
     if command == "test" and code == 5:

@@ -24,19 +24,17 @@ Graph   adc = { type = "adc_framer" }
 """
 import numpy as np
 
-from carav_stream.block import Block, In, Out, Param
-from carav_stream.cycles import n_cycles, per_cycle
-from carav_stream.radar.streams import scene_of
-from carav_stream.frames import Frame
+from carav_stream.radar.adc import adc_codes
 from carav_stream.radar.attackers import gate_by_emission
-from carav_stream.radar.synth import adc_codes
+from carav_stream.radar.streams import SCENE, scene_of
+from carav_stream.runtime import Block, Frame, In, Out, n_cycles, per_cycle
 
 
 class AdcFramer(Block):
     inputs = (In("rx", kind="rx", dtypes=("float32", "complex64")),
               In("attack", kind="attack", dtypes=("float32", "complex64", "none"), required=False))
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64")),)
-    params = (Param("scene", str, "table1", "preset name or scene file (ADC bits, full scale)", file=True),)
+    params = (SCENE,)
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)

@@ -9,8 +9,8 @@ Gaussian, paper V.D), smart (one sequence repeated over every chirp, V.E; sent a
 V.G; needs fidelity = "waveform"), ghost (chirp-synchronised spoofer planting a false target), ramp (power
 rising over cycles), lfsr_predictor (learns an LFSR activation source from past cycles' emission), reactive
 (a repeater answering each chirp after its latency). Each model's parameters (rarms = sigma_a / sigma_n,
-start_cycle, ...) are documented in carav_stream/radar/attackers.py; a parameter the chosen model does not
-take is refused by name.
+start_cycle, ...) are listed with their meanings and units by `carav blocks attacker`, each with the models
+that take it; a parameter the chosen model does not take is refused by name.
 
 The reactive repeater answers whatever is on the air: its reply to chirp k exists only if chirp k was
 transmitted. The node cannot tell which chirps of a cycle are (it hears the emission one cycle late), so it
@@ -27,33 +27,41 @@ Graph   attacker = { type = "attacker", model = "smart", rarms = 3.0, start_cycl
 """
 import numpy as np
 
-from carav_stream.block import Block, BlockError, In, Out, Param
-from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
-from carav_stream.frames import Frame
-from carav_stream.radar.attackers import KINDS, Attacker, make_attacker
+from carav_stream.radar.attackers import KINDS, make_attacker
+from carav_stream.radar.streams import FIDELITY, SCENE, SEED, scene_of, seed_streams
+from carav_stream.runtime import Block, BlockError, Frame, In, Out, Param
 
 
 def _model_params() -> tuple[Param, ...]:
-    """Every parameter any model takes, typed from the model's own declaration; None = the model's default."""
-    found: dict[str, tuple[type, list[str]]] = {}
+    """Every parameter any model takes, with its meaning and unit from the models' own declarations and each
+    model's default; the block's default None leaves a parameter to the model."""
+    found: dict[str, list[tuple[str, Param]]] = {}
     for kind, cls in KINDS.items():
-        for name, (_, check) in {**Attacker.COMMON, **cls.PARAMS}.items():
-            typ = int if check.startswith("int") else str if check.startswith("choice") else float
-            found.setdefault(name, (typ, []))[1].append(kind)
-    return tuple(Param(name, typ, None, f"model parameter ({', '.join(kinds)})") for name, (typ, kinds) in sorted(found.items()))
+        for p in cls.declared():
+            found.setdefault(p.name, []).append((kind, p))
+    out = []
+    for name, uses in sorted(found.items()):
+        first = uses[0][1]
+        same = all((p.low, p.high, p.strict, p.choices) == (first.low, first.high, first.strict, first.choices)
+                   for _, p in uses)
+        defaults = "every model" if len(uses) == len(KINDS) else ", ".join(k for k, _ in uses)
+        out.append(Param(name, first.type, None, f"{first.doc} ({defaults})", unit=first.unit, optional=True,
+                         **({"low": first.low, "high": first.high, "strict": first.strict, "choices": first.choices}
+                            if same else {})))
+    return tuple(out)
+
+
+MODEL_PARAMS = _model_params()
 
 
 class AttackerBlock(Block):
     inputs = (In("air", kind="air", dtypes=("bool",), doc="past cycles' on-air emission"),)
     outputs = (Out("attack", kind="attack", dtypes=("float32", "complex64", "none"), doc="attack signal"),)
-    params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)),
-              Param("scene", str, "table1", "preset name or scene file", file=True),
-              Param("seed", int, NO_SEED, "simulation seed; -1 = OS entropy"),
-              Param("fidelity", str, "beat", "must match the channel's", choices=("beat", "waveform")),
-              *_model_params())
+    params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)), SCENE, SEED, FIDELITY,
+              *MODEL_PARAMS)
 
     def check_params(self) -> None:
-        self.model_params = {p.name: getattr(self, p.name) for p in _model_params() if getattr(self, p.name) is not None}
+        self.model_params = {p.name: getattr(self, p.name) for p in MODEL_PARAMS if getattr(self, p.name) is not None}
         self.scene_obj = scene_of(self.scene)
         self.attack = make_attacker(self.model, self.scene_obj, **self.model_params)
         if self.attack.needs_waveform and self.fidelity != "waveform":

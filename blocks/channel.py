@@ -10,26 +10,23 @@ Ports   in  tx    bool (cycles, n_chirps)                               transmit
                                                                         BEFORE cycle i (header air_cycle = the
                                                                         first row's): all an attacker may have
                                                                         heard before attacking; zeros before 0
-Params  scene (str, "table1"), seed (int, -1), fidelity (str, "beat": closed-form beat samples;
-        "waveform": complex chirps, true delays and Doppler, mixing and filtering)
+Params  scene, seed, fidelity (graph-wide; fidelity "beat": closed-form beat samples; "waveform": complex
+        chirps, true delays and Doppler, mixing and filtering)
 Graph   channel = { type = "channel" }
 """
 import numpy as np
 
-from carav_stream.block import Block, In, Out, Param
-from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
-from carav_stream.frames import Frame
 from carav_stream.radar.physics import echo_templates
+from carav_stream.radar.streams import FIDELITY, SCENE, SEED, scene_of, seed_streams
 from carav_stream.radar.synth import channel, transmit
+from carav_stream.runtime import Block, Frame, In, Out
 
 
 class Channel(Block):
     inputs = (In("tx", kind="tx", dtypes=("bool",)),)
     outputs = (Out("rx", kind="rx", dtypes=("float32", "complex64"), doc="ADC input, echoes + noise"),
                Out("air", kind="air", dtypes=("bool",), doc="each cycle's previous cycle's emission"))
-    params = (Param("scene", str, "table1", "preset name or scene file", file=True),
-              Param("seed", int, NO_SEED, "simulation seed; -1 = OS entropy"),
-              Param("fidelity", str, "beat", "beat or waveform", choices=("beat", "waveform")))
+    params = (SCENE, SEED, FIDELITY)
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)

@@ -8,22 +8,20 @@ batch spreads the per-frame cost of every hop over many cycles. Every cycle keep
 
 Ports   out tx    bool (cycles, n_chirps)   the transmitted chirps: what goes on the air, to the channel
         out rho   bool (cycles, n_chirps)   the activation sequences: a private edge to the detector alone
-Params  scene (str, "table1"): preset name or scene file
-        seed (int, -1): simulation seed; -1 draws the sequences from the OS's secure generator
+Params  scene (str, graph-wide, required): preset name or scene file
+        seed (int, graph-wide, -1): simulation seed; -1 draws the sequences from the OS's secure generator
         activation (str, "auto"): secure | seeded | lfsr (auto: secure without a seed, seeded with one)
         batch (int, 16): cycles per frame (graph-wide `batch = ...` sets it)
 Graph   source = { type = "chirp_source", batch = 16 }
 """
-from carav_stream.block import Block, Out, Param
-from carav_stream.radar.streams import NO_SEED, scene_of, seed_streams
-from carav_stream.frames import Frame
+from carav_stream.radar.streams import SCENE, SEED, scene_of, seed_streams
+from carav_stream.runtime import Block, Frame, Out, Param
 
 
 class ChirpSource(Block):
     outputs = (Out("tx", kind="tx", dtypes=("bool",), doc="transmitted chirps of the cycles"),
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private: detector only)"))
-    params = (Param("scene", str, "table1", "preset name or scene file", file=True),
-              Param("seed", int, NO_SEED, "simulation seed; -1 = secure activation sequence"),
+    params = (SCENE, SEED,
               Param("activation", str, "auto", "activation source", choices=("auto", "secure", "seeded", "lfsr")),
               Param("batch", int, 16, "cycles per frame", low=1, high=4096))
 

@@ -17,9 +17,7 @@ Graph   csv = { type = "csv_sink", path = "cycles.csv" }
 import csv
 import sys
 
-from carav_stream.block import Block, In, Param
-from carav_stream.cycles import cycle_indices, per_cycle
-from carav_stream.frames import Frame
+from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle
 
 DEFAULT_COLUMNS = ["attack_active", "reason", "q", "range_m", "velocity_mps"]
 

@@ -14,9 +14,7 @@ A frame whose verdict never comes (detector down), or whose verdict does not say
 "invalid: false" for a cycle in so many words, is refused for that cycle, never passed.
 Graph   gate = { type = "gate" }
 """
-from carav_stream.block import Block, In, Out
-from carav_stream.cycles import n_cycles, pick
-from carav_stream.frames import Frame
+from carav_stream.runtime import Block, Frame, In, Out, n_cycles, pick
 
 
 def _column(per: object, name: str, n: int) -> list | None:

@@ -13,8 +13,7 @@ import sys
 
 import numpy as np
 
-from carav_stream.block import Block, In, Param
-from carav_stream.frames import Frame
+from carav_stream.runtime import Block, Frame, In, Param
 
 
 class JsonlSink(Block):

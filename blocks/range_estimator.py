@@ -15,13 +15,11 @@ import math
 
 import numpy as np
 
-from carav_stream.block import Block, In, Out, Param
-from carav_stream.cycles import n_cycles, pick
-from carav_stream.radar.streams import scene_of
-from carav_stream.radar.synth import from_codes
 from carav_stream.estimate.estimators import METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
-from carav_stream.frames import Frame
+from carav_stream.radar.adc import from_codes
+from carav_stream.radar.streams import SCENE, scene_of
+from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, pick
 
 
 def _plain(values: np.ndarray) -> list:
@@ -33,7 +31,7 @@ class RangeEstimator(Block):
     outputs = (Out("estimates", kind="estimates", dtypes=("none",)),)
     params = (Param("method", str, "ml", "estimator", choices=METHODS),
               Param("n_targets", int, 1, "targets per cycle", low=1),
-              Param("scene", str, "table1", "preset name or scene file", file=True))
+              SCENE)
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)

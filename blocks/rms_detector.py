@@ -17,12 +17,10 @@ Graph   detector = { type = "rms_detector", eta = 1.5 }
 """
 import numpy as np
 
-from carav_stream.block import Block, In, Out, Param
-from carav_stream.cycles import n_cycles, per_cycle
-from carav_stream.radar.streams import scene_of
-from carav_stream.radar.synth import adc_chirp_rms
-from carav_stream.detect.detector import detect_from_rms
-from carav_stream.frames import Frame
+from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
+from carav_stream.radar.adc import adc_step
+from carav_stream.radar.streams import SCENE, scene_of
+from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, per_cycle
 
 
 class RmsDetector(Block):
@@ -31,11 +29,12 @@ class RmsDetector(Block):
     outputs = (Out("verdict", kind="verdict", dtypes=("bool",)),)
     params = (Param("eta", float, 1.5, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
               Param("sigma_n", float, 0.0, "noise RMS per sample; 0 = from the scene", low=0.0),
-              Param("scene", str, "table1", "preset name or scene file", file=True))
+              SCENE)
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)
         self.sigma = self.sigma_n or self.scene_obj.sigma_n
+        self.lsb = adc_step(self.scene_obj)
 
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)
@@ -47,7 +46,7 @@ class RmsDetector(Block):
         if nonfinite is not None and not (isinstance(nonfinite, list) and len(nonfinite) == r.shape[0]
                                           and all(type(v) is int for v in nonfinite)):
             nonfinite = [1] * r.shape[0]                  # malformed: every cycle is judged invalid (fail closed)
-        rms = adc_chirp_rms(self.scene_obj, x, nonfinite)
+        rms = adc_chirp_rms(x, self.lsb, self.scene_obj.iq, nonfinite)
         # a sequence without exactly half its chirps active was not made by the source: invalid, alarm
         n, balanced = r.shape[0], r.sum(axis=1) == r.shape[1] // 2
         fields = {"q": np.full(n, np.inf), "c": np.full(n, np.inf), "alarm": np.ones(n, bool),

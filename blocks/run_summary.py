@@ -10,7 +10,7 @@ alias, which is all a chirp-to-chirp phase can tell.
 
 Ports   in  estimates   range_estimator records          (merged in arrival order with alarms)
         in  alarms      gate alarm records
-Params  scene (str, "table1"): truth for the errors; every_s (float, 0): print a line every so many seconds
+Params  scene (graph-wide): truth for the errors; every_s (float, 0): print a line every so many seconds
 Graph   summary = { type = "run_summary" }
 """
 import math
@@ -19,11 +19,9 @@ import time
 
 import numpy as np
 
-from carav_stream.block import Block, In, Param
-from carav_stream.cycles import n_cycles, per_cycle
 from carav_stream.estimate.geometry import Geometry
-from carav_stream.radar.streams import scene_of
-from carav_stream.frames import Frame
+from carav_stream.radar.streams import SCENE, scene_of
+from carav_stream.runtime import Block, Frame, In, Param, n_cycles, per_cycle
 
 
 def _stats(errors: list[float]) -> dict:
@@ -37,7 +35,7 @@ def _stats(errors: list[float]) -> dict:
 class RunSummary(Block):
     inputs = (In("estimates", kind="estimates"), In("alarms", kind="alarm", required=False))
     merge_inputs = True
-    params = (Param("scene", str, "table1", "preset name or scene file (truth)", file=True),
+    params = (SCENE,
               Param("every_s", float, 0.0, "console line period; 0 = none", low=0.0))
 
     def check_params(self) -> None:
@@ -100,7 +98,8 @@ class RunSummary(Block):
             "raised_by": self.raised_by, "attacked_cycles": self.attacked, "detected": self.detected,
             "missed": self.attacked - self.detected, "false_alarms": self.false_alarms,
             "detection_rate": self.detected / self.attacked if self.attacked else None,
-            "false_alarm_rate": self.false_alarms / (self.cycles - self.attacked) if self.cycles > self.attacked else None,
+            "false_alarm_rate": (self.false_alarms / (self.cycles - self.attacked)
+                                 if self.cycles > self.attacked else None),
             "refused_by_estimator": self.refused, "unreadable_cycles": self.unreadable,
             "range_error_m": _stats(all_range),
             "range_error_attacked_missed_m": _stats(self.range_err["attacked"]),

@@ -1,9 +1,9 @@
 """carav bench pipeline: cycles/s of the multi-process radar graph against the same chain in one process.
 
 For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mode:
-  pipeline       the 8-node graph of graphs/demo.toml (smart attacker from half the run on), one process per
+  pipeline       the 8-node graph of graphs/radar_chain.toml (smart attacker from half the run on), one process per
                  node, run by the supervisor, frames of --batch cycles; cycles/s from go to the last sink
-  fused          carav_stream.chain.run_chain in one fresh process started like a node (the same allocator
+  fused          carav_stream.algorithm1.run_algorithm1 in one fresh process started like a node (the same allocator
                  and BLAS settings, supervisor.NODE_ENV), in batches of the same --batch cycles (the same
                  work per cycle, the same vectorisation; scene templates built before the clock starts, as
                  the channel node builds them before the run starts)
@@ -19,38 +19,24 @@ import os
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-from carav_stream.chain import run_chain
+from carav_graphs import graph_file
+from carav_stream.algorithm1 import run_algorithm1
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
-from carav_stream.graph import load_graph
-from carav_stream.supervisor import NODE_ENV, Supervisor
+from carav_stream.runtime.graph import load_graph
+from carav_stream.runtime.supervisor import NODE_ENV, Supervisor
 
 CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000))
-GRAPH = """
-seed = 5
-batch = {batch}
-scene = "{preset}"
-fidelity = "{fidelity}"
-connections = [
-  "source.tx -> channel.tx", "channel.rx -> adc.rx", "channel.air -> attacker.air", "attacker.attack -> adc.attack",
-  "adc.frames -> detector.frames", "source.rho -> detector.rho",
-  "adc.frames -> gate.frames", "detector.verdict -> gate.verdict",
-  "gate.clean -> ranging.frames", "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms",
-]
-[blocks]
-source   = {{ type = "chirp_source" }}
-channel  = {{ type = "channel" }}
-attacker = {{ type = "attacker", model = "smart", rarms = 3.0, start_cycle = {half} }}
-adc      = {{ type = "adc_framer" }}
-detector = {{ type = "rms_detector", eta = 1.5 }}
-gate     = {{ type = "gate" }}
-ranging  = {{ type = "range_estimator", method = "{method}" }}
-summary  = {{ type = "run_summary" }}
-"""
+
+
+def pipeline_overrides(preset: str, fidelity: str, n: int, method: str, batch: int) -> list[str]:
+    """`--set` values that make graphs/radar_chain.toml the graph of one benchmark case (the smart attacker from
+    half the run on, as in the fused chain)."""
+    return [f"scene={preset}", f"fidelity={fidelity}", f"batch={batch}", "seed=5", "attacker.model=smart",
+            "attacker.rarms=3.0", f"attacker.start_cycle={n // 2}", f"ranging.method={method}"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -63,10 +49,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
 
 
-def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, folder: Path) -> tuple[float, dict]:
-    path = folder / f"bench-{preset}-{fidelity}.toml"
-    path.write_text(GRAPH.format(preset=preset, fidelity=fidelity, half=n // 2, method=method, batch=batch))
-    summary = Supervisor(load_graph(path), cycles=n, progress=False, log=lambda text: None).run()
+def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, dict]:
+    graph = load_graph(graph_file("radar_chain"), pipeline_overrides(preset, fidelity, n, method, batch))
+    summary = Supervisor(graph, cycles=n, progress=False, log=lambda text: None).run()
     if summary["failures"] or summary["lost"] or summary["cycles_judged"] != n:
         raise RuntimeError(f"pipeline run of {preset}/{fidelity} failed: {summary['failures']} lost {summary['lost']}")
     busy = {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
@@ -78,7 +63,7 @@ _WORKER = ("import json, sys; from carav_stream.bench.pipeline import _fused_wor
 
 
 def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, float]:
-    """cycles/s and CPU us per cycle of run_chain in a fresh process started as the supervisor starts a node."""
+    """cycles/s and CPU us per cycle of run_algorithm1 in a fresh process started as the supervisor starts a node."""
     args = json.dumps([preset, fidelity, n, method, batch])
     out = subprocess.run([sys.executable, "-c", _WORKER, args], env={**NODE_ENV, **os.environ},
                          capture_output=True, text=True, timeout=1800)
@@ -92,7 +77,7 @@ def _fused_worker(preset: str, fidelity: str, n: int, method: str, batch: int) -
     scene = scene_of(preset)
     echo_templates(scene, fidelity)   # built once per scene, like the channel node does before the run starts
     t0, c0 = time.perf_counter(), time.process_time()
-    run_chain(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
+    run_algorithm1(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
               method=method, fidelity=fidelity, batch=batch)
     return n / (time.perf_counter() - t0), (time.process_time() - c0) / n * 1e6
 
@@ -101,41 +86,40 @@ def run(args: argparse.Namespace) -> int:
     wanted = None if args.cases == "all" else {tuple(c.split(":")) for c in args.cases.split(",")}
     batches = [int(b) for b in str(args.batch).split(",")]
     records = []
-    with tempfile.TemporaryDirectory() as folder:
-        for preset, fidelity, n in CASES:
-            if wanted and (preset, fidelity) not in wanted:
-                continue
-            n = max(20, int(n * args.scale))
-            rate_radar = scene_of(preset).cycles_per_s
-            for batch in batches:
-                runs = {"pipeline": [], "fused": []}
-                busy_runs, fused_cpu = [], []
-                for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
-                    rate, busy = _pipeline(preset, fidelity, n, args.method, batch, Path(folder))
-                    runs["pipeline"].append(rate)
-                    busy_runs.append(busy)
-                    rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
-                    runs["fused"].append(rate)
-                    fused_cpu.append(cpu_us)
-                busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
-                bottleneck = max(busy, key=busy.get)
-                fused = statistics.median(runs["fused"])
-                for mode, rates in runs.items():
-                    rate = statistics.median(rates)
-                    rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "batch": batch, "cycles": n,
-                           "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
-                           "runs_cycles_per_s": rates, "real_time_factor": rate / rate_radar,
-                           "radar_cycles_per_s": rate_radar, "speedup_over_fused": rate / fused}
-                    if mode == "pipeline":
-                        rec["bottleneck_node"] = bottleneck
-                        rec["busy_us_per_cycle"] = busy
-                    else:
-                        rec["cpu_us_per_cycle"] = statistics.median(fused_cpu)
-                    records.append(rec)
-                    print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {rate:9.1f} cycles/s  real-time "
-                          f"x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}"
-                          + (f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)" if mode == "pipeline" else ""),
-                          flush=True)
+    for preset, fidelity, n in CASES:
+        if wanted and (preset, fidelity) not in wanted:
+            continue
+        n = max(20, int(n * args.scale))
+        rate_radar = scene_of(preset).cycles_per_s
+        for batch in batches:
+            runs = {"pipeline": [], "fused": []}
+            busy_runs, fused_cpu = [], []
+            for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
+                rate, busy = _pipeline(preset, fidelity, n, args.method, batch)
+                runs["pipeline"].append(rate)
+                busy_runs.append(busy)
+                rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
+                runs["fused"].append(rate)
+                fused_cpu.append(cpu_us)
+            busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
+            bottleneck = max(busy, key=busy.get)
+            fused = statistics.median(runs["fused"])
+            for mode, rates in runs.items():
+                rate = statistics.median(rates)
+                rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "batch": batch, "cycles": n,
+                       "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
+                       "runs_cycles_per_s": rates, "real_time_factor": rate / rate_radar,
+                       "radar_cycles_per_s": rate_radar, "speedup_over_fused": rate / fused}
+                if mode == "pipeline":
+                    rec["bottleneck_node"] = bottleneck
+                    rec["busy_us_per_cycle"] = busy
+                else:
+                    rec["cpu_us_per_cycle"] = statistics.median(fused_cpu)
+                records.append(rec)
+                print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {rate:9.1f} cycles/s  real-time "
+                      f"x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}"
+                      + (f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)" if mode == "pipeline" else ""),
+                      flush=True)
     if args.json:
         args.json.write_text(json.dumps(records, indent=2))
     return 0

@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Detection", "chirp_rms", "detect", "detect_from_rms", "estimate_sigma_n", "check_rho",
-           "SUPPORTED_DTYPES"]
+__all__ = ["Detection", "adc_chirp_rms", "chirp_rms", "chirp_rms_codes", "detect", "detect_from_rms",
+           "estimate_sigma_n", "check_rho", "SUPPORTED_DTYPES"]
 
 SUPPORTED_DTYPES = (np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.complex64), np.dtype(np.complex128))
 
@@ -155,6 +155,23 @@ def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
         x = flat[i: i + 256].astype(np.float64)
         np.matmul(x[:, None, :], x[:, :, None], out=sumsq[i: i + 256, None, None])
     return float(lsb) * np.sqrt(sumsq / max(n_samples, 1)).reshape(lead)
+
+
+def adc_chirp_rms(codes, lsb: float | None, iq: bool, nonfinite=None) -> np.ndarray:
+    """RMS of every chirp (n_cycles, n_chirps) from what an ADC delivered: exact sums over int16 codes times the
+    ADC step `lsb` (the receiver's, carav_stream.radar.adc.adc_step), or `chirp_rms` of an ideal ADC's float
+    samples (lsb None; NaN for a chirp with a NaN/Inf sample). `nonfinite` (one count per cycle of NaN/Inf samples
+    the ADC met): the cycles with a count above 0 get NaN rows, so the detector judges them invalid."""
+    c = np.asarray(codes)
+    if c.dtype != np.int16:
+        rms = chirp_rms(c)
+    elif lsb is None:
+        raise ValueError("codes: int16 ADC codes need the ADC step lsb")
+    else:
+        rms = chirp_rms_codes(c, lsb, iq)
+    if nonfinite is not None:
+        rms[np.asarray(nonfinite) > 0] = np.nan
+    return rms
 
 
 def check_rho(rho, n_chirps: int, n_cycles: int | None = None) -> np.ndarray:

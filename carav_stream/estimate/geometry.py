@@ -19,8 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-C_MPS = 299_792_458.0
-"""Speed of light in vacuum [m/s]."""
+from carav_stream.core.units import C_MPS
 
 
 @dataclass(frozen=True)
@@ -53,7 +52,7 @@ class Geometry:
         object.__setattr__(self, "iq", bool(self.iq))
 
     @classmethod
-    def from_scene(cls, scene: object) -> "Geometry":
+    def from_scene(cls, scene: object) -> Geometry:
         """Read fs_hz, slope_hz_per_s, fc_hz, t_chirp_s, n_samples, iq from any object (duck typing)."""
         names = ("fs_hz", "slope_hz_per_s", "fc_hz", "t_chirp_s", "n_samples", "iq")
         missing = [n for n in names if not hasattr(scene, n)]
@@ -104,23 +103,3 @@ class Geometry:
     def slow_freq_from_velocity(self, velocity_mps):
         """Chirp-to-chirp phase progression nu = 2 v T_c / lambda [cycles/chirp] (not wrapped)."""
         return np.asarray(velocity_mps, dtype=float) * 2.0 * self.t_chirp_s / self.wavelength_m
-
-
-def table1_geometry() -> Geometry:
-    """MATLAB FMCWExample / paper Table I waveform, written from its published formulas.
-
-    range_max 200 m, t_m = 5.5 * 2 * 200 / c = 7.34 us, bandwidth c / 2 (1 m resolution) = 149.9 MHz,
-    fs = 150 MHz; 1100 complex samples per sweep (MATLAB: fs * t_m, truncated as in the preset).
-    """
-    t_m = 5.5 * 2.0 * 200.0 / C_MPS
-    bw = C_MPS / 2.0
-    return Geometry(fs_hz=150e6, slope_hz_per_s=bw / t_m, fc_hz=77e9, t_chirp_s=t_m, n_samples=1100, iq=True)
-
-
-def awr1642_geometry() -> Geometry:
-    """AWR1642 reading of Table II used when the radar package preset is absent.
-
-    128 chirps, 160 us chirp period, 256 samples at 10 MHz (25.6 us), 2000 MHz swept over the sampled 25.6 us.
-    """
-    return Geometry(fs_hz=10e6, slope_hz_per_s=2000e6 / 25.6e-6, fc_hz=77e9, t_chirp_s=160e-6,
-                    n_samples=256, iq=True)

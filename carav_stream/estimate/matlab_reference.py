@@ -16,13 +16,24 @@ from __future__ import annotations
 import numpy as np
 import scipy.signal
 
-from carav_stream.estimate.geometry import C_MPS, Geometry
+from carav_stream.core.units import C_MPS, KMH
 from carav_stream.estimate import spectral
+from carav_stream.estimate.geometry import Geometry
+
+
+def fmcw_example_geometry() -> Geometry:
+    """The FMCWExample waveform (the paper's Table I), from MATLAB's published formulas rather than the rounded
+    preset: range_max 200 m, t_m = 5.5 * 2 * 200 / c = 7.34 us, bandwidth c / 2 (1 m resolution) = 149.9 MHz,
+    fs = 150 MHz; 1100 complex samples per sweep."""
+    t_m = 5.5 * 2.0 * 200.0 / C_MPS
+    bw = C_MPS / 2.0
+    return Geometry(fs_hz=150e6, slope_hz_per_s=bw / t_m, fc_hz=77e9, t_chirp_s=t_m, n_samples=1100, iq=True)
+
 
 MATLAB_TABLE1_RANGE_M = 42.9976
 MATLAB_TABLE1_CLOSING_SPEED_MPS = 1.0830
 TABLE1_TRUE_RANGE_M = 43.0
-TABLE1_TRUE_CLOSING_SPEED_MPS = (100.0 - 96.0) / 3.6
+TABLE1_TRUE_CLOSING_SPEED_MPS = (100.0 - 96.0) * KMH
 
 
 def rootmusic_vector(x, n_signal: int = 1):

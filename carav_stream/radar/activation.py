@@ -66,19 +66,29 @@ class ActivationSource:
             return rho
         if self.kind == "secure":
             keys = np.frombuffer(os.urandom(8 * n_cycles * n_chirps), dtype=np.uint64)
-            keys = keys.reshape(n_cycles, n_chirps)
-        else:
-            keys = self._rng.random((n_cycles, n_chirps))
-        order = np.argsort(keys, axis=1, kind="stable")
-        rho = np.zeros((n_cycles, n_chirps), dtype=bool)
-        np.put_along_axis(rho, order[:, : n_chirps // 2], True, axis=1)
-        return rho
+            return lowest_half(keys.reshape(n_cycles, n_chirps))
+        return balanced_rows(self._rng, n_cycles, n_chirps)
 
     def lfsr_bits(self, n_bits: int) -> np.ndarray:
         """The next ``n_bits`` output bits of the LFSR (bool)."""
         out = lfsr_continue(self._lfsr_state, self.taps, n_bits)
         self._lfsr_state = (self._lfsr_state + [int(b) for b in out])[-max(self.taps):]
         return out
+
+
+def lowest_half(keys: np.ndarray) -> np.ndarray:
+    """bool like keys (n_cycles, n_chirps): True at the n_chirps/2 smallest keys of every row."""
+    n_cycles, n_chirps = keys.shape
+    order = np.argsort(keys, axis=1, kind="stable")
+    rho = np.zeros((n_cycles, n_chirps), dtype=bool)
+    np.put_along_axis(rho, order[:, : n_chirps // 2], True, axis=1)
+    return rho
+
+
+def balanced_rows(rng: np.random.Generator, n_cycles: int, n_chirps: int) -> np.ndarray:
+    """Uniformly random balanced activation rows from a numpy generator, bool (n_cycles, n_chirps): the same law
+    as the secure source, reproducible (simulation only)."""
+    return lowest_half(rng.random((n_cycles, n_chirps)))
 
 
 def berlekamp_massey(bits) -> tuple[int, tuple[int, ...]]:

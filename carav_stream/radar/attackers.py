@@ -41,18 +41,35 @@ kinds and their own parameters
 """
 from __future__ import annotations
 
-import difflib
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
+from carav_stream.core.params import Param, problems, suggest
+from carav_stream.core.units import C_MPS, KMH
 from carav_stream.radar import physics
 from carav_stream.radar.activation import berlekamp_massey, lfsr_continue
 from carav_stream.radar.noise import gaussian
-from carav_stream.radar.scene import C_MPS, KMH, Scene
-from carav_stream.radar.synth import Observation
+from carav_stream.radar.scene import Scene
 
-_NUM = (int, float)
+
+@dataclass(frozen=True)
+class Observation:
+    """What an attacker can physically observe of the victim: the on-air emission.
+
+    Attackers must only use row i of ``emission`` when emitting for cycles after cycle0 + i (they
+    listen to a cycle, then act on later ones); the reactive repeater may use the current row, but
+    only through a reaction latency (its output in a chirp starts L after that chirp reached it).
+    The activation sequence itself is never given to an attacker.
+    """
+
+    emission: np.ndarray   # bool (n_cycles, n_chirps), as heard on the air
+    cycle0: int
+
+
+def _rarms(default: float = 3.0) -> Param:
+    return Param("rarms", float, default, "attack RMS over noise RMS, sigma_a / sigma_n, while on", low=0.0)
 
 
 class AttackerError(ValueError):
@@ -64,33 +81,32 @@ class AttackerError(ValueError):
 
 
 class Attacker:
-    """Base class. Subclasses declare ``PARAMS`` {name: (default, check)} and implement ``_cycle``."""
+    """Base class. Subclasses declare their own ``params`` (like block parameters) and implement ``_cycle``."""
 
     kind = "none"
     needs_waveform = False       # transmits its own waveform: only the waveform fidelity renders it
     uses_live_emission = False   # reacts to the current chirp (with a latency)
     same_every_chirp = False     # a[c, k, :] is the same for every chirp k (a[:, :1] says it all)
-    PARAMS: dict = {}
-    COMMON = {"start_cycle": (0, "int>=0"), "n_active_cycles": (None, "int>=0|None")}
+    params: tuple[Param, ...] = ()
+    COMMON = (Param("start_cycle", int, 0, "first cycle the attacker is on", unit="cycles", low=0),
+              Param("n_active_cycles", int, None, "cycles it stays on (none: until the end)", unit="cycles", low=0,
+                    optional=True))
+
+    @classmethod
+    def declared(cls) -> tuple[Param, ...]:
+        """Every parameter the model takes: the common ones and its own."""
+        return cls.COMMON + cls.params
 
     def __init__(self, scene: Scene, **params):
         self.scene = scene
-        spec = {**self.COMMON, **self.PARAMS}
-        problems = []
-        for name in params:
-            if name not in spec:
-                close = difflib.get_close_matches(name, list(spec), n=1)
-                hint = f" (did you mean {close[0]!r}?)" if close else f" (known: {', '.join(sorted(spec))})"
-                problems.append((name, f"unknown parameter for attacker {self.kind!r}{hint}"))
-        for name, (default, check) in spec.items():
-            value = params.get(name, default)
-            msg = _check(value, check)
-            if msg:
-                problems.append((name, msg))
-            setattr(self, name, value)
-        problems += self._validate()
-        if problems:
-            raise AttackerError(self.kind, problems)
+        declared = self.declared()
+        found = problems(declared, params, f"attacker {self.kind!r}")
+        for p in declared:
+            setattr(self, p.name, p.check(params[p.name])[0] if p.name in params else p.default)
+        if not found:
+            found = self._validate()
+        if found:
+            raise AttackerError(self.kind, found)
         self.dtype = np.complex64 if scene.iq else np.float32
 
     def _validate(self) -> list[tuple[str, str]]:
@@ -191,33 +207,13 @@ class Attacker:
         return gaussian(rng, tuple(shape), rms, self.scene.iq)
 
 
-def _check(value, check: str) -> str | None:
-    if check.endswith("|None"):
-        if value is None:
-            return None
-        check = check[:-5]
-    if check.startswith("choice:"):
-        choices = check[7:].split(",")
-        return None if value in choices else f"must be one of {', '.join(choices)}, got {value!r}"
-    if check.startswith("int"):
-        if not isinstance(value, int) or isinstance(value, bool):
-            return f"must be an integer, got {value!r}"
-    elif not isinstance(value, _NUM) or isinstance(value, bool) or not math.isfinite(value):
-        return f"must be a finite number, got {value!r}"
-    if check.endswith(">0") and value <= 0:
-        return f"must be > 0, got {value}"
-    if check.endswith(">=0") and value < 0:
-        return f"must be >= 0, got {value}"
-    return None
-
-
 class NoAttacker(Attacker):
     kind = "none"
 
 
 class RandomAttacker(Attacker):
     kind = "random"
-    PARAMS = {"rarms": (3.0, "float>=0")}
+    params = (_rarms(),)
 
     def peak_amplitude(self):
         return 3.0 * self.rarms * self.scene.sigma_n
@@ -241,8 +237,11 @@ class SmartAttacker(RandomAttacker):
 
 class RampAttacker(Attacker):
     kind = "ramp"
-    PARAMS = {"rarms_start": (0.5, "float>=0"), "rarms_end": (5.0, "float>=0"),
-              "n_ramp_cycles": (1000, "int>0"), "pattern": ("random", "choice:random,smart")}
+    params = (Param("rarms_start", float, 0.5, "RARMS when it switches on", low=0.0),
+              Param("rarms_end", float, 5.0, "RARMS it rises to, then keeps", low=0.0),
+              Param("n_ramp_cycles", int, 1000, "cycles the rise takes", unit="cycles", low=1),
+              Param("pattern", str, "random", "random: i.i.d. samples; smart: one sequence per cycle",
+                    choices=("random", "smart")))
 
     def rarms_at(self, cycle: int) -> float:
         frac = min(max((cycle - self.start_cycle) / self.n_ramp_cycles, 0.0), 1.0)
@@ -264,7 +263,8 @@ class RampAttacker(Attacker):
 
 class LfsrPredictorAttacker(Attacker):
     kind = "lfsr_predictor"
-    PARAMS = {"rarms": (3.0, "float>=0"), "max_history_bits": (1024, "int>0")}
+    params = (_rarms(), Param("max_history_bits", int, 1024, "emission bits it keeps to fit the LFSR", unit="bits",
+                              low=1))
     _listens = True
 
     def __init__(self, scene, **params):
@@ -334,7 +334,9 @@ class _ReplicaAttacker(Attacker):
 
 class GhostAttacker(_ReplicaAttacker):
     kind = "ghost"
-    PARAMS = {"range_m": (30.0, "float>0"), "velocity_mps": (0.0, "float"), "rarms": (3.0, "float>=0")}
+    params = (Param("range_m", float, 30.0, "range of the false target it plants", unit="m", low=0.0, strict=True),
+              Param("velocity_mps", float, 0.0, "ground speed of the false target (target convention)", unit="m/s"),
+              _rarms())
 
     def _cycle(self, a_c, cycle, rng, live, fidelity):
         tau0 = 2.0 * self.range_m / C_MPS
@@ -349,18 +351,19 @@ class GhostAttacker(_ReplicaAttacker):
 class ReactiveAttacker(_ReplicaAttacker):
     kind = "reactive"
     uses_live_emission = True
-    PARAMS = {"distance_m": (30.0, "float>0"), "velocity_mps": (0.0, "float"), "latency_s": (1e-7, "float>=0"),
-              "rarms": (3.0, "float>=0")}
+    params = (Param("distance_m", float, 30.0, "distance of the repeater", unit="m", low=0.0, strict=True),
+              Param("velocity_mps", float, 0.0, "ground speed of the repeater (target convention)", unit="m/s"),
+              Param("latency_s", float, 1e-7, "reaction latency after a chirp reaches it", unit="s", low=0.0),
+              _rarms())
 
     def delay_s(self) -> float:
         return 2.0 * self.distance_m / C_MPS + self.latency_s
 
     def _validate(self):
-        if isinstance(self.distance_m, _NUM) and isinstance(self.latency_s, _NUM):
-            end = self.scene.t_adc_start_s + self.scene.n_samples / self.scene.fs_hz
-            if 2.0 * self.distance_m / C_MPS + self.latency_s >= end:
-                return [("latency_s", f"the reply (delay {(2 * self.distance_m / C_MPS + self.latency_s) * 1e6:.3g} "
-                                      f"us) starts after the sampling window ends at {end * 1e6:.3g} us")]
+        end = self.scene.t_adc_start_s + self.scene.n_samples / self.scene.fs_hz
+        if self.delay_s() >= end:
+            return [("latency_s", f"the reply (delay {self.delay_s() * 1e6:.3g} us) starts after the sampling "
+                                  f"window ends at {end * 1e6:.3g} us")]
         return []
 
     def response(self, fidelity: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -419,10 +422,19 @@ def gate_by_emission(main: np.ndarray, tail: np.ndarray | None, on_air: np.ndarr
 class SecondaryAntennaAttacker(Attacker):
     kind = "secondary_antenna"
     needs_waveform = True
-    PARAMS = {"range_m": (30.0, "float>0"), "velocity_mps": (50.0 * KMH, "float"),
-              "tx_power_w": (1e-3, "float>=0"), "tx_gain_db": (0.0, "float"),
-              "slope_hz_per_s": (None, "float>0|None"), "t_sweep_s": (None, "float>0|None"),
-              "t_chirp_s": (None, "float>0|None"), "t_offset_s": (0.0, "float"), "f_offset_hz": (0.0, "float")}
+    params = (Param("range_m", float, 30.0, "range of the transmitter", unit="m", low=0.0, strict=True),
+              Param("velocity_mps", float, 50.0 * KMH, "ground speed of the transmitter (target convention)",
+                    unit="m/s"),
+              Param("tx_power_w", float, 1e-3, "transmit power", unit="W", low=0.0),
+              Param("tx_gain_db", float, 0.0, "transmit antenna gain", unit="dB"),
+              Param("slope_hz_per_s", float, None, "its sweep slope (none: the victim's)", unit="Hz/s", low=0.0,
+                    strict=True, optional=True),
+              Param("t_sweep_s", float, None, "its sweep duration (none: the victim's)", unit="s", low=0.0,
+                    strict=True, optional=True),
+              Param("t_chirp_s", float, None, "its chirp period (none: the longer of the victim's and its sweep)",
+                    unit="s", low=0.0, strict=True, optional=True),
+              Param("t_offset_s", float, 0.0, "start of its chirps against the victim's", unit="s"),
+              Param("f_offset_hz", float, 0.0, "start frequency of its sweeps above fc", unit="Hz"))
 
     def __init__(self, scene, **params):
         super().__init__(scene, **params)
@@ -433,8 +445,6 @@ class SecondaryAntennaAttacker(Attacker):
 
     def _validate(self):
         out = []
-        if not all(isinstance(x, _NUM) or x is None for x in (self.t_sweep_s, self.t_chirp_s)):
-            return out                  # already reported as a type problem
         t_sweep = self.t_sweep_s or self.scene.t_sweep_s
         t_chirp = self.t_chirp_s or max(self.scene.t_chirp_s, t_sweep)
         if t_chirp < t_sweep:
@@ -499,9 +509,7 @@ def make_attacker(kind: str, scene: Scene, **params) -> Attacker:
     Raises :class:`AttackerError` (a ValueError) listing every bad parameter.
     """
     if kind not in KINDS:
-        close = difflib.get_close_matches(kind, list(KINDS), n=1)
-        hint = f"did you mean {close[0]!r}? " if close else ""
-        raise AttackerError(str(kind), [("kind", f"unknown attacker kind {kind!r}; {hint}known: {', '.join(KINDS)}")])
+        raise AttackerError(str(kind), [("kind", f"unknown attacker kind {kind!r}{suggest(str(kind), KINDS)}")])
     return KINDS[kind](scene, **params)
 
 

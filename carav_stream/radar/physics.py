@@ -26,7 +26,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from carav_stream.radar.scene import C_MPS, Scene, Target
+from carav_stream.core.units import C_MPS
+from carav_stream.radar.scene import Scene, Target
 
 TWO_PI = 2.0 * np.pi
 IQ_CENTRE = 0.4               # centre of the I/Q IF band, in units of fs
@@ -95,7 +96,7 @@ def waveform_grid(scene: Scene) -> WaveformGrid:
     # I-only: real low-pass, -6 dB at fs/2. I/Q: complex band-pass [-0.1 fs, 0.9 fs] (-6 dB edges): one
     # fs wide, so nothing it passes aliases, and positive beats up to 0.9 fs stay unambiguous (as the
     # complex 1x IF mode of TI's AWR parts, whose IF bandwidth is 0.9 fs).
-    import scipy.signal   # lazily: it costs ~1 s per process and only the waveform fidelity needs it
+    import scipy.signal  # lazily: it costs ~1 s per process and only the waveform fidelity needs it
     lp = scipy.signal.firwin(n_taps, scene.fs_hz / 2, fs=fs_sim)
     if scene.iq:
         n = np.arange(n_taps) - (n_taps - 1) / 2

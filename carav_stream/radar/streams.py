@@ -1,8 +1,11 @@
-"""The random streams of a run and scene lookup, shared by the pipeline blocks and carav_stream.chain.
+"""What every radar block of a run shares: the scene, the seed and its random streams, the fidelity.
+
+The three are graph-wide parameters (declared here once, `SCENE`, `SEED`, `FIDELITY`): a graph sets each once,
+the loader checks it once, and every radar block uses the same value.
 
 With a seed, SeedSequence(seed) spawns three independent streams (activation, noise, attack), each drawn in
-cycle order by the block that owns it, so a pipeline and the in-process chain give the same numbers bit for
-bit. Without a seed (NO_SEED) the activation sequence comes from the OS's secure generator.
+cycle order by the block that owns it, so a pipeline and `carav_stream.algorithm1.run_algorithm1` give the same
+numbers bit for bit. Without a seed (NO_SEED) the activation sequence comes from the OS's secure generator.
 
 A block restarted after a crash, or swapped in mid-run, is another `instance` (Block.instance): its streams
 come from SeedSequence(seed, spawn_key=instance), still reproducible but independent of the first instance's,
@@ -15,10 +18,25 @@ from functools import lru_cache
 
 import numpy as np
 
+from carav_stream.core.params import REQUIRED, Param
 from carav_stream.radar.activation import ActivationSource
-from carav_stream.radar.scene import Scene, load_scene
+from carav_stream.radar.scene import Scene
+from carav_stream.radar.scene_loader import load_scene
 
 NO_SEED = -1
+
+
+@lru_cache(maxsize=16)
+def scene_of(name_or_path: str) -> Scene:
+    """A preset or scene file, loaded once per process (scenes are immutable)."""
+    return load_scene(name_or_path)
+
+
+SCENE = Param("scene", str, REQUIRED, "preset name or scene file", file=True, graph_wide=True, validate=scene_of)
+SEED = Param("seed", int, NO_SEED, "simulation seed; -1: the activation sequence from the OS's secure generator",
+             graph_wide=True)
+FIDELITY = Param("fidelity", str, "beat", "beat: closed-form dechirped samples; waveform: chirps mixed and "
+                 "filtered on a finer grid", choices=("beat", "waveform"), graph_wide=True)
 
 
 @dataclass
@@ -41,9 +59,3 @@ def seed_streams(seed: int | None, activation: str = "auto", instance: tuple[int
     act_seed = int(s_act.generate_state(1, np.uint32)[0]) | 1   # odd: never the LFSR's all-zero state
     return Streams(ActivationSource(kind, seed=act_seed), np.random.default_rng(s_noise),
                    np.random.default_rng(s_attack))
-
-
-@lru_cache(maxsize=16)
-def scene_of(name_or_path: str) -> Scene:
-    """A preset or scene file, loaded once per process (scenes are immutable)."""
-    return load_scene(name_or_path)

@@ -16,12 +16,12 @@ streaming pipeline runs the stages in separate processes, one cycle at a time):
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from carav_stream.detect.detector import chirp_rms, chirp_rms_codes
+from carav_stream.radar.adc import adc_codes, from_codes, with_nonfinite
+from carav_stream.radar.attackers import Observation
 from carav_stream.radar.noise import gaussian
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.scene import Scene
@@ -41,20 +41,6 @@ class Transmission:
     rho: np.ndarray
     cycle0: int
     fidelity: str
-
-
-@dataclass(frozen=True)
-class Observation:
-    """What an attacker can physically observe of the victim: the on-air emission.
-
-    Attackers must only use row i of ``emission`` when emitting for cycles after cycle0 + i (they
-    listen to a cycle, then act on later ones); the reactive repeater may use the current row, but
-    only through a reaction latency (its output in a chirp starts L after that chirp reached it).
-    The activation sequence itself is never given to an attacker.
-    """
-
-    emission: np.ndarray   # bool (n_cycles, n_chirps), as heard on the air
-    cycle0: int
 
 
 @dataclass(frozen=True)
@@ -199,89 +185,6 @@ def channel(scene: Scene, tx: Transmission, rng_noise: np.random.Generator, cycl
     return (rx, clean) if return_clean else rx
 
 
-def adc(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Quantise to ``adc_bits`` over +-``adc_full_scale`` (mid-tread, saturating); I and Q separately.
-
-    Returns (frames, clipped): frames same dtype and shape as rx, values on the ADC grid in the
-    same units; clipped int64 (n_cycles,) = samples whose I or Q hit a rail. ``adc_bits = 0`` is an
-    ideal ADC (a copy, no clipping). Equal to ``from_codes(scene, *adc_codes(scene, rx)[:1])``.
-    """
-    codes, clipped, nonfinite = adc_codes(scene, rx)
-    return _with_nonfinite(from_codes(scene, codes), rx, nonfinite), clipped
-
-
-def _with_nonfinite(frames: np.ndarray, rx: np.ndarray, nonfinite: np.ndarray) -> np.ndarray:
-    """The ADC's samples with NaN where rx held a NaN/Inf (only cycles that had one are looked at)."""
-    for i in np.flatnonzero(nonfinite):
-        frames[i][~np.isfinite(rx[i])] = np.nan
-    return frames
-
-
-def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What the ADC delivers: integer codes, int16 (n_cycles, n_chirps, n_samples), or for I/Q
-    (n_cycles, n_chirps, n_samples, 2) with I then Q; clipped as in :func:`adc`; and nonfinite, int64
-    (n_cycles,): samples whose I or Q was NaN or Inf at the ADC input (a simulation fault, not a signal: their
-    code is 0, they are not counted as clipped, and :func:`adc_chirp_rms` makes such a cycle's RMS NaN, so the
-    detector judges it invalid). The scaling is float32 arithmetic, ``rint(x * float32(1 / lsb))``: a value
-    within about 1e-4 LSB of a half code (near full scale) may round to the other neighbour than exact
-    arithmetic would. An ideal ADC (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx
-    instead (float32 | complex64; non-finite samples stay as they are and are counted).
-    """
-    n_cycles = rx.shape[0]
-    if not 0 < scene.adc_bits <= 16:
-        flat = rx.reshape(n_cycles, -1)
-        nonfinite = np.zeros(n_cycles, dtype=np.int64)
-        for i in np.flatnonzero(~np.isfinite(flat.sum(axis=1))):
-            nonfinite[i] = np.count_nonzero(~np.isfinite(flat[i]))
-        return rx.copy(), np.zeros(n_cycles, dtype=np.int64), nonfinite
-    lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
-    hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
-    lo = np.float32(-(2 ** (scene.adc_bits - 1)))
-    codes = np.multiply(rx.view(np.float32), np.float32(1.0 / lsb))   # complex64 -> interleaved I, Q
-    np.rint(codes, out=codes)
-    flat = codes.reshape(n_cycles, math.prod(codes.shape[1:]))
-    clipped = np.zeros(n_cycles, dtype=np.int64)
-    nonfinite = np.zeros(n_cycles, dtype=np.int64)
-    # two fast reductions find the cycles that hit a rail or hold a NaN/Inf (NaN propagates through max);
-    # only those are counted and fixed
-    top, bottom = flat.max(axis=1, initial=lo), flat.min(axis=1, initial=hi)
-    for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
-        row = flat[i]
-        bad = ~np.isfinite(row)
-        over = ((row > hi) | (row < lo)) & ~bad
-        row[bad] = 0.0
-        np.clip(row, lo, hi, out=row)
-        if scene.iq:   # a sample's I and Q flags share two bytes: any -> != 0
-            over, bad = over.view(np.uint16), bad.view(np.uint16)
-        clipped[i] = np.count_nonzero(over)
-        nonfinite[i] = np.count_nonzero(bad)
-    out = codes.astype(np.int16)
-    return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped, nonfinite
-
-
-def adc_chirp_rms(scene: Scene, codes: np.ndarray, nonfinite: np.ndarray | None = None) -> np.ndarray:
-    """RMS of every chirp in sqrt(W) (n_cycles, n_chirps) from what the ADC delivered: exact sums over
-    int16 codes, or :func:`chirp_rms` of an ideal ADC's samples (NaN for a chirp with a NaN/Inf sample).
-    ``nonfinite`` (from :func:`adc_codes`): the cycles with a count above 0 get NaN rows (invalid)."""
-    if codes.dtype != np.int16:
-        rms = chirp_rms(codes)
-    else:
-        rms = chirp_rms_codes(codes, scene.adc_full_scale / 2 ** (scene.adc_bits - 1), scene.iq)
-    if nonfinite is not None:
-        rms[np.asarray(nonfinite) > 0] = np.nan
-    return rms
-
-
-def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:
-    """ADC codes (from :func:`adc_codes`) as samples in sqrt(W): float32 (I-only) or complex64 (I/Q),
-    (n_cycles, n_chirps, n_samples). Float input (an ideal ADC's) is returned as it is."""
-    if codes.dtype != np.int16:
-        return codes
-    lsb = np.float32(scene.adc_full_scale / 2 ** (scene.adc_bits - 1))
-    x = np.multiply(codes, lsb, dtype=np.float32)
-    return x.view(np.complex64)[..., 0] if scene.iq else x
-
-
 def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generator, *, attacker=None,
                     rng_attack: np.random.Generator | None = None, fidelity: str = "auto", cycle0: int = 0,
                     return_clean: bool = False) -> Cycles:
@@ -315,7 +218,7 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
             rx, active[i:j] = attacker.apply(rx, cycle0 + i, rng_attack, observe(tx), fidelity=fid)
         chunk, clipped[i:j], nonfinite[i:j] = adc_codes(scene, rx)
         codes.append(chunk)
-        frames[i:j] = _with_nonfinite(from_codes(scene, chunk), rx, nonfinite[i:j])
+        frames[i:j] = with_nonfinite(from_codes(scene, chunk), rx, nonfinite[i:j])
     codes = np.concatenate(codes) if codes else adc_codes(scene, frames)[0]
     return Cycles(frames, clean, clipped, active, fid, rho, cycle0, codes, nonfinite)
 

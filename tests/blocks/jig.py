@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import importlib.util
 import zlib
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from carav_stream.block import Block
-from carav_stream.frames import Frame, decode, encode
+from carav_stream.runtime.block import Block
+from carav_stream.runtime.frames import Frame, decode, encode
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden"
 

@@ -3,9 +3,10 @@ import numpy as np
 import pytest
 
 from carav_blocks.adc_framer import AdcFramer
-from carav_stream.frames import Frame
-from carav_stream.radar.scene import load_scene
+from carav_stream.radar.scene_loader import load_scene
+from carav_stream.runtime.frames import Frame
 from tests.blocks import jig
+from tests.blocks.helpers import RHO, SCENE, front_end, wire
 
 VECTORS = jig.vectors("adc_framer")
 
@@ -57,3 +58,53 @@ def test_adc_refuses_an_attack_for_other_cycles_naming_both_frames():
     with pytest.raises(ValueError, match=r"attack frame seq 9 \(3 cycles, float32 \(3, 1, 256\), gate_by_on_air "
                                          r"False\) does not fit the received float32 \(2, 4, 256\)"):
         adc.process(jig.wire(Frame.of(rx, cycles=2), 9), jig.wire(Frame.of(attack, cycles=3), 9))
+
+
+def test_adc_refuses_a_gated_attack_it_cannot_gate_naming_the_frame():
+    from carav_blocks.adc_framer import AdcFramer
+    rho = np.tile(RHO, (2, 1))
+    rx, _, attack, _ = front_end("beat", model="reactive", rarms=3.0)(rho, 0, 6)
+    adc, data = AdcFramer(scene=SCENE), rx.payload
+    cases = {
+        "no on_air in rx": wire(Frame.of(data, cycle=0, cycles=2), 6),
+        r"rx's on_air is bool \(2, 32\)": wire(Frame.of(data, cycle=0, cycles=2).derive(
+            keep_data=True, arrays={"on_air": rho[:, :32]}), 6),
+        r"rx's on_air is uint8 \(2, 64\)": wire(Frame.of(data, cycle=0, cycles=2).derive(
+            keep_data=True, arrays={"on_air": rho.view(np.uint8)}), 6),
+    }
+    for problem, bad_rx in cases.items():
+        with pytest.raises(ValueError, match=r"frame seq 6 \(cycles 0..1\): a reactive attack is gated .*" + problem):
+            adc.process(bad_rx, attack)
+    no_active = wire(Frame.of(attack.payload, cycles=2, gate_by_on_air=True), 6)
+    with pytest.raises(ValueError, match="attack_active is None, not one bool per cycle"):
+        adc.process(rx, no_active)
+    silent_but_on = wire(Frame.of(None, cycles=2, gate_by_on_air=True, per_cycle={"attack_active": [True, False]}), 6)
+    with pytest.raises(ValueError, match=r"switched on \(\[True, False\]\) but sends no replies"):
+        adc.process(rx, silent_but_on)
+    not_a_flag = wire(Frame.of(attack.payload, cycles=2, gate_by_on_air=1, per_cycle={"attack_active": [True] * 2}), 6)
+    with pytest.raises(ValueError, match="attack frame seq 6 .* gate_by_on_air 1\\) does not fit"):
+        adc.process(rx, not_a_flag)
+    ungated = wire(Frame.of(attack.payload, cycles=2, per_cycle={"attack_active": [True] * 2}), 6)   # flag lost
+    with pytest.raises(ValueError, match=r"attack frame seq 6 .*float32 \(1, 64, 1100\).* does not fit"):
+        adc.process(rx, ungated)
+    assert adc.process(rx, attack).header["per_cycle"]["attack_active"] == [True, True]
+
+
+@pytest.mark.parametrize("iq", [False, True])
+def test_adc_codes_count_nan_and_inf_inputs_apart_from_clipping(iq):
+    from carav_stream.radar.adc import adc, adc_codes
+    from carav_stream.radar.scene_loader import load_scene
+    scene = load_scene("table1", {"iq": iq})
+    dtype = np.complex64 if iq else np.float32
+    rx = np.zeros((3, 64, 1100), dtype)
+    rx[1, 3, 5] = np.nan
+    rx[1, 7, 9] = np.inf
+    rx[2, 0, 0] = -np.inf
+    rx[2, 0, 1] = 10 * scene.adc_full_scale          # a real clip beside a non-finite sample
+    if iq:
+        rx[1, 3, 6] = complex(0.0, np.nan)            # Q alone non-finite: one sample
+    codes, clipped, nonfinite = adc_codes(scene, rx)
+    assert nonfinite.tolist() == [0, 3 if iq else 2, 1] and clipped.tolist() == [0, 0, 1]
+    assert codes.dtype == np.int16 and codes[1, 3, 5].tolist() == ([0, 0] if iq else 0)
+    frames, _ = adc(scene, rx)                        # the float path keeps them visible
+    assert np.isnan(frames[1, 3, 5]) and np.isnan(frames[2, 0, 0]) and np.isfinite(frames[0]).all()

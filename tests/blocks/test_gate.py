@@ -1,10 +1,13 @@
 """gate against a table of verdicts (which cycles pass, which are refused and why), in one frame and split."""
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from carav_blocks.gate import Gate
-from carav_stream.frames import Frame
+from carav_stream.runtime.frames import Frame
 from tests.blocks import jig
+from tests.blocks.helpers import RHO, adc_frame, wire
 
 VECTORS = jig.vectors("gate")
 
@@ -39,3 +42,47 @@ def test_gate_passes_exactly_the_clean_verdicts_of_the_table_in_one_frame_and_sp
 
 def test_gate_golden_vectors_are_what_their_generator_writes():
     jig.check_generator_reproduces("gate")
+
+
+cycle_fields = st.fixed_dictionaries({}, optional={
+    "alarm": st.one_of(st.booleans(), st.none(), st.integers(0, 1)),
+    "invalid": st.one_of(st.booleans(), st.none(), st.integers(0, 1)),
+    "q": st.floats(allow_nan=True)})
+
+
+@settings(max_examples=100)
+@given(cycles=st.lists(cycle_fields, min_size=1, max_size=4), eta=st.floats(0.1, 3))
+def test_gate_never_passes_a_cycle_without_an_explicit_clean_verdict(cycles, eta):
+    n = len(cycles)
+    per = {}
+    for name in ("alarm", "invalid", "q"):
+        if all(name in c for c in cycles):
+            per[name] = [c[name] for c in cycles]
+    verdict = wire(Frame.of(np.tile(RHO, (n, 1)), cycles=n, eta=eta, per_cycle=per), 3)
+    out = Gate().process(adc_frame(3, cycles=n), verdict)
+    clean = [c.get("alarm") is False and c.get("invalid") is False and "alarm" in per and "invalid" in per
+             for c in cycles]
+    passed = out["clean"].header["per_cycle"]["cycle_index"] if "clean" in out else []
+    refused = out["alarms"].header["per_cycle"]["cycle_index"] if "alarms" in out else []
+    assert passed == [3 + i for i in range(n) if clean[i]] and refused == [3 + i for i in range(n) if not clean[i]]
+    if "clean" in out:
+        assert out["clean"].header["verdict"] == "clean" and out["clean"].header["cycles"] == len(passed)
+        assert out["clean"].payload.shape == (len(passed), 64, 1100)
+        np.testing.assert_array_equal(out["clean"].arrays["rho"], np.tile(RHO, (len(passed), 1)))
+
+
+def test_gate_refuses_verdicts_that_do_not_match_the_frame():
+    per = {"alarm": [False, False], "invalid": [False, False]}
+    short = wire(Frame.of(np.tile(RHO, (2, 1)), cycles=2, per_cycle=per), 1)   # 2 verdicts for 3 cycles
+    out = Gate().process(adc_frame(1, cycles=3), short)
+    assert set(out) == {"alarms"} and out["alarms"].header["per_cycle"]["reason"] == ["bad_verdict"] * 3
+
+
+def test_gate_refuses_cycle_without_verdict_and_verdict_without_frame():
+    gate = Gate()
+    out = gate.unpaired("frames", adc_frame(7, cycles=2))
+    assert set(out) == {"alarms"} and out["alarms"].header["per_cycle"]["reason"] == ["no_verdict"] * 2
+    assert out["alarms"].payload is None and out["alarms"].header["cycles"] == 2
+    out = gate.unpaired("verdict", wire(Frame.of(np.ones((1, 64), bool), per_cycle={"alarm": [False],
+                                                                                     "invalid": [False]}), 8))
+    assert out["alarms"].header["per_cycle"]["reason"] == ["no_frame"]

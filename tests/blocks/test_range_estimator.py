@@ -5,9 +5,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from carav_blocks.range_estimator import RangeEstimator
-from carav_stream.block import BlockError
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import BlockError
+from carav_stream.runtime.frames import Frame
 from tests.blocks import jig
+from tests.blocks.helpers import SCENE, adc_frame, wire
 
 VECTORS = jig.vectors("range_estimator")
 
@@ -42,4 +43,13 @@ def test_fft_peak_recovers_a_planted_target_within_one_range_bin(range_m, veloci
 
 def test_estimator_refuses_an_unknown_method_naming_the_choices():
     with pytest.raises(BlockError, match=r"method: must be one of \['fft_peak', .*'ml'\], got 'fft'"):
-        RangeEstimator(method="fft")
+        RangeEstimator(scene=SCENE, method="fft")
+
+
+def test_estimator_refuses_frames_without_the_gates_clean_verdict():
+    est = RangeEstimator(scene=SCENE)
+    est.start()
+    out = est.process(adc_frame(1, cycles=2))
+    assert out.header["refused"] is True and est.summary() == {"refused": 2}
+    forged = wire(Frame.of(np.zeros((1, 64, 1100), np.float32), verdict="clean"), 2)   # no rho: still refused
+    assert est.process(forged).header["refused"] is True

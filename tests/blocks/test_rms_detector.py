@@ -4,15 +4,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from carav_blocks.gate import Gate
 from carav_blocks.rms_detector import RmsDetector
-from carav_stream.block import BlockError
-from carav_stream.frames import Frame
 from carav_stream.radar.streams import scene_of
+from carav_stream.runtime.block import BlockError
+from carav_stream.runtime.frames import Frame
 from tests.blocks import jig
+from tests.blocks.helpers import SCENE, wire
 
 VECTORS = jig.vectors("rms_detector")
-SCENE = scene_of("table1")
-LSB = SCENE.adc_full_scale / 2 ** (SCENE.adc_bits - 1)
+TABLE1 = scene_of(SCENE)
+LSB = TABLE1.adc_full_scale / 2 ** (TABLE1.adc_bits - 1)
 
 
 def extract(out: dict[str, Frame], n: int) -> dict[str, np.ndarray]:
@@ -53,12 +55,13 @@ def test_detector_rms_of_a_constant_modulus_signal_equals_its_amplitude(code, si
     codes = np.where(np.array(signs), code, -code).astype(np.int16)
     frame = np.broadcast_to(codes, (1, 64, 1100))
     rho = rho_rows(keys)[None]
-    out = RmsDetector(eta=eta).process(jig.wire(Frame.of(frame, cycles=1), 1), jig.wire(Frame.of(rho, cycles=1), 1))
+    out = RmsDetector(scene=SCENE, eta=eta).process(jig.wire(Frame.of(frame, cycles=1), 1),
+                                                    jig.wire(Frame.of(rho, cycles=1), 1))
     per = out.header["per_cycle"]
     amplitude = code * LSB
     assert per["rbar"][0] == pytest.approx(amplitude, rel=1e-12)          # every active chirp's RMS
-    assert per["q"][0] == pytest.approx(amplitude / SCENE.sigma_n, rel=1e-12)   # D1 = 0, D0 = amplitude / sigma_n
-    assert per["raised_by"] == ["D0"] and per["alarm"] == [amplitude / SCENE.sigma_n / eta >= 1]
+    assert per["q"][0] == pytest.approx(amplitude / TABLE1.sigma_n, rel=1e-12)   # D1 = 0, D0 = amplitude / sigma_n
+    assert per["raised_by"] == ["D0"] and per["alarm"] == [amplitude / TABLE1.sigma_n / eta >= 1]
 
 
 def test_detector_judges_invalid_a_cycle_whose_rho_has_no_silent_chirp():
@@ -68,7 +71,7 @@ def test_detector_judges_invalid_a_cycle_whose_rho_has_no_silent_chirp():
     rho = np.zeros((2, 64), bool)
     rho[0, :32] = True
     rho[1] = True
-    per = RmsDetector().process(jig.wire(Frame.of(codes, cycles=2), 5),
+    per = RmsDetector(scene=SCENE).process(jig.wire(Frame.of(codes, cycles=2), 5),
                                 jig.wire(Frame.of(rho, cycles=2), 5)).header["per_cycle"]
     assert per["invalid"] == [False, True] and per["alarm"] == [False, True]
     assert per["raised_by"][1] == "bad_rho" and per["q"][1] == float("inf")
@@ -78,10 +81,65 @@ def test_detector_refuses_frames_and_rho_of_different_cycles_naming_both():
     codes = np.zeros((2, 64, 1100), np.int16)
     rho = np.tile(rho_rows(list(range(64))), (3, 1))
     with pytest.raises(ValueError, match=r"frame seq 4: frames int16 \(2, 64, 1100\) and rho \(3, 64\) do not"):
-        RmsDetector().process(jig.wire(Frame.of(codes, cycles=2), 4), jig.wire(Frame.of(rho, cycles=3), 4))
+        RmsDetector(scene=SCENE).process(jig.wire(Frame.of(codes, cycles=2), 4), jig.wire(Frame.of(rho, cycles=3), 4))
 
 
 @pytest.mark.parametrize("eta", [0.0, -1.0])
 def test_detector_refuses_a_threshold_that_is_not_positive_naming_eta(eta):
-    with pytest.raises(BlockError, match=rf"eta: must be > 0.0, got {eta}"):
-        RmsDetector(eta=eta)
+    with pytest.raises(BlockError, match=rf"eta: must be > 0, got {eta:g}"):
+        RmsDetector(scene=SCENE, eta=eta)
+
+
+def test_detector_flags_nan_frames_and_frames_without_rho():
+    det = RmsDetector(scene=SCENE, eta=1.5)
+    rho = np.zeros((2, 64), bool)
+    rho[:, :32] = True
+    frames = np.random.default_rng(0).normal(0, det.sigma, (2, 64, 1100)).astype(np.float32)
+    ok = det.process(wire(Frame.of(frames, cycles=2), 1), wire(Frame.of(rho, cycles=2), 1))
+    assert ok.header["per_cycle"]["alarm"] == [False, False] and max(ok.header["per_cycle"]["q"]) < 1.5
+    frames[1, 5, 7] = np.nan
+    bad = det.process(wire(Frame.of(frames, cycles=2), 2), wire(Frame.of(rho, cycles=2), 2)).header["per_cycle"]
+    assert bad["alarm"] == [False, True] and bad["invalid"] == [False, True] and bad["raised_by"][1] == "invalid"
+    lone = det.unpaired("frames", wire(Frame.of(frames, cycles=2), 3))
+    assert lone.header["per_cycle"]["alarm"] == [True, True] and lone.header["reason"] == "no_rho"
+    assert det.unpaired("rho", wire(Frame.of(rho), 4)) is None
+
+
+def test_detector_judges_int16_codes_exactly_like_the_samples_they_stand_for():
+    from carav_stream.detect.detector import detect
+    from carav_stream.radar.adc import adc_codes
+    from carav_stream.radar.streams import scene_of
+    scene = scene_of("table1")
+    det = RmsDetector(scene=SCENE, eta=1.5)
+    rho = np.zeros((3, 64), bool)
+    rho[:, 1::2] = True
+    rx = np.random.default_rng(1).normal(0, scene.sigma_n, (3, 64, 1100)).astype(np.float32)
+    rx[2, :4] *= 5   # an attacked cycle
+    codes, _, _ = adc_codes(scene, rx)
+    assert codes.dtype == np.int16
+    got = det.process(wire(Frame.of(codes, cycles=3), 1), wire(Frame.of(rho, cycles=3), 1)).header["per_cycle"]
+    lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
+    exact = detect(codes.astype(np.float64) * lsb, rho, scene.sigma_n, 1.5)   # float64 samples: no rounding
+    np.testing.assert_allclose(got["q"], exact.q, rtol=1e-13)
+    assert got["alarm"] == exact.alarm.tolist() == [False, False, True]
+
+
+def test_detector_judges_invalid_a_cycle_with_nonfinite_adc_input_or_an_unbalanced_rho():
+    from carav_stream.radar.adc import adc_codes
+    scene = scene_of(SCENE)
+    rx = np.random.default_rng(4).normal(0, scene.sigma_n, (4, 64, 1100)).astype(np.float32)
+    rx[1, 2, 3] = np.nan
+    codes, _, nonfinite = adc_codes(scene, rx)
+    rho = np.zeros((4, 64), bool)
+    rho[:, ::2] = True
+    rho[3, 1] = True                                   # 33 active chirps: not made by the source
+    frame = wire(Frame.of(codes, cycles=4, per_cycle={"nonfinite": nonfinite.tolist()}), 5)
+    per = RmsDetector(scene=SCENE, eta=1.5).process(frame, wire(Frame.of(rho, cycles=4), 5)).header["per_cycle"]
+    assert per["invalid"] == [False, True, False, True] and per["alarm"] == [False, True, False, True]
+    assert per["raised_by"][1] == "invalid" and per["raised_by"][3] == "bad_rho"
+    garbled = wire(Frame.of(codes, cycles=4, per_cycle={"nonfinite": ["0", 0, 0, 0]}), 6)
+    verdict = RmsDetector(scene=SCENE, eta=1.5).process(garbled, wire(Frame.of(rho, cycles=4), 6))
+    assert verdict.header["per_cycle"]["invalid"] == [True] * 4
+    out = Gate().process(frame, wire(Frame.of(rho, cycles=4, per_cycle=per), 5))
+    assert out["clean"].header["per_cycle"]["cycle_index"] == [5, 7]
+    assert out["alarms"].header["per_cycle"]["reason"] == ["invalid", "invalid"]

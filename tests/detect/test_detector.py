@@ -211,6 +211,7 @@ def test_chirp_rms_accepts_a_single_chirp_including_degenerate_ones():
 
 def test_chirp_rms_from_integer_codes_is_exact_for_i_only_and_iq_up_to_full_scale():
     from fractions import Fraction
+
     from carav_stream.detect.detector import chirp_rms_codes
     rng = np.random.default_rng(3)
     codes = rng.integers(-32768, 32768, size=(2, 3, 1000, 2)).astype(np.int16)

@@ -6,10 +6,16 @@ import pytest
 from scipy import stats
 
 from carav_stream.detect.detector import detect_from_rms
-from carav_stream.detect.paper_model import balanced_rho, paper_scene, sample_rms
-from carav_stream.detect.stats import (cfar_eta_closed_form, clopper_pearson, pf_importance_sampling,
-                                       pf_pm_closed_form, rms_moments)
-from carav_stream.detect.thresholds import cfar, minimax, min_sum
+from carav_stream.detect.stats import (
+    cfar_eta_closed_form,
+    clopper_pearson,
+    pf_importance_sampling,
+    pf_pm_closed_form,
+    rms_moments,
+)
+from carav_stream.detect.thresholds import cfar, min_sum, minimax
+from carav_stream.montecarlo.paper_model import paper_scene, sample_rms
+from carav_stream.radar.activation import balanced_rows
 
 
 def test_clopper_pearson_matches_scipy_binomtest():
@@ -39,7 +45,7 @@ def test_closed_form_pf_and_pm_agree_with_monte_carlo():
     n = 60_000
     eta = np.array([1.15, 1.25, 1.35])
     for attack, rarms in [("none", 0.0), ("random", 0.4)]:
-        rho = balanced_rho(n, 64, rng)
+        rho = balanced_rows(rng, n, 64)
         q = detect_from_rms(sample_rms(scene, rho, rng, attack, rarms), rho, 1.0).q
         cf = pf_pm_closed_form(eta, n_chirps=64, dof=scene.dof, snr=scene.echo_snr, rarms=rarms)
         for i, e in enumerate(eta):

@@ -19,7 +19,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import golden_io  # noqa: E402
 
-from carav_stream.radar.scene import load_scene  # noqa: E402  scene constants only
+from carav_stream.radar.scene_loader import load_scene  # noqa: E402  scene constants only
 
 GENERATOR = "make_adc_framer.py"
 # The block computes x * float32(1/lsb) in float32: an exact quotient within ~1e-5 LSB of a tie (n + 1/2) may

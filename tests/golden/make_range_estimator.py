@@ -21,7 +21,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import golden_io  # noqa: E402
 
-from carav_stream.radar.scene import load_scene  # noqa: E402  scene constants only
+from carav_stream.radar.scene_loader import load_scene  # noqa: E402  scene constants only
 
 GENERATOR = "make_range_estimator.py"
 C_MPS = 299_792_458.0

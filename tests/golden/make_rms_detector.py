@@ -22,7 +22,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import golden_io  # noqa: E402
 
-from carav_stream.radar.scene import load_scene  # noqa: E402  scene constants only
+from carav_stream.radar.scene_loader import load_scene  # noqa: E402  scene constants only
 
 GENERATOR = "make_rms_detector.py"
 C_MPS = 299_792_458.0
@@ -108,7 +108,7 @@ def build() -> dict[str, dict]:
                          for (a, r), k in zip(attacks, rails))
         description = (f"table1, {len(attacks)} cycles of 64 chirps x 1100 int16 codes: {what}; eta {eta:g}, "
                        f"sigma_n {'of the scene' if not sigma_n else f'{sigma_n:g}'}")
-        args = {"eta": eta} | ({"sigma_n": sigma_n} if sigma_n else {})
+        args = {"eta": eta, "scene": "table1"} | ({"sigma_n": sigma_n} if sigma_n else {})
         vectors[name] = {
             "args": args, "description": description, "generator": GENERATOR,
             "tolerance": {"q": {"rtol": 1e-12}, "c": {"rtol": 1e-12}, "rbar": {"rtol": 1e-12}},

@@ -19,7 +19,7 @@ import zmq
 import zmq.auth
 from zmq.utils.monitor import recv_monitor_message
 
-from carav_stream.frames import Frame, encode
+from carav_stream.runtime.frames import Frame, encode
 
 pytestmark = pytest.mark.integration
 

@@ -2,51 +2,27 @@
 import csv
 import os
 import signal
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from carav_stream.chain import run_chain
+from carav_stream.algorithm1 import run_algorithm1
 from carav_stream.radar.streams import scene_of
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
 
-CHAIN = """
-seed = {seed}
-batch = {batch}
-scene = "table1"
-fidelity = "{fidelity}"
-connections = [
-  "source.tx -> channel.tx", "channel.rx -> adc.rx", "channel.air -> attacker.air", "attacker.attack -> adc.attack",
-  "adc.frames -> detector.frames", "source.rho -> detector.rho",
-  "adc.frames -> gate.frames", "detector.verdict -> gate.verdict",
-  "gate.clean -> ranging.frames", "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms",
-  "detector.verdict -> vlog.inp", "ranging.estimates -> elog.inp", "gate.alarms -> elog.extra",
-  "channel.air -> alog.inp", "source.rho -> rlog.inp", "ranging.estimates -> csv.estimates", "gate.alarms -> csv.alarms",
-]
-[run]
-cycles = {cycles}
-[blocks]
-source   = {{ type = "chirp_source" }}
-channel  = {{ type = "channel" }}
-attacker = {{ type = "attacker", {attacker} }}
-adc      = {{ type = "adc_framer" }}
-detector = {{ type = "rms_detector", eta = 1.5 {detector} }}
-gate     = {{ type = "gate" }}
-ranging  = {{ type = "range_estimator", method = "ml" }}
-summary  = {{ type = "run_summary" }}
-vlog     = {{ type = "jsonl_sink", path = "verdicts.jsonl", max_values = 100000 }}
-elog     = {{ type = "jsonl_sink", path = "judged.jsonl" }}
-alog     = {{ type = "jsonl_sink", path = "attacker_inputs.jsonl", max_values = 100000 }}
-rlog     = {{ type = "jsonl_sink", path = "rho.jsonl", max_values = 100000 }}
-csv      = {{ type = "csv_sink", path = "cycles.csv" }}
-"""
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+TAPS = Path(__file__).resolve().parent / "graphs"
 
 
-def graph(carav, cycles, attacker, seed=21, fidelity="beat", detector="", batch=16):
-    return carav.graph(CHAIN.format(cycles=cycles, attacker=attacker, seed=seed, fidelity=fidelity, detector=detector,
-                                    batch=batch))
+def radar(carav, cycles: int, graph: str = "radar_taps.toml", *, seed: int = 21, fidelity: str = "beat",
+          batch: int = 16, **attacker):
+    """Run tests/integration/graphs/<graph> (the radar chain with taps) with --set for what the test varies."""
+    sets = [f"seed={seed}", f"fidelity={fidelity}", f"batch={batch}",
+            *(f"attacker.{k}={v!r}" if isinstance(v, str) else f"attacker.{k}={v}" for k, v in attacker.items())]
+    return carav.run(TAPS / graph, "--cycles", str(cycles), *sum((["--set", s] for s in sets), []))
 
 
 def by_cycle(records: list[dict]) -> dict[int, dict]:
@@ -62,7 +38,7 @@ def by_cycle(records: list[dict]) -> dict[int, dict]:
 
 
 def assert_equals_the_library(carav, run, lib, n: int, batch: int = 16) -> dict:
-    """The run's per-cycle Q, verdicts, activation rows, estimates and csv rows equal `lib` (run_chain's) bit for
+    """The run's per-cycle Q, verdicts, activation rows, estimates and csv rows equal `lib` (run_algorithm1's) bit for
     bit; returns the run's summary."""
     records = read_jsonl(carav.workdir / "verdicts.jsonl")
     assert [(v["seq"], v["cycle"], v["cycles"]) for v in records] == [
@@ -79,7 +55,8 @@ def assert_equals_the_library(carav, run, lib, n: int, batch: int = 16) -> dict:
     rows = sorted(csv.DictReader(open(carav.workdir / "cycles.csv")), key=lambda r: int(r["cycle"]))
     assert [int(r["cycle"]) for r in rows] == list(range(n))
     assert [r["port"] == "alarms" for r in rows] == lib.alarm.tolist()
-    assert [r["range_m"] for r in rows if r["port"] == "estimates"] == [repr(float(x)) for x in lib.range_m[~lib.alarm, 0]]
+    ranges = [r["range_m"] for r in rows if r["port"] == "estimates"]
+    assert ranges == [repr(float(x)) for x in lib.range_m[~lib.alarm, 0]]
     s = run.summary()
     assert s["lost"] == 0 and s["cycles"] == n and s["cycles_judged"] == n
     return s
@@ -87,9 +64,10 @@ def assert_equals_the_library(carav, run, lib, n: int, batch: int = 16) -> dict:
 
 def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
     n = 120   # 7 frames of 16 cycles and a last one of 8
-    run = carav.run(graph(carav, n, 'model = "smart", rarms = 3.0, start_cycle = 60'))
+    run = radar(carav, n, model="smart", rarms=3.0, start_cycle=60)
     assert run.wait(120) == 0, run.stderr()
-    lib = run_chain(scene_of("table1"), n, seed=21, attack="smart", attack_params={"rarms": 3.0, "start_cycle": 60})
+    lib = run_algorithm1(scene_of("table1"), n, seed=21, attack="smart",
+                         attack_params={"rarms": 3.0, "start_cycle": 60})
     s = assert_equals_the_library(carav, run, lib, n)
     assert s["attacked_cycles"] == 60
     assert s["detected"] == int(lib.alarm[60:].sum()) and s["false_alarms"] == int(lib.alarm[:60].sum())
@@ -114,7 +92,7 @@ def assert_attacker_heard_only_the_past_emission(carav, run, n: int, batch: int)
 
 def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
     n = 40
-    run = carav.run(graph(carav, n, 'model = "lfsr_predictor", rarms = 3.0', batch=8))
+    run = radar(carav, n, model="lfsr_predictor", rarms=3.0, batch=8)
     assert run.wait(120) == 0, run.stderr()
     assert_attacker_heard_only_the_past_emission(carav, run, n, batch=8)
 
@@ -123,10 +101,9 @@ def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
 def test_reactive_repeater_gated_at_the_receiver_equals_the_library_and_never_hears_rho(carav, fidelity):
     n = 40   # frames of 16, 16 and 8 cycles: on from cycle 8 to 31, silent throughout the last frame
     params = {"rarms": 3.0, "distance_m": 20.0, "latency_s": 2e-7, "start_cycle": 8, "n_active_cycles": 24}
-    run = carav.run(graph(carav, n, "model = \"reactive\", " + ", ".join(f"{k} = {v!r}" for k, v in params.items()),
-                          seed=25, fidelity=fidelity))
+    run = radar(carav, n, seed=25, fidelity=fidelity, model="reactive", **params)
     assert run.wait(120) == 0, run.stderr()
-    lib = run_chain(scene_of("table1"), n, seed=25, attack="reactive", attack_params=params, fidelity=fidelity)
+    lib = run_algorithm1(scene_of("table1"), n, seed=25, attack="reactive", attack_params=params, fidelity=fidelity)
     assert lib.attack_active.tolist() == [8 <= c < 32 for c in range(n)]
     s = assert_equals_the_library(carav, run, lib, n)
     judged = by_cycle(read_jsonl(carav.workdir / "judged.jsonl"))
@@ -137,9 +114,7 @@ def test_reactive_repeater_gated_at_the_receiver_equals_the_library_and_never_he
 
 
 def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector_dies(carav):
-    body = CHAIN.format(cycles=0, attacker='model = "none"', seed=22, fidelity="beat",
-                        detector=', restart = "on-failure"', batch=4)
-    run = carav.run(carav.graph(body))
+    run = radar(carav, 0, "radar_taps_detector_restarts.toml", seed=22, batch=4)
     judged = carav.workdir / "judged.jsonl"
     _kill_mid_run_and_stop(carav, run, "detector", judged)
     run.wait(60)
@@ -164,8 +139,7 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
     """SIGKILL one node mid-run: after its restart every later cycle is judged once, in order (no sink rejects a
     duplicate or out-of-order frame), what died with it is counted, and `carav stop` drains well within its
     deadline (the nodes pairing inputs get told where each stream resumes instead of waiting for lost frames)."""
-    body = CHAIN.format(cycles=0, attacker='model = "none"', seed=24, fidelity="beat", detector="", batch=4)
-    run = carav.run(carav.graph(body.replace("[blocks]", '[restart]\npolicy = "on-failure"\n[blocks]')))
+    run = radar(carav, 0, "radar_taps_restart.toml", seed=24, batch=4)
     judged = carav.workdir / "judged.jsonl"
     n_at_restart = _kill_mid_run_and_stop(carav, run, victim, judged)
     assert run.wait(60) in (0, 3), run.stderr()          # 3: frames died with the killed node (counted lost)
@@ -173,7 +147,8 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
     assert s["restarts"] == 1 and s["estimated_counts"] == [victim] and not s["failures"], s["failures"]
     assert s["rejected"] == 0, run.stderr()
     records = read_jsonl(judged)
-    assert [r["seq"] for r in records if r["port"] == "inp"] == sorted({r["seq"] for r in records if r["port"] == "inp"})
+    seqs = [r["seq"] for r in records if r["port"] == "inp"]
+    assert seqs == sorted(set(seqs))
     estimates = by_cycle([r for r in records if r["port"] == "inp"])
     alarms = by_cycle([r for r in records if r["port"] == "extra"])
     assert not set(estimates) & set(alarms) and len(estimates) + len(alarms) > n_at_restart
@@ -204,7 +179,7 @@ def _pid_of(carav, run, node):
 
 
 def test_live_attacker_swaps_keep_every_cycle_and_change_the_verdicts(carav):
-    run = carav.run(graph(carav, 0, 'model = "none"', seed=23, fidelity="waveform", batch=4))
+    run = radar(carav, 0, seed=23, fidelity="waveform", batch=4)
     judged = carav.workdir / "judged.jsonl"
     swaps = [("smart", ["rarms=4.0"]),
              ("secondary_antenna", ["range_m=30.0", "velocity_mps=13.89", "tx_power_w=0.1"])]
@@ -229,20 +204,8 @@ def test_live_attacker_swaps_keep_every_cycle_and_change_the_verdicts(carav):
     assert all(alarmed[firsts[0]:])                                       # every attacked cycle alarms
 
 
-GRAPHS = sorted((__import__("pathlib").Path(__file__).resolve().parents[2] / "graphs").glob("*.toml"))
-
-
-def test_every_committed_graph_validates():
-    from carav_stream.graph import load_graph
-    names = {g.stem for g in GRAPHS}
-    assert {"demo", "table1_random", "table1_smart", "awr1642_smart", "secondary_antenna", "no_attack",
-            "two_hosts", "reactive"} <= names
-    for g in GRAPHS:
-        load_graph(g)
-
-
 def test_demo_graph_runs_and_reports_detection_figures(carav):
-    run = carav.run(GRAPHS[[g.stem for g in GRAPHS].index("demo")], "--cycles", "200")
+    run = carav.run(GRAPHS / "demo.toml", "--cycles", "200")
     assert run.wait(120) == 0, run.stderr()
     s = run.summary()
     assert s["cycles"] == 200 and s["lost"] == 0 and s["cycles_judged"] == 200
@@ -272,11 +235,9 @@ def _free_port_base() -> int:
 
 
 def test_two_hosts_over_tcp_as_two_supervisors(carav):
-    text = GRAPHS[[g.stem for g in GRAPHS].index("two_hosts")].read_text()
-    text = text.replace("port_base = 47100", f"port_base = {_free_port_base()}")
-    text = text.replace("port_base = 47200", f"port_base = {_free_port_base()}")
-    path = carav.workdir / "two.toml"
-    path.write_text(text)
+    path = carav.workdir / "two.toml"     # graphs/two_hosts.toml on free ports
+    path.write_text(f'include = "{GRAPHS / "two_hosts.toml"}"\n[hosts.front]\nport_base = {_free_port_base()}\n'
+                    f'[hosts.back]\nport_base = {_free_port_base()}\n')
     back = carav.run(path, "--host", "back", "--cycles", "200")
     front = carav.run(path, "--host", "front", "--cycles", "200")
     assert front.wait(120) == 0, front.stderr()
@@ -286,15 +247,3 @@ def test_two_hosts_over_tcp_as_two_supervisors(carav):
     assert sb["cycles"] == 200 and sb["cycles_judged"] == 200 and sb["lost"] == 0
     assert sb["attacked_cycles"] == 50 and sb["detected"] == 50 and sb["false_alarms"] == 0
 
-
-def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(carav):
-    res = carav.cli("bench", "pipeline", "--cases", "awr1642:beat", "--repeats", "1", "--scale", "0.04",
-                    "--batch", "4,8", "--json", "bench.json", timeout_s=120)
-    assert res.returncode == 0, res.stderr
-    records = __import__("json").loads((carav.workdir / "bench.json").read_text())
-    assert [(r["preset"], r["fidelity"], r["mode"], r["batch"]) for r in records] == [
-        ("awr1642", "beat", mode, b) for b in (4, 8) for mode in ("pipeline", "fused")]
-    for r in records:
-        assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
-    assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")
-    assert all(r["cpu_us_per_cycle"] > 0 for r in records if r["mode"] == "fused")   # measured in its own process

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import zmq
 
-from carav_stream.frames import Frame, encode
+from carav_stream.runtime.frames import Frame, encode
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
@@ -68,7 +68,7 @@ queue_frames = 2
 src = { type = "counter_source", rows = 64, n_values = 1100 }
 t = { type = "tagger", delay_s = 0.01 }
 log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
-""" % n
+""" % n  # noqa: UP031 (the TOML braces would need doubling in a format string)
     run = carav.run(carav.graph(body))
     gaps = []
 

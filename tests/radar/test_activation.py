@@ -107,3 +107,11 @@ def test_berlekamp_massey_finds_no_short_lfsr_in_secure_bits():
     # linear complexity of random bits is n/2 +- a few
     assert abs(length - 256) <= 12, length
     assert math.isclose(np.mean(bits), 0.5, abs_tol=0.1)
+
+
+def test_balanced_rows_have_exactly_half_active_per_cycle_and_every_pattern_can_occur():
+    from carav_stream.radar.activation import balanced_rows
+    rho = balanced_rows(np.random.default_rng(0), 4000, 4)
+    assert rho.dtype == bool and np.all(rho.sum(axis=1) == 2)
+    patterns = {tuple(r) for r in rho.tolist()}
+    assert len(patterns) == 6                               # C(4, 2): uniform over the balanced rows

@@ -8,7 +8,7 @@ from carav_stream.radar import noise, synth
 from carav_stream.radar.activation import ActivationSource
 from carav_stream.radar.noise import gaussian, standard_normal_rows
 from carav_stream.radar.physics import echo_templates
-from carav_stream.radar.scene import load_scene
+from carav_stream.radar.scene_loader import load_scene
 
 
 def test_noise_pairs_have_chi2_radius_and_uniform_angle():

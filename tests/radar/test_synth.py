@@ -8,11 +8,18 @@ import scipy.stats
 
 from carav_stream.radar import synth
 from carav_stream.radar.activation import ActivationSource
+from carav_stream.radar.adc import adc
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.noise import standard_normal_rows
-from carav_stream.radar.scene import load_scene
-from carav_stream.radar.synth import (adc, channel, echo_energy_per_chirp, observe, resolve_fidelity,
-                                      simulate_cycles, transmit)
+from carav_stream.radar.scene_loader import load_scene
+from carav_stream.radar.synth import (
+    channel,
+    echo_energy_per_chirp,
+    observe,
+    resolve_fidelity,
+    simulate_cycles,
+    transmit,
+)
 
 C = 299_792_458.0
 
@@ -254,7 +261,7 @@ from hypothesis import strategies as st  # noqa: E402
 @settings(max_examples=30, deadline=None)
 @given(bits=st.integers(2, 16), full_scale=st.floats(1e-6, 1e3), seed=st.integers(0, 2 ** 16))
 def test_adc_error_is_at_most_half_an_lsb_inside_full_scale(bits, full_scale, seed):
-    from carav_stream.radar.scene import scene_from_dict
+    from carav_stream.radar.scene_loader import scene_from_dict
     s = scene_from_dict({"fc_hz": 77e9, "bandwidth_hz": 150e6, "t_sweep_s": 7.33e-6, "fs_hz": 150e6,
                          "n_chirps": 2, "n_samples": 64, "adc_bits": bits, "adc_full_scale": full_scale,
                          "sigma_n": 1.0}, "adc.toml")

@@ -5,8 +5,20 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from carav_stream.frames import (_HEADER_TYPES, _REQUIRED_KEYS, ALLOWED_DTYPES, MAX_HEADER_BYTES, RESERVED_KEYS,
-                                 SCHEMA_VERSION, Frame, FrameError, decode, encode, end_of_stream, header_packer)
+from carav_stream.runtime.frames import (
+    _HEADER_TYPES,
+    _REQUIRED_KEYS,
+    ALLOWED_DTYPES,
+    MAX_HEADER_BYTES,
+    RESERVED_KEYS,
+    SCHEMA_VERSION,
+    Frame,
+    FrameError,
+    decode,
+    encode,
+    end_of_stream,
+    header_packer,
+)
 
 header_values = st.recursive(
     st.none() | st.booleans() | st.integers(-2**63, 2**63 - 1) | st.floats(allow_nan=False) | st.text(max_size=20),
@@ -89,7 +101,8 @@ def good_parts(**override):
     (good_parts(stream=b"a.b"), "'stream' must be str"),
     (good_parts(cycles=0), "cycles must be >= 1"),
     (good_parts(trail=["a:x@1#0", 3]), "list of strings"),
-    ([msgpack.packb({"v": 1, "stream": "a.b", "seq": 1, "eos": False, "arrays": []})], "lacks required key(s) ['cycle']"),
+    ([msgpack.packb({"v": 1, "stream": "a.b", "seq": 1, "eos": False, "arrays": []})],
+     "lacks required key(s) ['cycle']"),
     (good_parts(arrays=[["data", ["float32"], [2, 3]]]), "must be [name, dtype, shape]"),
     (good_parts(arrays=[["data", "float32", [True, 6]]]), "non-negative integers"),
 ])

@@ -2,9 +2,10 @@ from pathlib import Path
 
 import pytest
 
-from carav_stream.block import Block, BlockError, In, Out, Param
 from carav_stream.cli import main as carav
-from carav_stream.graph import GraphError, load_graph, swap_problems
+from carav_stream.runtime.block import Block, BlockError, In, Out, Param
+from carav_stream.runtime.graph import GraphError, load_graph
+from carav_stream.runtime.validate import swap_problems
 
 TOYS = Path(__file__).resolve().parents[1] / "toy_blocks"
 
@@ -147,7 +148,7 @@ def test_params_are_typed_and_bounded():
                   Param("n", int, 1))
 
     assert B(eta=2).eta == 2.0
-    with pytest.raises(BlockError, match="eta: must be > 0.0, got -1.5"):
+    with pytest.raises(BlockError, match="eta: must be > 0, got -1.5"):
         B(eta=-1.5)
     with pytest.raises(BlockError, match=r"mode: must be one of \['a', 'b'\], got 'c'"):
         B(mode="c")
@@ -168,7 +169,7 @@ def test_a_value_error_from_check_params_becomes_a_block_error_naming_it():
 
 READER = '''
 from pathlib import Path
-from carav_stream.block import Block, BlockError, In, Param
+from carav_stream.runtime.block import Block, BlockError, In, Param
 
 
 class TableReader(Block):
@@ -225,7 +226,7 @@ def test_a_graph_wide_file_parameter_is_resolved_and_other_values_are_left_as_wr
 
 
 def test_radar_blocks_read_their_scene_file_relative_to_the_graph():
-    from carav_stream.registry import Registry
+    from carav_stream.runtime.registry import Registry
     registry = Registry([])
     with_scene = [b for b in registry.names() if any(p.name == "scene" for p in registry.get(b).cls.params)]
     assert len(with_scene) >= 7

@@ -1,10 +1,10 @@
-"""The data-plane helpers: lean multipart send and receive, blocking sends that keep serving the node."""
+"""The data-plane helpers: lean multipart send and receive, each waiting at most one tick inside ZeroMQ."""
 import time
 
 import pytest
 import zmq
 
-from carav_stream import transport
+from carav_stream.runtime import transport
 
 
 @pytest.fixture
@@ -42,29 +42,3 @@ def test_multipart_messages_arrive_whole_and_frames_are_forwarded_without_copies
     transport.send_message(push, [b"again", parts[1]])     # a received zmq.Frame goes out as it is
     again = transport.recv_message(pull)
     assert bytes(again[0]) == b"again" and bytes(again[1]) == payload and not again[1].more
-
-
-def test_send_blocking_serves_idle_every_tick_and_gives_up_only_when_cancelled(pair):
-    push, pull = pair
-    big = b"x" * (1 << 20)                                 # more than a Unix socket buffer holds
-    sent = 0
-    deadline = time.monotonic() + 10
-    while sent < 50 and time.monotonic() < deadline:      # fill every queue of the edge (HWM 1, both ends)
-        try:
-            transport.send_message(push, [b"h", big])
-            sent += 1
-        except zmq.Again:
-            break
-    assert 0 < sent < 50
-    calls = []
-    t0 = time.monotonic()
-    ok = transport.send_blocking(push, [b"h", b"y" * 1000], lambda: calls.append(time.monotonic()),
-                                 cancelled=lambda: len(calls) >= 3)
-    assert not ok and len(calls) == 3
-    assert transport.TICK_S * 2 <= time.monotonic() - t0 < 10    # it waited inside ZeroMQ, tick by tick
-    received = [transport.recv_message(pull) for _ in range(sent)]
-    assert all([bytes(p) for p in parts] == [b"h", big] for parts in received)
-    with pytest.raises(zmq.Again):                                 # the cancelled message was not half sent
-        transport.recv_message(pull)
-    assert transport.send_blocking(push, [b"h", b"z"], lambda: None)
-    assert [bytes(p) for p in transport.recv_message(pull)] == [b"h", b"z"]

@@ -2,8 +2,8 @@
 
 Graph   add = { type = "adder" }
 """
-from carav_stream.block import Block, In, Out
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, In, Out
+from carav_stream.runtime.frames import Frame
 
 
 class Adder(Block):

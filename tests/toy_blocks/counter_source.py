@@ -8,8 +8,8 @@ Graph   src = { type = "counter_source", n_values = 4 }
 """
 import numpy as np
 
-from carav_stream.block import Block, Out, Param
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, Out, Param
+from carav_stream.runtime.frames import Frame
 
 
 class CounterSource(Block):

@@ -4,8 +4,8 @@ Graph   c = { type = "crasher", at_seq = 10 }
 """
 import os
 
-from carav_stream.block import Block, In, Out, Param
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, In, Out, Param
+from carav_stream.runtime.frames import Frame
 
 
 class Crasher(Block):

@@ -2,7 +2,7 @@
 
 Graph   s = { type = "numbers_only" }
 """
-from carav_stream.block import Block, In
+from carav_stream.runtime.block import Block, In
 
 
 class NumbersOnly(Block):

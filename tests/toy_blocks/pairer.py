@@ -3,8 +3,8 @@ no partner; the runtime decided it never will).
 
 Graph   p = { type = "pairer" }
 """
-from carav_stream.block import Block, In, Out
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, In, Out
+from carav_stream.runtime.frames import Frame
 
 
 class Pairer(Block):

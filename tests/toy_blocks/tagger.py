@@ -2,8 +2,8 @@
 
 Graph   t = { type = "tagger", tag = "a", offset = 0.0 }
 """
-from carav_stream.block import Block, In, Out, Param
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, In, Out, Param
+from carav_stream.runtime.frames import Frame
 
 
 class Tagger(Block):

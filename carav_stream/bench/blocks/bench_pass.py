@@ -6,8 +6,8 @@ Graph   p1 = { type = "bench_pass" }
 Summary frames, cpu_ms_per_frame (this node process, all threads), page_faults_per_frame, ...
 """
 from carav_stream.bench.blocks._common import cpu_figures, cpu_s, profile_start, profile_stop
-from carav_stream.block import Block, In, Out
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, In, Out
+from carav_stream.runtime.frames import Frame
 
 
 class BenchPass(Block):

@@ -12,8 +12,8 @@ Summary latency_median_s, latency_p99_s, latency_max_s, frames, frames_per_s, by
 import time
 
 from carav_stream.bench.blocks._common import cpu_figures, cpu_s, figures, profile_start, profile_stop
-from carav_stream.block import Block, In, Param
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, In, Param
+from carav_stream.runtime.frames import Frame
 
 
 class BenchSink(Block):

@@ -14,8 +14,8 @@ import time
 import numpy as np
 
 from carav_stream.bench.blocks._common import cpu_figures, cpu_s, profile_start, profile_stop
-from carav_stream.block import Block, Out, Param
-from carav_stream.frames import Frame
+from carav_stream.runtime.block import Block, Out, Param
+from carav_stream.runtime.frames import Frame
 
 
 class BenchSource(Block):

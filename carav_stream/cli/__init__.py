@@ -1,0 +1,81 @@
+"""carav: run, validate and steer carav-stream graphs; sweep thresholds; reproduce the paper; benchmark.
+
+    carav run GRAPH [--cycles N] [--set node.param=value | param=value ...] [--json FILE]
+    carav validate GRAPH ...
+    carav blocks [TYPE]
+    carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
+    carav sweep ...            PF/PM Monte Carlo and threshold design
+    carav reproduce ...        regenerate docs/REPRODUCTION.md
+    carav experiment secondary-antenna ...
+    carav bench transport|synth|detector|estimators|pipeline ...
+
+Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
+for is imported (the studies and benchmarks import scipy and matplotlib).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+COMMANDS = {
+    "run": ("carav_stream.cli.run", "run a graph and print its summary"),
+    "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
+    "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
+    "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
+    "stop": ("carav_stream.cli.stop", "stop a running graph in order (sources first, drain, sinks last)"),
+    "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),
+    "sweep": ("carav_stream.studies.sweep_command", "PF/PM Monte Carlo over eta and RARMS, with threshold design"),
+    "reproduce": ("carav_stream.studies.reproduce", "regenerate docs/REPRODUCTION.md and its figures"),
+}
+EXPERIMENTS = {
+    "secondary-antenna": ("carav_stream.studies.secondary_antenna", "the paper's Figures 6 to 8"),
+}
+BENCHES = {
+    "transport": ("carav_stream.bench.wire", "frames/s, GB/s and latency through a chain of processes"),
+    "synth": ("carav_stream.bench.signal_chain", "signal-chain time per cycle by preset, fidelity and attacker"),
+    "detector": ("carav_stream.bench.detection", "detector stability, ns/sample and Monte Carlo speed"),
+    "estimators": ("carav_stream.bench.estimation", "run time against error of the range/velocity estimators"),
+    "pipeline": ("carav_stream.bench.pipeline", "cycles/s of the multi-process graph against one process"),
+}
+GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS),
+          "bench": ("benchmarks (JSON records, summarised in BENCHMARKS.md)", BENCHES)}
+
+
+def _add(sub, name: str, module: str, help_text: str, wanted: bool) -> None:
+    """A subcommand; its module is imported only when the command line asks for it."""
+    p = sub.add_parser(name, help=help_text, description=help_text)
+    if wanted:
+        mod = importlib.import_module(module)
+        mod.configure(p)
+        p.set_defaults(func=mod.run)
+
+
+def build_parser(argv: list[str] = ()) -> argparse.ArgumentParser:
+    words = [a for a in argv if not a.startswith("-")]
+    ap = argparse.ArgumentParser(prog="carav", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, (module, text) in COMMANDS.items():
+        _add(sub, name, module, text, words[:1] == [name])
+    for group, (text, table) in GROUPS.items():
+        p = sub.add_parser(group, help=text, description=text)
+        gsub = p.add_subparsers(dest=group, required=True, metavar=group.upper())
+        for name, (module, help_text) in table.items():
+            _add(gsub, name, module, help_text, words[:2] == [group, name])
+    return ap
+
+
+def run_as_command(module: str) -> int:
+    """`python -m <command module> ARGS` is `carav <its command> ARGS`."""
+    for prefix, table in (([], COMMANDS), (["experiment"], EXPERIMENTS), (["bench"], BENCHES)):
+        for name, (mod, _) in table.items():
+            if mod == module:
+                return main([*prefix, name, *sys.argv[1:]])
+    raise LookupError(f"{module} is not a carav command module")
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    args = build_parser(argv).parse_args(argv)
+    return args.func(args)

@@ -1,0 +1,5 @@
+import sys
+
+from carav_stream.cli import main
+
+sys.exit(main())

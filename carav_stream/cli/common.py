@@ -1,0 +1,58 @@
+"""What the command modules share: the error line, and finding and asking a running graph."""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import zmq
+
+from carav_stream.runtime.protocol import pack, unpack
+
+
+def fail(text: str, code: int = 2) -> int:
+    print(f"carav: {text}", file=sys.stderr)
+    return code
+
+
+def running_graphs() -> list[dict[str, Any]]:
+    """The run.json of every graph running on this machine under this user."""
+    from carav_stream.runtime.supervisor import run_root
+    runs = []
+    for f in sorted(run_root().glob("*/run.json")):
+        try:
+            info = json.loads(f.read_text())
+            os.kill(info["pid"], 0)
+        except (OSError, ValueError, KeyError):
+            continue   # a run that ended without cleaning up (killed): not running
+        runs.append(info)
+    return runs
+
+
+def pick_run(which: str | None) -> dict[str, Any]:
+    runs = running_graphs()
+    if which:
+        runs = [r for r in runs if r["run"] == which or Path(r["graph"]).stem == which or r["graph"] == which]
+    if not runs:
+        raise SystemExit(fail(f"no running graph{' matches ' + repr(which) if which else ''}"))
+    if len(runs) > 1:
+        raise SystemExit(fail("several graphs are running; name one with its run id: "
+                              + ", ".join(r["run"] for r in runs)))
+    return runs[0]
+
+
+def ask(run: dict[str, Any], kind: str, timeout_s: float = 40.0, **fields: Any) -> dict[str, Any]:
+    """One admin request (protocol.Admin) to a running graph's supervisor, and its answer."""
+    ctx = zmq.Context.instance()
+    sock = ctx.socket(zmq.REQ)
+    sock.linger = 0
+    try:
+        sock.connect(run["admin"])
+        sock.send(pack(kind, **fields))
+        if not sock.poll(timeout_s * 1000):
+            raise SystemExit(fail(f"run {run['run']} did not answer within {timeout_s:.0f} s"))
+        return unpack(sock.recv())
+    finally:
+        sock.close()

@@ -1,0 +1,30 @@
+"""`carav swap NODE BLOCK [--set key=value ...]`: replace a running node's block at a frame boundary."""
+from __future__ import annotations
+
+import argparse
+
+from carav_stream.cli.common import ask, fail, pick_run
+from carav_stream.runtime.graph import parse_value
+from carav_stream.runtime.protocol import Admin
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    p.add_argument("node")
+    p.add_argument("block")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="parameter of the new block")
+    p.add_argument("--graph", dest="run", help="run id or graph name (default: the only running graph)")
+
+
+def run(args: argparse.Namespace) -> int:
+    params = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep:
+            return fail(f"--set {item!r}: expected key=value")
+        params[key.strip()] = parse_value(value.strip())
+    target = pick_run(args.run)
+    reply = ask(target, Admin.SWAP, node=args.node, block=args.block, params=params)
+    if not reply.get("ok"):
+        return fail(f"swap refused: {reply.get('error')}", 1)
+    print(f"{args.node}: now {reply['block']}@{reply['version']}#{reply['generation']} from seq {reply['next_seq']}")
+    return 0

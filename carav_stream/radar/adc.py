@@ -1,0 +1,93 @@
+"""The receiver's ADC: quantisation to integer codes, clipping, and the step that turns codes back into samples.
+
+    code = clip(rint(x / lsb), -2^(b-1), 2^(b-1) - 1),   lsb = adc_full_scale / 2^(b-1)   (I and Q separately)
+
+`adc_codes` is what the ADC delivers (int16 codes, or the samples themselves for an ideal ADC), `from_codes`
+turns codes into samples in sqrt(W), `adc_step` is the lsb a detector needs to read codes (defined here once).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from carav_stream.radar.scene import Scene
+
+__all__ = ["adc", "adc_codes", "adc_step", "from_codes", "with_nonfinite"]
+
+
+def adc_step(scene: Scene) -> float | None:
+    """The lsb of the scene's ADC in sqrt(W), or None for an ADC that delivers samples (adc_bits 0 or > 16)."""
+    if not 0 < scene.adc_bits <= 16:
+        return None
+    return scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
+
+
+def adc(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Quantise to ``adc_bits`` over +-``adc_full_scale`` (mid-tread, saturating); I and Q separately.
+
+    Returns (frames, clipped): frames same dtype and shape as rx, values on the ADC grid in the
+    same units; clipped int64 (n_cycles,) = samples whose I or Q hit a rail. ``adc_bits = 0`` is an
+    ideal ADC (a copy, no clipping). Equal to ``from_codes(scene, *adc_codes(scene, rx)[:1])``.
+    """
+    codes, clipped, nonfinite = adc_codes(scene, rx)
+    return with_nonfinite(from_codes(scene, codes), rx, nonfinite), clipped
+
+
+def with_nonfinite(frames: np.ndarray, rx: np.ndarray, nonfinite: np.ndarray) -> np.ndarray:
+    """The ADC's samples with NaN where rx held a NaN/Inf (only cycles that had one are looked at)."""
+    for i in np.flatnonzero(nonfinite):
+        frames[i][~np.isfinite(rx[i])] = np.nan
+    return frames
+
+
+def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the ADC delivers: integer codes, int16 (n_cycles, n_chirps, n_samples), or for I/Q
+    (n_cycles, n_chirps, n_samples, 2) with I then Q; clipped as in :func:`adc`; and nonfinite, int64
+    (n_cycles,): samples whose I or Q was NaN or Inf at the ADC input (a simulation fault, not a signal: their
+    code is 0, they are not counted as clipped, and the detector's RMS of such a cycle is NaN, so the
+    detector judges it invalid). The scaling is float32 arithmetic, ``rint(x * float32(1 / lsb))``: a value
+    within about 1e-4 LSB of a half code (near full scale) may round to the other neighbour than exact
+    arithmetic would. An ideal ADC (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx
+    instead (float32 | complex64; non-finite samples stay as they are and are counted).
+    """
+    n_cycles = rx.shape[0]
+    lsb = adc_step(scene)
+    if lsb is None:
+        flat = rx.reshape(n_cycles, -1)
+        nonfinite = np.zeros(n_cycles, dtype=np.int64)
+        for i in np.flatnonzero(~np.isfinite(flat.sum(axis=1))):
+            nonfinite[i] = np.count_nonzero(~np.isfinite(flat[i]))
+        return rx.copy(), np.zeros(n_cycles, dtype=np.int64), nonfinite
+    hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
+    lo = np.float32(-(2 ** (scene.adc_bits - 1)))
+    codes = np.multiply(rx.view(np.float32), np.float32(1.0 / lsb))   # complex64 -> interleaved I, Q
+    np.rint(codes, out=codes)
+    flat = codes.reshape(n_cycles, math.prod(codes.shape[1:]))
+    clipped = np.zeros(n_cycles, dtype=np.int64)
+    nonfinite = np.zeros(n_cycles, dtype=np.int64)
+    # two fast reductions find the cycles that hit a rail or hold a NaN/Inf (NaN propagates through max);
+    # only those are counted and fixed
+    top, bottom = flat.max(axis=1, initial=lo), flat.min(axis=1, initial=hi)
+    for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
+        row = flat[i]
+        bad = ~np.isfinite(row)
+        over = ((row > hi) | (row < lo)) & ~bad
+        row[bad] = 0.0
+        np.clip(row, lo, hi, out=row)
+        if scene.iq:   # a sample's I and Q flags share two bytes: any -> != 0
+            over, bad = over.view(np.uint16), bad.view(np.uint16)
+        clipped[i] = np.count_nonzero(over)
+        nonfinite[i] = np.count_nonzero(bad)
+    out = codes.astype(np.int16)
+    return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped, nonfinite
+
+
+def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:
+    """ADC codes (from :func:`adc_codes`) as samples in sqrt(W): float32 (I-only) or complex64 (I/Q),
+    (n_cycles, n_chirps, n_samples). Float input (an ideal ADC's) is returned as it is."""
+    if codes.dtype != np.int16:
+        return codes
+    lsb = np.float32(adc_step(scene))
+    x = np.multiply(codes, lsb, dtype=np.float32)
+    return x.view(np.complex64)[..., 0] if scene.iq else x

@@ -1,0 +1,124 @@
+"""The block API: ports, typed parameters and the Block base class.
+
+A block is a plain class that turns frames into frames. It never touches sockets, files or processes: the
+runtime pairs its inputs by `seq`, calls `process`, stamps and sends what it returns. Declarations are class
+attributes so that the graph validator and `carav blocks` read them without building the block.
+
+    class Scale(Block):
+        '''Multiply the payload by a gain.'''
+        inputs = (In("x", kind="samples"),)
+        outputs = (Out("y", kind="samples"),)
+        params = (Param("gain", float, 1.0, "linear gain", low=0.0),)
+
+        def process(self, x: Frame) -> Frame:
+            return x.derive(x.payload * self.gain)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from carav_stream.core.params import REQUIRED, Param, problems
+from carav_stream.runtime.frames import Frame
+
+__all__ = ["REQUIRED", "Block", "BlockError", "In", "Out", "Param"]
+
+
+@dataclass(frozen=True)
+class In:
+    """An input port. `kind` is a free label checked for compatibility ("any" accepts every kind)."""
+
+    name: str
+    kind: str = "any"
+    doc: str = ""
+    dtypes: tuple[str, ...] = ()   # accepted payload dtypes; () = any, ("none",) = header-only frames
+    required: bool = True
+
+
+@dataclass(frozen=True)
+class Out:
+    name: str
+    kind: str = "any"
+    doc: str = ""
+    dtypes: tuple[str, ...] = ()
+
+
+class BlockError(ValueError):
+    """A block was given parameters it cannot work with."""
+
+
+class Block:
+    """Base class. Subclasses declare `inputs`, `outputs`, `params` and implement `process` (or `generate`).
+
+    Life cycle, all inside the block's own process except `__init__` and `check_params`:
+      __init__(**params)  check parameters only (no I/O)
+      start()             open resources; called once in the block's process before the first frame
+      generate(seq)       sources only (no inputs): the frame(s) for output `seq`, or None at end of stream;
+                          before each call the runtime sets `self.cycle_budget`, the cycles still wanted
+                          (None = until stopped), so that a source putting several cycles in one frame
+                          (header `cycles`) can size its last frame
+      process(*frames)    one frame per input, all with the same seq; returns a Frame (single output), a dict
+                          {port: Frame}, or None (nothing this time)
+      unpaired(port, f)   a frame whose partners on the other inputs can no longer arrive; default raises
+      finish()            at end of stream; may return final frames like process
+      summary()           a dict of figures for the run summary (plain types)
+    """
+
+    inputs: ClassVar[tuple[In, ...]] = ()
+    outputs: ClassVar[tuple[Out, ...]] = ()
+    params: ClassVar[tuple[Param, ...]] = ()
+    version: ClassVar[str] = "1"
+    # False: inputs are paired by seq (process gets one frame per input). True: inputs are independent
+    # streams, merged in arrival order (process gets one frame, None for the other inputs).
+    merge_inputs: ClassVar[bool] = False
+    cycle_budget: int | None = None   # sources: set by the runtime before each generate()
+    # (incarnation, generation), set by the runtime before start(): (0, 0) for the block a run starts with; a
+    # restarted process counts incarnations, a block swapped in counts generations. A block drawing from a
+    # seeded random stream derives it from this too, so that a new instance never replays what one before drew.
+    instance: tuple[int, int] = (0, 0)
+
+    def __init__(self, **values: Any) -> None:
+        problems = self.param_problems(values)
+        if problems:
+            raise BlockError("; ".join(f"{name}: {text}" for name, text in problems))
+        for p in self.params:
+            setattr(self, p.name, p.check(values[p.name])[0] if p.name in values else p.default)
+        try:
+            self.check_params()
+        except BlockError:
+            raise
+        except ValueError as exc:   # a kernel's own validation (a bad scene file, say) speaks for the block
+            raise BlockError(str(exc)) from None
+
+    @classmethod
+    def param_problems(cls, values: dict[str, Any]) -> list[tuple[str, str]]:
+        """Every problem with `values`, as (parameter name, text); empty when they are fine."""
+        return problems(cls.params, values, cls.__name__)
+
+    def check_params(self) -> None:
+        """Cross-parameter checks; raise BlockError (or ValueError) naming the parameters."""
+
+    def start(self) -> None:
+        pass
+
+    def generate(self, seq: int) -> Frame | dict[str, Frame] | None:
+        raise NotImplementedError(f"{type(self).__name__} has no inputs and must implement generate()")
+
+    def process(self, *frames: Frame) -> Frame | dict[str, Frame] | None:
+        raise NotImplementedError(f"{type(self).__name__} must implement process()")
+
+    def unpaired(self, port: str, frame: Frame) -> Frame | dict[str, Frame] | None:
+        other = [p.name for p in self.inputs if p.name != port]
+        raise BlockError(f"frame seq {frame.seq} on input {port!r} has no partner on {other}: "
+                         "an upstream node skipped it")
+
+    def finish(self) -> Frame | dict[str, Frame] | None:
+        return None
+
+    def summary(self) -> dict[str, Any]:
+        return {}
+
+    @classmethod
+    def is_source(cls) -> bool:
+        return not cls.inputs
+

@@ -1,0 +1,51 @@
+"""What a node's supervisor has told it: the state that control messages set, without sockets.
+
+The node reads its DEALER socket and hands every message to `ControlState.apply`; its loops then look at the
+flags (go, stopping, released), the pending swap, and the edges and ports the message names.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from carav_stream.runtime.protocol import Control
+
+
+class ControlState:
+    def __init__(self, *, go: bool, recovering: bool = False) -> None:
+        self.go = go                                  # sources wait for it; other nodes start at once
+        self.stopping = False                         # sources: stop generating
+        self.released = False                         # every node drained: exit
+        self.recovering = recovering                  # an upstream node was restarted: partners may be lost
+        self.pending_swap: dict[str, Any] | None = None
+        self.ended_ports: set[str] = set()            # inputs whose producer died for good
+        self.cut_edges: set[str] = set()              # outputs whose consumer died for good
+        self.reconnect_edges: set[str] = set()        # outputs whose consumer was restarted
+
+    def apply(self, msg: dict[str, Any]) -> None:
+        """Take one control message into the state; unknown kinds are ignored (a newer supervisor's)."""
+        kind = msg.get("type")
+        if kind == Control.GO:
+            self.go = True
+        elif kind == Control.STOP:
+            self.stopping = True
+        elif kind == Control.EXIT:
+            self.released = True
+        elif kind == Control.SWAP:
+            self.pending_swap = msg
+        elif kind == Control.EOS:
+            self.ended_ports.update(_names(msg, "ports"))
+        elif kind == Control.CUT:
+            self.cut_edges.update(_names(msg, "edges"))
+        elif kind == Control.RECONNECT:
+            self.reconnect_edges.update(_names(msg, "edges"))
+        elif kind == Control.RECOVER:
+            self.recovering = True
+
+    def take_swap(self) -> dict[str, Any] | None:
+        msg, self.pending_swap = self.pending_swap, None
+        return msg
+
+
+def _names(msg: dict[str, Any], key: str) -> list[str]:
+    value = msg.get(key, [])
+    return [v for v in value if isinstance(v, str)] if isinstance(value, list) else []

@@ -1,0 +1,118 @@
+"""Output delivery of a node: one PUSH connection per edge, back-pressure, cut edges and resumed connections.
+
+A frame sent on an output port goes to every edge of that port in order; a full consumer queue blocks the send
+(heartbeats and control are served meanwhile through `idle`), so nothing is dropped. An edge whose consumer died
+for good is cut: what cannot be delivered on it is counted as undeliverable. When a consumer is restarted, the
+edge connects afresh at once (what the old connection held is lost with it, and counted) and first sends a
+header-only resume marker {resume: true, seq: X}: nothing before X comes on that stream.
+
+The sockets come from `connect(endpoint)` and messages leave through `send(sock, parts)`: ZeroMQ in a node, any
+stand-ins in a test.
+"""
+from __future__ import annotations
+
+import collections
+import time
+from collections.abc import Callable
+from typing import Any
+
+import zmq
+
+from carav_stream.runtime import transport
+from carav_stream.runtime.frames import Frame, encode
+from carav_stream.runtime.protocol import OutEdge
+
+
+class Outputs:
+    def __init__(self, edges: dict[str, tuple[OutEdge, ...]], connect: Callable[[str], Any],
+                 idle: Callable[[], None], send: Callable[[Any, list], None] = transport.send_message,
+                 tick_s: float = transport.TICK_S) -> None:
+        self.endpoints = {e.edge: e.connect for port_edges in edges.values() for e in port_edges}
+        self._connect, self.idle, self._send, self.tick_s = connect, idle, send, tick_s
+        self.sockets: dict[str, list[tuple[str, Any]]] = {
+            port: [(e.edge, connect(e.connect)) for e in port_edges] for port, port_edges in edges.items()}
+        self.edge_of = {edge: (port, i) for port, es in self.sockets.items() for i, (edge, _) in enumerate(es)}
+        self.reconnect: set[str] = set()          # edges whose consumer was restarted, not yet resumed
+        self.cut: set[str] = set()                # edges whose consumer died for good
+        self.sent_seq: dict[str, int] = {}        # per edge: seq of the last frame ZeroMQ took
+        self.c_sent = collections.Counter()       # per edge
+        self.c_undeliverable = collections.Counter()
+        self.eos_sent = False
+
+    def send(self, port: str, parts: list[Any], seq: int) -> None:
+        """Send one encoded frame on every edge of `port`, blocking under back-pressure."""
+        edges = self.sockets.get(port, ())
+        if len(edges) == 1 and not (self.cut or self.reconnect):   # the usual case: one consumer, room in its
+            edge, sock = edges[0]                                   # queue, and ZeroMQ takes the message at once
+            try:
+                self._send(sock, parts)
+                self.c_sent[edge] += 1
+                self.sent_seq[edge] = seq
+                return
+            except zmq.Again:
+                pass
+        for i, (edge, _) in enumerate(edges):
+            if self.deliver(port, i, parts):
+                self.c_sent[edge] += 1
+                self.sent_seq[edge] = seq
+            else:
+                self.c_undeliverable[edge] += 1
+
+    def deliver(self, port: str, i: int, parts: list[Any]) -> bool:
+        """Send on edge i of `port`, blocking under back-pressure; on the fresh connection if its consumer was
+        restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
+        edges = self.sockets[port]
+        while True:
+            edge, sock = edges[i]
+            if edge in self.cut:
+                return False
+            if edge in self.reconnect:          # not resumed yet (no room for the marker): resume retries
+                time.sleep(self.tick_s)
+                self.idle()
+                continue
+            try:
+                self._send(sock, parts)
+                return True
+            except zmq.Again:
+                self.idle()
+                if edge in self.cut:
+                    return False
+
+    def resume_all(self, marker: Callable[[str, str], list[list[Any]]]) -> None:
+        """Connect afresh to every restarted consumer and send it `marker(port, edge)` first (the resume marker,
+        and the end of stream if this node had finished). Done at once, even while this node is blocked
+        elsewhere, because that consumer may be what it is blocked on."""
+        for edge in [*self.reconnect]:
+            port, i = self.edge_of[edge]
+            self.sockets[port][i][1].close(linger=0)
+            sock = self._connect(self.endpoints[edge])
+            self.sockets[port][i] = (edge, sock)
+            try:
+                for msg in marker(port, edge):   # a fresh connection has room: ZeroMQ queues them at once
+                    self._send(sock, msg)
+            except zmq.Again:                    # it had not: the next call connects afresh and tries again
+                continue
+            self.reconnect.discard(edge)
+
+    def resume_seq(self, edge: str, next_seq: int) -> int:
+        """Where the stream on `edge` resumes: after the last frame ZeroMQ took, or at the node's next seq."""
+        return max(self.sent_seq.get(edge, -1) + 1, next_seq)
+
+    def send_eos(self, message: Callable[[str, str], list[Any]]) -> None:
+        """End of stream on every edge (message(port, edge): with the count of frames sent on it)."""
+        for port, edges in self.sockets.items():
+            for i, (edge, _) in enumerate(edges):
+                self.deliver(port, i, message(port, edge))
+        self.eos_sent = True
+
+    def close(self, crashed: bool = False) -> None:
+        """Close every connection: queued frames still leave (linger), except towards a dead consumer or after
+        a crash."""
+        for edges in self.sockets.values():
+            for edge, sock in edges:
+                sock.close(linger=0 if crashed or edge in self.cut else None)
+
+
+def runtime_message(node: str, block_type: str, port: str, **header: Any) -> list[Any]:
+    """A header-only message of the runtime's own (end of stream, resume marker) on output `port`."""
+    return encode(Frame(header), stream=f"{node}.{port}", node=node, block=block_type)

@@ -1,0 +1,125 @@
+"""What crosses a process boundary besides frames: the node spec and the control and admin messages.
+
+    supervisor --NodeSpec (msgpack file)--> node process
+    supervisor --Control--> node   (ROUTER -> DEALER)     node --Report--> supervisor
+    carav status|stop|swap --Admin--> supervisor (REQ -> REP)
+
+Every message is one msgpack map with a "type" key, packed and unpacked here only: no extension types, string
+keys, never a pickle.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, fields, replace
+from enum import StrEnum
+from typing import Any
+
+import msgpack
+
+
+class Control(StrEnum):
+    """Supervisor to node."""
+
+    GO = "go"                  # start generating (sources) once every node is ready
+    STOP = "stop"              # sources: stop generating, send end of stream
+    EXIT = "exit"              # every node drained: exit now
+    SWAP = "swap"              # replace the block at the next frame boundary (block, params, id)
+    EOS = "eos"                # an upstream node died for good: these input ports end here (ports)
+    CUT = "cut"                # a downstream node died for good: stop feeding these edges (edges)
+    RECONNECT = "reconnect"    # a downstream node was restarted: connect afresh to these edges (edges)
+    RECOVER = "recover"        # an upstream node was restarted: partners of buffered frames may be lost
+
+
+class Report(StrEnum):
+    """Node to supervisor; every report carries the node's name and pid."""
+
+    READY = "ready"            # sockets open, block started (block, version)
+    HEARTBEAT = "hb"           # alive, with counters
+    DONE = "done"              # drained and finished (counters, history, lost, upstream_gone)
+    ERROR = "error"            # the block or the node failed (error, traceback, counters)
+    REJECT = "reject"          # a message refused on an input (port, reason, count)
+    SWAPPED = "swapped"        # a swap took effect (id, block, version, generation, next_seq)
+    SWAP_FAILED = "swap_failed"   # a swap could not be made; the old block runs on (id, error)
+
+
+class Admin(StrEnum):
+    """carav command line to supervisor; answered with {"ok": bool, ...}."""
+
+    STATUS = "status"
+    STOP = "stop"
+    SWAP = "swap"
+
+
+def pack(kind: str, **fields: Any) -> bytes:
+    """One control, report or admin message."""
+    return msgpack.packb({"type": str(kind), **fields}, use_bin_type=True)
+
+
+def unpack(raw: bytes) -> dict[str, Any]:
+    """A message as a dict; ValueError for anything that is not a msgpack map (extension types refused)."""
+    try:
+        msg = msgpack.unpackb(raw, raw=False, strict_map_key=True, ext_hook=_no_ext)
+    except _Refused:
+        raise
+    except Exception as exc:   # msgpack raises several unrelated types on garbled input
+        raise ValueError(f"not valid msgpack: {type(exc).__name__}: {exc}") from None
+    if not isinstance(msg, dict):
+        raise ValueError(f"expected a map, got {type(msg).__name__}")
+    return msg
+
+
+class _Refused(ValueError):
+    pass
+
+
+def _no_ext(code: int, data: bytes) -> Any:
+    raise _Refused(f"msgpack extension type {code} refused")
+
+
+@dataclass(frozen=True)
+class OutEdge:
+    """One edge leaving an output port: its name ("a.out -> b.inp") and the endpoint to connect to."""
+
+    edge: str
+    connect: str
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    """Everything a node process needs, written by the supervisor (a new spec for every restart and swap)."""
+
+    name: str
+    type: str
+    params: dict[str, Any]
+    control: str                                       # the supervisor's ROUTER endpoint
+    inputs: dict[str, str]                             # input port -> endpoint it binds
+    outputs: dict[str, tuple[OutEdge, ...]]            # output port -> its edges
+    queue_frames: int = 8
+    drain_timeout_s: float = 30.0
+    max_cycles: int = 0                                # sources: cycles to generate (0 = until stopped)
+    block_paths: tuple[str, ...] = ()
+    security: dict[str, str] = field(default_factory=dict)
+    generation: int = 0                                # blocks swapped in before this process
+    incarnation: int = 0                               # restarts of this node before this process
+    start_seq: int = 0                                 # a restarted source resumes its sequence here
+    start_cycles: int = 0                              # ... and its cycle count here
+    recovering: bool = False                           # restarted, or fed by a restarted node
+
+    def to_wire(self) -> bytes:
+        d = asdict(self)
+        d["outputs"] = {port: [asdict(e) for e in edges] for port, edges in self.outputs.items()}
+        d["block_paths"] = list(self.block_paths)
+        return msgpack.packb(d, use_bin_type=True)
+
+    @classmethod
+    def from_wire(cls, raw: bytes) -> NodeSpec:
+        d = unpack(raw)
+        known = {f.name for f in fields(cls)}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"node spec: unknown keys {sorted(unknown)}")
+        d["outputs"] = {port: tuple(OutEdge(**e) for e in edges) for port, edges in d.get("outputs", {}).items()}
+        d["block_paths"] = tuple(d.get("block_paths", ()))
+        return cls(**d)
+
+    def with_(self, **changes: Any) -> NodeSpec:
+        return replace(self, **changes)

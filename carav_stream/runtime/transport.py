@@ -1,0 +1,111 @@
+"""ZeroMQ plumbing: one PULL socket bound per input port, one PUSH socket per edge connected to it.
+
+Every input port binds its own endpoint (`ipc://RUNDIR/node.port`, or `tcp://bind:port` for an edge that
+crosses hosts), so a producer with several edges on one output port sends each frame to each edge in order.
+High-water marks bound every queue and sends block when a queue is full: a slow consumer slows its
+producers and nothing is dropped. Nodes block inside ZeroMQ (no Python polling loop per frame): every data
+socket has a send and receive timeout of TICK_S, after which the node serves heartbeats and control and waits
+again. On tcp edges ZeroMQ's CURVE mechanism authenticates and encrypts: the
+binding side is the CURVE server (its ZAP handler admits only the public keys in `curve_authorized`), the
+connecting side a client that also checks the server's key, so a peer without the right keys gets nothing in
+and nothing out.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import zmq
+
+MAX_MESSAGE_BYTES = (1 << 30) + (1 << 21)   # arrays limit plus header room: zmq drops the peer beyond this
+TICK_S = 0.1            # longest a node waits inside one ZeroMQ send or receive before serving heartbeats and control
+
+# pyzmq's compiled send: the Python wrapper around it only adds routing_id/group options and, with
+# send_multipart, a type check per part and enum arithmetic per frame (about 5 us per message together).
+_send = zmq.backend.Socket.send
+_SNDMORE = int(zmq.SNDMORE)
+
+
+class Curve:
+    """CURVE keys for one process, loaded from the graph's certificate files (zmq.auth format)."""
+
+    def __init__(self, server_cert: str, client_cert: str, authorized: str) -> None:
+        import zmq.auth
+        self.server_public, self.server_secret = zmq.auth.load_certificate(server_cert)
+        self.client_public, self.client_secret = zmq.auth.load_certificate(client_cert)
+        if not self.server_secret or not self.client_secret:
+            raise ValueError(f"CURVE certificates {server_cert} and {client_cert} must be secret-key files")
+        self.authorized = authorized
+        self._auth = None
+
+    def serve(self, ctx: zmq.Context, sock: zmq.Socket) -> None:
+        if self._auth is None:
+            from zmq.auth.thread import ThreadAuthenticator
+            self._auth = ThreadAuthenticator(ctx)
+            self._auth.start()
+            self._auth.configure_curve(domain="*", location=self.authorized)
+        sock.curve_secretkey = self.server_secret
+        sock.curve_publickey = self.server_public
+        sock.curve_server = True
+
+    def connect_as_client(self, sock: zmq.Socket) -> None:
+        sock.curve_secretkey = self.client_secret
+        sock.curve_publickey = self.client_public
+        sock.curve_serverkey = self.server_public
+
+    def close(self) -> None:
+        if self._auth is not None:
+            self._auth.stop()
+            self._auth = None
+
+
+def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None) -> zmq.Socket:
+    sock = ctx.socket(zmq.PULL)
+    sock.rcvhwm = hwm
+    sock.maxmsgsize = MAX_MESSAGE_BYTES
+    sock.rcvtimeo = int(TICK_S * 1000)
+    sock.linger = 0
+    if curve is not None and endpoint.startswith("tcp://"):
+        curve.serve(ctx, sock)
+    sock.bind(endpoint)
+    return sock
+
+
+def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None,
+                   linger_ms: int = 30_000) -> zmq.Socket:
+    sock = ctx.socket(zmq.PUSH)
+    sock.sndhwm = hwm
+    sock.sndtimeo = int(TICK_S * 1000)
+    sock.linger = linger_ms          # a clean exit waits for queued frames to leave
+    if curve is not None and endpoint.startswith("tcp://"):
+        curve.connect_as_client(sock)
+    sock.connect(endpoint)
+    return sock
+
+
+def send_message(sock: zmq.Socket, parts: list[Any]) -> None:
+    """Send a multipart message without copying buffers (zmq.Frames, bytes, buffer objects); waits at most
+    the socket's send timeout, then raises zmq.Again. ZeroMQ queues a multipart message whole or not at all,
+    so a timed-out attempt sent nothing."""
+    last = len(parts) - 1
+    for i, part in enumerate(parts):
+        _send(sock, part, _SNDMORE if i < last else 0, copy=False)
+
+
+def recv_message(sock: zmq.Socket, flags: int = 0) -> list[zmq.Frame]:
+    """Receive one multipart message as zmq.Frames (no copy); waits at most the socket's receive timeout
+    (not at all with zmq.NOBLOCK), then raises zmq.Again. The parts of a message arrive together."""
+    part = sock.recv(flags, copy=False)
+    parts = [part]
+    while part.more:
+        part = sock.recv(copy=False)
+        parts.append(part)
+    return parts
+
+
+def ipc_endpoint(run_dir: Path, name: str) -> str:
+    path = run_dir / name
+    if len(str(path)) > 100:   # sockaddr_un holds 107 bytes
+        raise ValueError(f"ipc endpoint path {path} is too long for a Unix socket; set CARAV_RUN_DIR to a "
+                         "shorter folder")
+    return f"ipc://{path}"

@@ -1,0 +1,223 @@
+"""`carav sweep`: Monte Carlo PF(eta) and PM(eta) curves of the CARAV detector, thresholds, JSON and a plot.
+
+    carav sweep [--preset NAME | --scene FILE] [--nr N --ns N --iq] --attack KIND[,KIND] --rarms LIST
+                --trials N --eta START:STOP:STEP [--seed S] [--json FILE] [--plot FILE.png]
+
+The scene comes from the radar signal chain (`carav_stream.radar`, every attacker model); `--model paper` uses the
+paper's own model instead (attacks none, random, smart). `--method auto` draws per-chirp energies from their exact
+laws where the scene allows it and simulates every sample otherwise.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+from carav_stream.montecarlo.engine import PaperSource, eta_grid, sweep
+
+__all__ = ["configure", "run", "build_source", "plot_curves", "ProgressBar"]
+
+
+class ProgressBar:
+    """A one-line progress bar on stderr, redrawn at most every 0.2 s."""
+
+    def __init__(self, label: str, stream=None, width: int = 30):
+        self.label, self.stream, self.width = label, stream or sys.stderr, width
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        if done < total and now - self.last < 0.2:
+            return
+        self.last = now
+        frac = done / total if total else 1.0
+        bar = "#" * int(frac * self.width)
+        self.stream.write(f"\r{self.label} [{bar:<{self.width}}] {frac:5.1%} {done}/{total} cycles "
+                          f"{now - self.t0:6.1f} s")
+        if done >= total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--preset", default=None, help="scene preset: table1, awr1642, awr1642_literal (default table1)")
+    where.add_argument("--scene", default=None, help="scene TOML file")
+    parser.add_argument("--model", choices=("radar", "paper"), default="radar",
+                        help="radar: the full signal chain (default); paper: the paper's R = n + rho x + a model")
+    parser.add_argument("--nr", type=int, default=None, help="override the number of chirps per cycle N_r")
+    parser.add_argument("--ns", type=int, default=None, help="override the samples per chirp N_s")
+    parser.add_argument("--iq", action="store_true", help="complex I/Q samples instead of I only")
+    parser.add_argument("--snr-db", type=float, default=None, help="override the per-sample echo SNR (paper: 0 dB)")
+    parser.add_argument("--ideal-adc", action="store_true", help="no quantisation (adc_bits = 0)")
+    parser.add_argument("--attack", default="random", help="attacker kind(s), comma separated (default random)")
+    parser.add_argument("--attack-param", action="append", default=[], metavar="KIND.KEY=VALUE",
+                        help="extra attacker parameter, e.g. ghost.range_m=25 (repeatable)")
+    parser.add_argument("--activation", choices=("seeded", "lfsr", "secure"), default="seeded",
+                        help="activation source of the victim (lfsr to show the lfsr_predictor attack)")
+    parser.add_argument("--rarms", default="0.5,1,2,3,5", help="comma-separated RARMS values (sigma_a / sigma_n)")
+    parser.add_argument("--trials", type=int, default=1000, help="cycles per curve (default 1000, as the paper)")
+    parser.add_argument("--eta", default="0.5:2.5:0.01", help="threshold grid START:STOP:STEP")
+    parser.add_argument("--seed", type=int, default=None, help="seed for reproducible runs")
+    parser.add_argument("--method", choices=("auto", "energy", "samples"), default="auto",
+                        help="per-chirp energy draws (exact laws) or full sample simulation")
+    parser.add_argument("--cfar-pf", type=float, default=0.01, help="false-alarm target of the CFAR design")
+    parser.add_argument("--design-rarms", type=float, default=3.0,
+                        help="top-level thresholds are designed against the worst PM over RARMS >= this")
+    parser.add_argument("--workers", type=int, default=2, help="threads for independent batches")
+    parser.add_argument("--json", default=None, metavar="FILE", help="write the result as JSON")
+    parser.add_argument("--plot", default=None, metavar="FILE.png", help="draw PF/PM against eta (matplotlib)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _parse_value(text: str):
+    for cast in (int, float):
+        try:
+            return cast(text)
+        except ValueError:
+            pass
+    return {"true": True, "false": False}.get(text.lower(), text)
+
+
+def build_source(args: argparse.Namespace):
+    """The cycle source named by the arguments (radar chain, or the paper model)."""
+    preset = args.preset or ("table1" if args.scene is None else None)
+    if args.model == "paper":
+        if args.scene:
+            raise SystemExit("carav sweep: --model paper takes --preset table1|awr1642, not --scene")
+        from carav_stream.montecarlo.paper_model import paper_scene
+
+        return PaperSource(paper_scene(preset.split("_")[0], n_chirps=args.nr, n_samples=args.ns, iq=args.iq,
+                                       snr_db=0.0 if args.snr_db is None else args.snr_db))
+    try:
+        from carav_stream.montecarlo.radar_source import RadarSource
+        from carav_stream.radar.scene_loader import load_scene
+    except ImportError as exc:
+        if args.scene:
+            raise ValueError(f"scene: the radar signal chain is not available ({exc})") from None
+        print(f"carav sweep: radar chain unavailable ({exc}); using the paper model", file=sys.stderr)
+        args.model = "paper"
+        return build_source(args)
+
+    overrides = {}
+    if args.nr is not None:
+        overrides["n_chirps"] = args.nr
+    if args.ns is not None:
+        overrides["n_samples"] = args.ns
+    if args.iq:
+        overrides["iq"] = True
+    if args.snr_db is not None:
+        overrides["snr_db"] = args.snr_db
+    if args.ideal_adc:
+        overrides["adc_bits"] = 0
+    scene = load_scene(args.scene or preset, overrides or None)
+    params: dict = {}
+    for item in args.attack_param:
+        key, _, value = item.partition("=")
+        kind, _, name = key.partition(".")
+        if not (kind and name and value):
+            raise SystemExit(f"carav sweep: --attack-param expects KIND.KEY=VALUE, got {item!r}")
+        params.setdefault(kind, {})[name] = _parse_value(value)
+    return RadarSource(scene, attack_params=params, activation=args.activation)
+
+
+def plot_curves(result: dict, path: str, title: str | None = None) -> None:
+    """PF and PM against eta per RARMS, one panel per attack, with the eta = 1.5 line (like the paper's Figs 3-5)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    attacks = list(dict.fromkeys(c["attack"] for c in result["curves"]))
+    fig, axes = plt.subplots(1, len(attacks), figsize=(6.4 * len(attacks), 4.4), squeeze=False)
+    for ax, attack in zip(axes[0], attacks):
+        curves = [c for c in result["curves"] if c["attack"] == attack]
+        eta = np.asarray(curves[0]["eta"])
+        ax.plot(eta, curves[0]["pf"], color="k", lw=2, label="$P_F$ (no attack)")
+        colors = plt.cm.viridis(np.linspace(0, 0.9, len(curves)))
+        for c, col in zip(curves, colors):
+            ax.plot(eta, c["pm"], color=col, lw=1.5, label=f"$P_M$ RARMS={c['rarms']:g}")
+            lo, hi = np.asarray(c["pm_ci"]).T
+            ax.fill_between(eta, lo, hi, color=col, alpha=0.15, lw=0)
+        ax.axvline(1.5, color="r", ls="--", lw=1, label=r"$\eta$ = 1.5")
+        ax.set_xlabel(r"threshold $\eta$")
+        ax.set_ylabel("probability")
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_title(f"{title or result['scene']['name']}: {attack} attack, {curves[0]['trials']} cycles/curve")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="center right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _print_table(result: dict, stream=None) -> None:
+    stream = stream or sys.stdout
+    eta = np.asarray(result["eta"])
+    i15 = int(np.argmin(np.abs(eta - 1.5)))
+    print(f"scene {result['scene']['name']} ({result['scene']['model']}), {result['trials']} cycles per curve, "
+          f"PF from {result['pf_method']}", file=stream)
+    print(f"{'attack':<18}{'RARMS':>7}{'method':>9}{'PF@1.5':>9}{'PM@1.5':>9}  PM 95% CI@1.5      minimax eta (band)",
+          file=stream)
+    for c in result["curves"]:
+        mm = c["thresholds"]["minimax"]
+        lo, hi = c["pm_ci"][i15]
+        print(f"{c['attack']:<18}{c['rarms']:>7g}{c['method']:>9}{c['pf'][i15]:>9.4f}{c['pm'][i15]:>9.4f}  "
+              f"[{lo:.4f}, {hi:.4f}]   {mm['eta']:.3f} ({mm['eta_range'][0]:.2f}-{mm['eta_range'][1]:.2f}) "
+              f"max={mm['value']:.4f}", file=stream)
+    t = result["thresholds"]
+    for name in ("minimax", "cfar", "min_sum"):
+        d = t[name]
+        if d.get("eta") is None:
+            print(f"{name:>8}: {d.get('note')}", file=stream)
+            continue
+        print(f"{name:>8}: eta={d['eta']:.3f} PF={d['pf']:.4g} {d.get('pf_ci')} PM={d['pm']:.4g} {d.get('pm_ci')}",
+              file=stream)
+    if "closed_form" in result:
+        cf = result["closed_form"]
+        print(f"closed form (Gaussian): PF(1.5) = {cf['pf_at_eta_1_5']:.3e}; CFAR eta for PF = 1e-6: "
+              f"{cf['cfar_eta_pf_1e-6']:.4f}", file=stream)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        eta = eta_grid(args.eta)
+        rarms = [float(v) for v in args.rarms.split(",") if v.strip()]
+        if not rarms or any(not np.isfinite(r) or r < 0 for r in rarms):
+            raise ValueError(f"rarms: expected comma-separated values >= 0, got {args.rarms!r}")
+        if args.trials < 1:
+            raise ValueError(f"trials: must be >= 1, got {args.trials}")
+        attacks = [a.strip() for a in args.attack.split(",") if a.strip()]
+        source = build_source(args)
+        for a in attacks:
+            if hasattr(source, "make_attacker"):
+                source.make_attacker(a, rarms[0])
+            elif a not in source.attacks:
+                raise ValueError(f"attack: {a!r} is not available in the paper model; expected one of "
+                                 f"{', '.join(source.attacks)} (use --model radar for the others)")
+    except (ValueError, TypeError) as exc:
+        print(f"carav sweep: {exc}", file=sys.stderr)
+        return 2
+    progress = None if args.quiet else ProgressBar(f"sweep {source.name}")
+    t0 = time.perf_counter()
+    result = sweep(source, attacks=attacks, rarms=rarms, n_trials=args.trials, eta=eta, seed=args.seed,
+                   method=args.method, target_pf=args.cfar_pf, design_rarms=args.design_rarms,
+                   workers=args.workers, progress=progress)
+    result["elapsed_s"] = time.perf_counter() - t0
+    result["command"] = " ".join(sys.argv)
+    _print_table(result)
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(result, fh, indent=1)
+    if args.plot:
+        plot_curves(result, args.plot)
+    return 0
+
+
+if __name__ == "__main__":
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.studies.sweep_command"))

@@ -1,0 +1,31 @@
+"""`carav bench pipeline`: the shipped radar chain graph against run_algorithm1 in one process."""
+import json
+
+import pytest
+
+from carav_graphs import graph_file
+from carav_stream.bench.pipeline import pipeline_overrides
+from carav_stream.cli import main as carav
+from carav_stream.runtime.graph import load_graph
+
+
+def test_the_benchmark_runs_the_shipped_radar_chain_with_only_its_case_set():
+    g = load_graph(graph_file("radar_chain"), pipeline_overrides("awr1642", "waveform", 100, "fft_peak", 8))
+    assert g.params == {"scene": "awr1642", "batch": 8, "fidelity": "waveform", "seed": 5}
+    assert g.nodes["attacker"].params["model"] == "smart" and g.nodes["attacker"].params["start_cycle"] == 50
+    assert g.nodes["ranging"].params["method"] == "fft_peak"
+    assert [str(e) for e in g.edges] == [str(e) for e in load_graph(graph_file("radar_chain")).edges]
+
+
+@pytest.mark.integration
+def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
+    out = tmp_path / "bench.json"
+    assert carav(["bench", "pipeline", "--cases", "awr1642:beat", "--repeats", "1", "--scale", "0.04",
+                  "--batch", "4,8", "--json", str(out)]) == 0
+    records = json.loads(out.read_text())
+    assert [(r["preset"], r["fidelity"], r["mode"], r["batch"]) for r in records] == [
+        ("awr1642", "beat", mode, b) for b in (4, 8) for mode in ("pipeline", "fused")]
+    for r in records:
+        assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
+    assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")
+    assert all(r["cpu_us_per_cycle"] > 0 for r in records if r["mode"] == "fused")   # measured in its own process

@@ -1,0 +1,118 @@
+"""Graph composition (`include`) and graph-wide parameters, on toy blocks and on the shipped radar graphs."""
+from pathlib import Path
+
+import pytest
+
+from carav_stream.runtime.graph import GraphError, load_graph
+
+TOYS = Path(__file__).resolve().parents[1] / "toy_blocks"
+GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
+
+BASE = f"""
+block_paths = ["{TOYS}"]
+description = "base"
+connections = ["src.out -> t.inp", "t.out -> log.inp"]
+[run]
+cycles = 10
+queue_frames = 4
+[hosts.h]
+address = "127.0.0.2"
+port_base = 47000
+[blocks]
+src = {{ type = "counter_source", n_values = 3 }}
+t = {{ type = "tagger", offset = 1.0, delay_s = 0.0 }}
+log = {{ type = "jsonl_sink", path = "x.jsonl" }}
+"""
+
+
+def write(folder: Path, name: str, body: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / name).write_text(body)
+    return folder / name
+
+
+def problems_of(path: Path, overrides=()) -> str:
+    with pytest.raises(GraphError) as info:
+        load_graph(path, list(overrides))
+    return "\n".join(info.value.problems)
+
+
+def test_an_including_graph_states_only_what_differs(tmp_path):
+    write(tmp_path / "lib", "base.toml", BASE)
+    g = load_graph(write(tmp_path, "top.toml", """
+include = "lib/base.toml"
+description = "top"
+tag = "top"
+connections = ["t.out -> log2.inp"]
+[run]
+cycles = 20
+[hosts.h]
+port_base = 48000
+[blocks]
+t = { offset = 2.5 }
+log2 = { type = "jsonl_sink", path = "y.jsonl" }
+"""))
+    assert g.description == "top"                                           # top-level values replace
+    assert g.run["cycles"] == 20 and g.run["queue_frames"] == 4             # [run] merges key by key
+    assert (g.hosts["h"].address, g.hosts["h"].port_base) == ("127.0.0.2", 48000)   # tables within tables too
+    assert g.nodes["t"].params["offset"] == 2.5 and g.nodes["t"].params["tag"] == "top"   # a change keeps the rest
+    assert g.nodes["src"].params["n_values"] == 3
+    assert [str(e) for e in g.edges] == ["src.out -> t.inp", "t.out -> log.inp", "t.out -> log2.inp"]   # appended
+
+
+def test_a_node_written_with_a_type_replaces_the_included_one_entirely(tmp_path):
+    write(tmp_path, "base.toml", BASE)
+    g = load_graph(write(tmp_path, "top.toml", 'include = "base.toml"\n[blocks]\nt = { type = "tagger_b" }\n'))
+    assert g.nodes["t"].type == "tagger_b" and "offset" not in g.nodes["t"].params
+
+
+def test_a_change_to_a_node_the_included_graph_lacks_is_refused(tmp_path):
+    write(tmp_path, "base.toml", BASE)
+    found = problems_of(write(tmp_path, "top.toml", 'include = "base.toml"\n[blocks]\nghost = { offset = 1 }\n'))
+    assert "top.toml: blocks.ghost: changes a node the included graph does not have; give it a type" in found
+
+
+def test_include_cycles_missing_files_and_bad_values_are_named(tmp_path):
+    write(tmp_path, "a.toml", 'include = "b.toml"\n')
+    write(tmp_path, "b.toml", 'include = "a.toml"\n')
+    assert "graph files include each other: a.toml -> b.toml -> a.toml" in problems_of(tmp_path / "a.toml")
+    found = problems_of(write(tmp_path, "c.toml", 'include = "nowhere.toml"\n'))
+    assert "nowhere.toml: graph file not found" in found
+    assert "c.toml: include: 'nowhere.toml' could not be read" in found
+    assert "c.toml: include: must be the name of a graph file, got 3" in problems_of(write(tmp_path, "c.toml",
+                                                                                         "include = 3\n"))
+
+
+def test_a_relative_block_folder_stays_relative_to_the_file_that_wrote_it(tmp_path):
+    (tmp_path / "lib" / "my_blocks").mkdir(parents=True)
+    (tmp_path / "lib" / "my_blocks" / "tagger_c.py").write_text((TOYS / "tagger_b.py").read_text()
+                                                               .replace('"tagger_b"', '"tagger_c"'))
+    write(tmp_path / "lib", "base.toml", BASE.replace('block_paths = [', 'block_paths = ["my_blocks", '))
+    g = load_graph(write(tmp_path, "top.toml", 'include = "lib/base.toml"\n[blocks]\nt = { type = "tagger_c" }\n'))
+    assert g.nodes["t"].type == "tagger_c"
+    assert "block folder" in problems_of(write(tmp_path, "bad.toml", BASE.replace('block_paths = [',
+                                                                                     'block_paths = ["nope", ')))
+
+
+@pytest.mark.parametrize("graph", sorted(p.name for p in GRAPHS.glob("*.toml")))
+def test_every_shipped_graph_loads_and_includes_the_radar_chain_unchanged(graph):
+    chain = load_graph(GRAPHS / "radar_chain.toml")
+    g = load_graph(GRAPHS / graph)
+    assert {str(e) for e in chain.edges} <= {str(e) for e in g.edges}      # detection stays ahead of ranging
+    assert {n: node.type for n, node in chain.nodes.items()}.items() <= {n: node.type for n, node in
+                                                                        g.nodes.items()}.items()
+    assert g.params["scene"] in ("table1", "awr1642")
+
+
+def test_graph_wide_radar_parameters_are_checked_once_and_must_agree_across_blocks():
+    demo = GRAPHS / "demo.toml"
+    found = problems_of(demo, ["scene=nosuch"])
+    assert found.count("no such scene file or preset") == 1                   # once, not once per block
+    found = problems_of(demo, ["channel.fidelity=waveform"])
+    assert "fidelity: a graph-wide parameter has one value for the whole graph" in found
+    assert "channel 'waveform', attacker 'beat'" in found
+    g = load_graph(demo, ["fidelity=waveform", "batch=4", "seed=3"])          # set once: every block follows
+    assert {n.params["fidelity"] for n in g.nodes.values() if "fidelity" in n.params} == {"waveform"}
+    assert g.nodes["source"].params["batch"] == 4 and g.params["seed"] == 3
+    assert "batch: must be >= 1, got 0" in problems_of(demo, ["batch=0"])
+    assert "blocks.detector.eta: must be a finite number, got nan" in problems_of(demo, ["detector.eta=nan"])

@@ -1,0 +1,133 @@
+"""Output delivery: back-pressure keeps serving the node, cut edges count what they could not take, a restarted
+consumer gets a fresh connection whose first message says where the stream resumes."""
+import time
+
+import pytest
+import zmq
+
+from carav_stream.runtime import transport
+from carav_stream.runtime.outputs import Outputs
+from carav_stream.runtime.protocol import OutEdge
+
+EDGES = {"out": (OutEdge("p.out -> a.inp", "A"), OutEdge("p.out -> b.inp", "B"))}
+
+
+class Sock:
+    """A stand-in socket: what was sent on it, and how many sends it refuses first (a full queue)."""
+
+    def __init__(self, endpoint: str, full: int = 0) -> None:
+        self.endpoint, self.full, self.sent, self.closed = endpoint, full, [], False
+
+    def close(self, linger=None) -> None:
+        self.closed = True
+
+
+def outputs(full: dict[str, int] | None = None, idle=lambda: None) -> tuple[Outputs, list[Sock]]:
+    made: list[Sock] = []
+
+    def connect(endpoint):
+        made.append(Sock(endpoint, (full or {}).get(endpoint, 0)))
+        return made[-1]
+
+    def send(sock, parts):
+        if sock.full:
+            sock.full -= 1
+            raise zmq.Again()
+        sock.sent.append(parts)
+
+    return Outputs(EDGES, connect, idle, send, tick_s=0.0), made
+
+
+def test_a_frame_goes_to_every_edge_of_its_port_in_order_and_is_counted_per_edge():
+    out, socks = outputs()
+    out.send("out", ["h0"], 0)
+    out.send("out", ["h1"], 1)
+    assert [s.sent for s in socks] == [[["h0"], ["h1"]], [["h0"], ["h1"]]]
+    assert out.c_sent == {"p.out -> a.inp": 2, "p.out -> b.inp": 2} and out.sent_seq["p.out -> b.inp"] == 1
+
+
+def test_a_full_consumer_blocks_the_send_while_the_node_keeps_serving_control():
+    idles = []
+    out, socks = outputs({"B": 3}, idle=lambda: idles.append(1))
+    out.send("out", ["h"], 0)
+    assert len(idles) == 3 and socks[1].sent == [["h"]] and out.c_undeliverable == {}
+
+
+def test_an_edge_cut_while_blocked_gives_up_and_counts_the_frame_undeliverable():
+    out, socks = outputs({"B": 10 ** 6}, idle=lambda: out.cut.add("p.out -> b.inp"))
+    out.send("out", ["h"], 0)
+    assert socks[0].sent == [["h"]] and socks[1].sent == []
+    assert out.c_sent == {"p.out -> a.inp": 1} and out.c_undeliverable == {"p.out -> b.inp": 1}
+
+
+def test_a_restarted_consumer_gets_a_fresh_connection_that_first_says_where_the_stream_resumes():
+    out, socks = outputs()
+    out.send("out", ["h0"], 0)
+    out.reconnect.add("p.out -> b.inp")
+    out.resume_all(lambda port, edge: [["resume", out.resume_seq(edge, 1)]])
+    assert socks[1].closed and len(socks) == 3 and socks[2].endpoint == "B"
+    out.send("out", ["h1"], 1)
+    assert socks[2].sent == [["resume", 1], ["h1"]] and out.reconnect == set()
+
+
+def test_a_fresh_connection_without_room_for_the_marker_is_tried_again_later():
+    out, socks = outputs()
+    first_fresh = {"B": True}
+
+    def connect(endpoint):                                  # the first fresh connection to B has no room
+        socks.append(Sock(endpoint, 1 if first_fresh.pop(endpoint, False) else 0))
+        return socks[-1]
+
+    out._connect = connect
+    out.reconnect.add("p.out -> b.inp")
+    out.resume_all(lambda port, edge: [["resume", 0]])
+    assert out.reconnect == {"p.out -> b.inp"} and socks[2].sent == []
+    out.resume_all(lambda port, edge: [["resume", 0]])
+    assert out.reconnect == set() and socks[2].closed and socks[3].sent == [["resume", 0]]
+
+
+def test_end_of_stream_reaches_every_edge_with_the_count_sent_on_it():
+    out, socks = outputs()
+    out.send("out", ["h0"], 0)
+    out.send_eos(lambda port, edge: ["eos", out.c_sent[edge]])
+    assert [s.sent[-1] for s in socks] == [["eos", 1], ["eos", 1]] and out.eos_sent
+
+
+@pytest.fixture
+def pair(tmp_path):
+    """A connected PUSH -> PULL edge with HWM 1, set up as nodes set up theirs."""
+    ctx = zmq.Context()
+    endpoint = transport.ipc_endpoint(tmp_path, "edge")
+    pull = transport.bind_input(ctx, endpoint, hwm=1)
+    yield ctx, endpoint, pull
+    ctx.destroy(linger=0)         # closes whatever a failed test left open, so teardown cannot hang
+
+
+def test_over_zeromq_a_blocked_send_waits_inside_zeromq_tick_by_tick_and_sends_nothing_when_cut(pair):
+    ctx, endpoint, pull = pair
+    calls = []
+    edges = {"out": (OutEdge("p.out -> s.inp", endpoint),)}
+    out = Outputs(edges, lambda ep: transport.connect_output(ctx, ep, hwm=1, linger_ms=0),
+                  lambda: calls.append(time.monotonic()) if len(calls) < 3 else out.cut.add("p.out -> s.inp"))
+    big = b"x" * (1 << 20)                                 # more than a Unix socket buffer holds
+    sock = out.sockets["out"][0][1]
+    filled = 0
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:                     # fill every queue of the edge
+        try:
+            transport.send_message(sock, [b"h", big])     # refused only after a whole tick without room
+            filled += 1
+        except zmq.Again:
+            break
+    assert filled >= 1 and not calls
+    t0 = time.monotonic()
+    out.send("out", [b"h", b"y" * 1000], filled)
+    assert len(calls) >= 3 and out.c_undeliverable == {"p.out -> s.inp": 1}
+    assert transport.TICK_S * 2 <= time.monotonic() - t0 < 10    # it waited inside ZeroMQ, tick by tick
+    received = []
+    for _ in range(filled):                                # every frame ZeroMQ took arrives whole ...
+        assert pull.poll(5000), f"only {len(received)} of {filled} frames arrived"
+        received.append(bytes(transport.recv_message(pull)[1]))
+    assert received == [big] * filled
+    assert not pull.poll(300)                              # ... and the cut one was never half sent
+    out.close(crashed=True)

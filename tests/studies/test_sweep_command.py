@@ -1,0 +1,58 @@
+"""`carav sweep` command module: options, JSON layout, plot, errors."""
+from __future__ import annotations
+
+import argparse
+import json
+
+from carav_stream.studies import sweep_command as sweep_cli
+
+
+def _run(argv):
+    parser = argparse.ArgumentParser()
+    sweep_cli.configure(parser)
+    return sweep_cli.run(parser.parse_args(argv))
+
+
+def test_sweep_cli_writes_json_curves_thresholds_and_plot(tmp_path, capsys):
+    out, png = tmp_path / "s.json", tmp_path / "s.png"
+    code = _run(["--model", "paper", "--preset", "table1", "--nr", "16", "--ns", "64", "--attack", "random,smart",
+                 "--rarms", "0.5,4", "--trials", "200", "--eta", "0.8:3:0.1", "--seed", "2", "--json", str(out),
+                 "--plot", str(png), "--quiet"])
+    assert code == 0
+    res = json.loads(out.read_text())
+    assert [(c["attack"], c["rarms"]) for c in res["curves"]] == [("random", 0.5), ("random", 4.0),
+                                                                   ("smart", 0.5), ("smart", 4.0)]
+    c = res["curves"][1]
+    assert len(c["pf_ci"]) == len(c["eta"]) == 23 and len(c["pm_ci"][0]) == 2
+    assert set(res["thresholds"]) == {"minimax", "cfar", "min_sum"}
+    assert png.stat().st_size > 10_000
+    assert "minimax" in capsys.readouterr().out
+
+
+def test_sweep_cli_is_reproducible_with_seed(tmp_path):
+    args = ["--model", "paper", "--nr", "8", "--ns", "16", "--rarms", "1", "--trials", "50", "--eta", "1:2:0.5",
+            "--seed", "4", "--quiet", "--method", "samples"]
+    _run(args + ["--json", str(tmp_path / "a.json")])
+    _run(args + ["--json", str(tmp_path / "b.json")])
+    a, b = (json.loads((tmp_path / f).read_text()) for f in ("a.json", "b.json"))
+    assert a["curves"] == b["curves"]
+
+
+def test_sweep_cli_rejects_unknown_attack_for_paper_model(capsys):
+    assert _run(["--model", "paper", "--attack", "ghost", "--quiet"]) == 2
+    assert "attack: 'ghost' is not available in the paper model" in capsys.readouterr().err
+
+
+def test_sweep_cli_rejects_bad_eta_and_rarms(capsys):
+    assert _run(["--model", "paper", "--eta", "2:1:0.1", "--quiet"]) == 2
+    assert "eta: need 0 < START <= STOP" in capsys.readouterr().err
+    assert _run(["--model", "paper", "--rarms", "1,-2", "--quiet"]) == 2
+    assert "rarms: expected comma-separated values >= 0" in capsys.readouterr().err
+
+
+def test_sweep_cli_radar_chain_accepts_any_attacker(tmp_path):
+    out = tmp_path / "g.json"
+    code = _run(["--preset", "table1", "--nr", "8", "--ns", "64", "--attack", "ghost", "--rarms", "3",
+                 "--trials", "20", "--eta", "1:2:0.5", "--seed", "1", "--quiet", "--json", str(out)])
+    assert code == 0
+    assert json.loads(out.read_text())["curves"][0]["attack"] == "ghost"
