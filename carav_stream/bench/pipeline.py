@@ -26,7 +26,7 @@ from carav_graphs import graph_file
 from carav_stream.algorithm1 import run_algorithm1
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
-from carav_stream.runtime.graph import load_graph
+from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.supervisor import NODE_ENV, Supervisor
 
 CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000))

@@ -53,7 +53,7 @@ def chain_overrides(shape: tuple[int, int], *, queue_frames: int, warmup: int, r
 def run_runtime(shape: tuple[int, int], n_frames: int, *, queue_frames: int, warmup: int,
                 rate_hz: float = 0.0) -> dict[str, Any]:
     """One run of the chain through the real runtime; the sink's figures plus the supervisor's throughput."""
-    from carav_stream.runtime.graph import load_graph
+    from carav_stream.runtime.loader import load_graph
     from carav_stream.runtime.supervisor import Supervisor
     graph = load_graph(CHAIN_GRAPH, chain_overrides(shape, queue_frames=queue_frames, warmup=warmup, rate_hz=rate_hz))
     summary = Supervisor(graph, cycles=n_frames, progress=False, log=lambda text: None).run()

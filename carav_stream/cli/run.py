@@ -7,7 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from carav_stream.cli.common import fail
-from carav_stream.runtime.graph import GraphError, load_graph
+from carav_stream.runtime.graph import GraphError
+from carav_stream.runtime.loader import load_graph
 
 
 def configure(p: argparse.ArgumentParser) -> None:

@@ -5,7 +5,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from carav_stream.runtime.graph import GraphError, load_graph
+from carav_stream.runtime.graph import GraphError
+from carav_stream.runtime.loader import load_graph
 
 
 def configure(p: argparse.ArgumentParser) -> None:

@@ -6,7 +6,7 @@ import pytest
 from carav_graphs import graph_file
 from carav_stream.bench.pipeline import pipeline_overrides
 from carav_stream.cli import main as carav
-from carav_stream.runtime.graph import load_graph
+from carav_stream.runtime.loader import load_graph
 
 
 def test_the_benchmark_runs_the_shipped_radar_chain_with_only_its_case_set():

@@ -2,7 +2,7 @@
 import pytest
 
 from carav_stream.bench.wire import CHAIN_GRAPH, HOPS, chain_overrides, run_raw, run_runtime
-from carav_stream.runtime.graph import load_graph
+from carav_stream.runtime.loader import load_graph
 
 
 def test_the_chain_graph_is_six_processes_in_a_line_with_the_case_set_by_overrides():

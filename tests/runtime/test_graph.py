@@ -4,7 +4,8 @@ import pytest
 
 from carav_stream.cli import main as carav
 from carav_stream.runtime.block import Block, BlockError, In, Out, Param
-from carav_stream.runtime.graph import GraphError, load_graph
+from carav_stream.runtime.graph import GraphError
+from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.validate import swap_problems
 
 TOYS = Path(__file__).resolve().parents[1] / "toy_blocks"

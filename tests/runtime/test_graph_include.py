@@ -3,7 +3,8 @@ from pathlib import Path
 
 import pytest
 
-from carav_stream.runtime.graph import GraphError, load_graph
+from carav_stream.runtime.graph import GraphError
+from carav_stream.runtime.loader import load_graph
 
 TOYS = Path(__file__).resolve().parents[1] / "toy_blocks"
 GRAPHS = Path(__file__).resolve().parents[2] / "graphs"
