@@ -42,8 +42,8 @@ class Algorithm1Result:
 
 
 def run_algorithm1(scene: Scene, n_cycles: int, *, seed: int | None = None, attack: str = "none",
-              attack_params: dict | None = None, eta: float = 1.5, method: str = "ml", fidelity: str = "beat",
-              sigma_n: float | None = None, n_targets: int = 1, batch: int = 64) -> Algorithm1Result:
+                   attack_params: dict | None = None, eta: float = 1.5, method: str = "ml", fidelity: str = "beat",
+                   sigma_n: float | None = None, n_targets: int = 1, batch: int = 64) -> Algorithm1Result:
     """Run Algorithm 1 for n_cycles in this process; estimates only the cycles the detector passes."""
     streams = seed_streams(seed)
     attacker = make_attacker(attack, scene, **(attack_params or {})) if attack != "none" else None

@@ -12,13 +12,14 @@ Medians over --repeat repetitions. Prints a table and writes JSON records with -
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from decimal import Decimal, getcontext
 from fractions import Fraction
 
 import numpy as np
 
+from carav_stream.bench import records as bench_records
+from carav_stream.cli.options import count, output_file
 from carav_stream.detect.detector import chirp_rms, detect
 from carav_stream.montecarlo.engine import PaperSource, eta_grid, simulate_q, sweep
 from carav_stream.montecarlo.paper_model import paper_scene
@@ -31,10 +32,10 @@ DTYPES = (np.float32, np.float64, np.complex64, np.complex128)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--repeat", type=int, default=5, help="repetitions per timing (median reported)")
+    parser.add_argument("--repeat", type=count(1), default=5, help="repetitions per timing (median reported)")
     parser.add_argument("--quick", action="store_true", help="smaller sizes (for a smoke test)")
     parser.add_argument("--skip-sweep", action="store_true", help="skip the table1 sweep timings")
-    parser.add_argument("--json", default=None, metavar="FILE", help="write the records as JSON")
+    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the records as JSON")
 
 
 def _dec_sqrt(f: Fraction) -> Decimal:
@@ -192,8 +193,7 @@ def run(args: argparse.Namespace) -> int:
     records += bench_energy(args.quick, args.repeat)
     _print(records)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(records, fh, indent=1)
+        bench_records.write(args.json, args, records)
     return 0
 
 

@@ -14,11 +14,12 @@ what the random silencing costs. Prints a table, the threshold SNR per estimator
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import numpy as np
 
+from carav_stream.bench import records as bench_records
+from carav_stream.cli.options import count, number, output_file
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.estimators import DEFAULT_METHOD, METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
@@ -39,16 +40,16 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--estimators", default=",".join(METHODS), help="comma-separated estimators")
     parser.add_argument("--snr-db", default=",".join(str(s) for s in SNR_GRID_DB),
                         help="SNRs after coherent integration over the active chirps [dB]")
-    parser.add_argument("--cycles", type=int, default=200, help="Monte Carlo cycles per point")
-    parser.add_argument("--batch", type=int, default=16, help="cycles per estimate() call")
-    parser.add_argument("--repeat", type=int, default=5, help="timing repetitions (median reported)")
+    parser.add_argument("--cycles", type=count(1), default=200, help="Monte Carlo cycles per point")
+    parser.add_argument("--batch", type=count(1), default=16, help="cycles per estimate() call")
+    parser.add_argument("--repeat", type=count(1), default=5, help="timing repetitions (median reported)")
     parser.add_argument("--iq", choices=("preset", "complex", "real"), default="preset",
                         help="sample type: the preset's, or force complex (I/Q) or real (I-only)")
-    parser.add_argument("--pareto-snr", type=float, default=20.0, help="SNR of the Pareto table [dB]")
-    parser.add_argument("--seed", type=int, default=1, help="seed of the synthetic data (simulation only)")
+    parser.add_argument("--pareto-snr", type=number(), default=20.0, help="SNR of the Pareto table [dB]")
+    parser.add_argument("--seed", type=count(0), default=1, help="seed of the synthetic data (simulation only)")
     parser.add_argument("--quick", action="store_true", help="40 cycles, 2 repeats, 3 SNRs (smoke test)")
-    parser.add_argument("--json", default=None, metavar="FILE", help="write the records as JSON")
-    parser.add_argument("--plot", default=None, metavar="FILE.png", help="draw error against time")
+    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the records as JSON")
+    parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png", help="draw error against time")
 
 
 def load_preset(name: str) -> tuple[Geometry, int, float, float]:
@@ -137,9 +138,9 @@ def pareto(records: list[dict], preset: str, snr_db: float) -> list[dict]:
     return sorted(front, key=lambda r: r["time_per_cycle_s"])
 
 
-def choose_default(records: list[dict], presets) -> tuple[str | None, str]:
-    """Fastest estimator holding TARGET_RATIO x CRLB (range and velocity) from 10 to 30 dB on every preset at
-    no more than TARGET_TIME_FACTOR x the fft_peak time; returns (name, reason)."""
+def scores(records: list[dict], presets) -> dict[str, tuple[float, float]]:
+    """Per estimator: (worst RMSE/CRLB in range and velocity from 10 to 30 dB over `presets`, worst over presets
+    of the median time ratio to fft_peak)."""
     ok = {}
     for m in {r["estimator"] for r in records}:
         worst_ratio, worst_time = 0.0, 0.0
@@ -156,6 +157,13 @@ def choose_default(records: list[dict], presets) -> tuple[str | None, str]:
             t = float(np.median([r["time_ratio_to_fft_peak"] for r in rows]))
             worst_time = max(worst_time, t)
         ok[m] = (worst_ratio, worst_time)
+    return ok
+
+
+def choose_default(records: list[dict], presets) -> tuple[str | None, str]:
+    """Fastest estimator holding TARGET_RATIO x CRLB (range and velocity) from 10 to 30 dB on every preset at
+    no more than TARGET_TIME_FACTOR x the fft_peak time; returns (name, reason)."""
+    ok = scores(records, presets)
     good = [m for m, (ratio, tf) in ok.items() if ratio <= TARGET_RATIO and tf <= TARGET_TIME_FACTOR]
     if good:
         best = min(good, key=lambda m: ok[m][1])
@@ -247,8 +255,7 @@ def run(args: argparse.Namespace) -> int:
     name, reason = choose_default(records, presets)
     print(f"\ndefault estimator: {name} -- {reason}")
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"records": records, "default": name, "reason": reason}, fh, indent=1)
+        bench_records.write(args.json, args, records, default=name, reason=reason)
     if args.plot:
         _plot(records, presets, psnr, args.plot)
     return 0

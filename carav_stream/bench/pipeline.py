@@ -20,10 +20,11 @@ import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 from carav_graphs import graph_file
 from carav_stream.algorithm1 import run_algorithm1
+from carav_stream.bench import records as bench_records
+from carav_stream.cli.options import count, number, output_file
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.loader import load_graph
@@ -40,9 +41,9 @@ def pipeline_overrides(preset: str, fidelity: str, n: int, method: str, batch: i
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", type=Path, metavar="FILE", help="write the records as JSON")
-    parser.add_argument("--repeats", type=int, default=3, help="runs per case and mode (median reported)")
-    parser.add_argument("--scale", type=float, default=1.0, help="multiply the cycles of every case")
+    parser.add_argument("--json", type=output_file, metavar="FILE", help="write the records as JSON")
+    parser.add_argument("--repeats", type=count(1), default=3, help="runs per case and mode (median reported)")
+    parser.add_argument("--scale", type=number(0.0, strict=True), default=1.0, help="multiply the cycles of every case")
     parser.add_argument("--batch", default="16,32", help="cycles per frame (pipeline) and per call (fused); a comma "
                         "list runs each (default: the blocks' default 16 and the table1 graphs' 32)")
     parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
@@ -78,7 +79,7 @@ def _fused_worker(preset: str, fidelity: str, n: int, method: str, batch: int) -
     echo_templates(scene, fidelity)   # built once per scene, like the channel node does before the run starts
     t0, c0 = time.perf_counter(), time.process_time()
     run_algorithm1(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
-              method=method, fidelity=fidelity, batch=batch)
+                   method=method, fidelity=fidelity, batch=batch)
     return n / (time.perf_counter() - t0), (time.process_time() - c0) / n * 1e6
 
 
@@ -121,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
                       + (f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)" if mode == "pipeline" else ""),
                       flush=True)
     if args.json:
-        args.json.write_text(json.dumps(records, indent=2))
+        bench_records.write(args.json, args, records)
     return 0
 
 

@@ -11,11 +11,12 @@ One process, numpy single-threaded: one core.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import numpy as np
 
+from carav_stream.bench import records as bench_records
+from carav_stream.cli.options import count, output_file
 from carav_stream.radar import physics
 from carav_stream.radar.activation import ActivationSource
 from carav_stream.radar.adc import adc
@@ -28,9 +29,9 @@ ATTACKERS = {"none": None, "random": {"rarms": 3.0}, "ghost": {"range_m": 30.0, 
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", metavar="FILE", help="write one JSON record per case to FILE")
-    parser.add_argument("--cycles", type=int, default=32, help="cycles per timed batch (default 32)")
-    parser.add_argument("--repeats", type=int, default=7, help="timed batches per case (default 7)")
+    parser.add_argument("--json", type=output_file, metavar="FILE", help="write one JSON record per case to FILE")
+    parser.add_argument("--cycles", type=count(1), default=32, help="cycles per timed batch (default 32)")
+    parser.add_argument("--repeats", type=count(1), default=7, help="timed batches per case (default 7)")
     parser.add_argument("--presets", default="table1,awr1642", help="comma-separated presets")
     parser.add_argument("--quick", action="store_true", help="beat fidelity and no attacker only")
 
@@ -119,8 +120,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"  {preset:<10} {'I/Q' if iq else 'I  '}  " + "  ".join(
                     f"{r['stage']} {r['time_per_cycle_s'] * 1e6:.0f}" for r in stages), flush=True)
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(records, f, indent=1)
+        bench_records.write(args.json, args, records)
     return 0
 
 

@@ -21,7 +21,6 @@ Each figure is the median over --repeats runs; ratio = runtime frames/s / raw fr
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing as mp
 import os
 import queue
@@ -34,6 +33,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from carav_stream.bench import records as bench_records
+from carav_stream.cli.options import count, number, output_file
 
 SHAPES = {"table1": (64, 1100), "awr1642": (128, 256)}
 N_PASS = 4                  # pass-through nodes: 6 processes, 5 hops
@@ -208,14 +210,15 @@ def run_raw(shape: tuple[int, int], n_frames: int, *, queue_frames: int, warmup:
 
 # -- command -----------------------------------------------------------------------------------------------
 def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", type=Path, metavar="FILE", help="write one record per frame shape and transport")
-    parser.add_argument("--frames", type=int, default=2000, help="frames per throughput run (default 2000)")
-    parser.add_argument("--repeats", type=int, default=3, help="runs per figure; medians are reported (default 3)")
-    parser.add_argument("--queue-frames", type=int, default=8,
+    parser.add_argument("--json", type=output_file, metavar="FILE",
+                        help="write one record per frame shape and transport")
+    parser.add_argument("--frames", type=count(20), default=2000, help="frames per throughput run (default 2000)")
+    parser.add_argument("--repeats", type=count(1), default=3, help="runs per figure; medians are reported (default 3)")
+    parser.add_argument("--queue-frames", type=count(1), default=8,
                         help="high-water mark of every queue, both chains (default 8, the runtime's default)")
-    parser.add_argument("--latency-rate-hz", type=float, default=100.0,
+    parser.add_argument("--latency-rate-hz", type=number(0.0), default=100.0,
                         help="paced run for the empty-pipeline latency (frames/s; 0 skips it; default 100)")
-    parser.add_argument("--latency-frames", type=int, default=200, help="frames per paced run (default 200)")
+    parser.add_argument("--latency-frames", type=count(20), default=200, help="frames per paced run (default 200)")
     parser.add_argument("--shapes", nargs="+", choices=sorted(SHAPES), default=list(SHAPES),
                         help="frame shapes to measure (default both)")
 
@@ -270,9 +273,6 @@ def measure(shape_name: str, args: argparse.Namespace) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.frames < 20 or args.repeats < 1:
-        print("carav bench transport: --frames must be >= 20 and --repeats >= 1", file=sys.stderr)
-        return 2
     out: list[dict[str, Any]] = []
     print(f"transport: {HOPS + 1} processes, {HOPS} hops, ipc, HWM {args.queue_frames}, {args.frames} frames, "
           f"median of {args.repeats} ({os.cpu_count()} CPUs)")
@@ -296,7 +296,7 @@ def run(args: argparse.Namespace) -> int:
                   f"{r['cpu_ratio'] if transport == 'runtime' else 1.0:>10.2f}", flush=True)
             out.append(r)
     if args.json:
-        args.json.write_text(json.dumps(out, indent=2))
+        bench_records.write(args.json, args, out)
     return 0
 
 

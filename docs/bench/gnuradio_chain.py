@@ -47,8 +47,8 @@ import resource
 import statistics
 import time
 
-from gnuradio import analog, blocks, gr, radar
 import pmt
+from gnuradio import analog, blocks, gr, radar
 
 C = 299_792_458.0
 FS, N_SAMP, N_CHIRPS, BW, FC = 150_000_000, 1100, 64, 150e6, 77e9

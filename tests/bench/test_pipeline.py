@@ -22,7 +22,10 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
     out = tmp_path / "bench.json"
     assert carav(["bench", "pipeline", "--cases", "awr1642:beat", "--repeats", "1", "--scale", "0.04",
                   "--batch", "4,8", "--json", str(out)]) == 0
-    records = json.loads(out.read_text())
+    doc = json.loads(out.read_text())
+    assert doc["command"] == "carav bench pipeline --cases awr1642:beat --repeats 1 --scale 0.04 --batch 4,8"
+    assert doc["machine"]["cores"] >= 1
+    records = doc["records"]
     assert [(r["preset"], r["fidelity"], r["mode"], r["batch"]) for r in records] == [
         ("awr1642", "beat", mode, b) for b in (4, 8) for mode in ("pipeline", "fused")]
     for r in records:

@@ -1,0 +1,273 @@
+"""`carav bench report`: BENCHMARKS.md and the results of docs/bench/*.md, rendered from benchmark records.
+
+Each benchmark writes its records with `carav bench NAME --json docs/bench/records/NAME.json` (bench.records:
+the command, the machine, the records). This command renders, from those files only:
+
+    BENCHMARKS.md              one table per benchmark: figure, measured, target, met or not
+    docs/bench/NAME.md         between its markers, the full table of the records
+
+so that no figure in them is typed by hand. `--check` renders without writing and fails if a document differs
+from what the records give (a document edited by hand, or records updated without rendering).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from carav_stream.bench import records as bench_records
+
+BEGIN, END = "<!-- begin: carav bench report -->", "<!-- end: carav bench report -->"
+Row = tuple[str, str, str, str]          # figure, measured, target, met
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--root", type=Path, default=Path("."), help="repository root (default: the working folder)")
+    parser.add_argument("--check", action="store_true", help="write nothing; fail if a document is not up to date")
+
+
+# -- number formatting ---------------------------------------------------------------------------------------
+def _g(x: float, digits: int = 3) -> str:
+    return f"{x:.{digits}g}" if abs(x) < 10 ** digits else f"{x:.0f}"
+
+
+def _met(ok: bool) -> str:
+    return "yes" if ok else "**no**"
+
+
+# -- per benchmark: summary rows against targets, and the full table ---------------------------------------
+def transport_rows(doc: dict) -> list[Row]:
+    rows = []
+    for r in doc["records"]:
+        if r["transport"] != "runtime":
+            continue
+        shape = "x".join(map(str, r["frame_shape"]))
+        rows.append((f"runtime / raw pyzmq frames/s, {shape} {r['dtype']} ({r['bytes_per_frame']} B), "
+                     f"{r['processes']} processes",
+                     f"{r['ratio']:.2f} ({r['runtime_frames_per_s']:.0f} / {r['raw_frames_per_s']:.0f} frames/s; "
+                     f"CPU ratio {r['cpu_ratio']:.2f})", ">= 0.8", _met(r["ratio"] >= 0.8)))
+    return rows
+
+
+def transport_table(doc: dict) -> list[str]:
+    lines = ["| frame | transport | frames/s (runs) | GB/s per hop | latency median / p99 ms | paced median / p99 ms "
+             "| CPU ms/frame | ratio | CPU ratio |", "|---|---|---|---:|---|---|---:|---:|---:|"]
+    for r in doc["records"]:
+        paced = (f"{r['paced_latency_median_s'] * 1e3:.2f} / {r['paced_latency_p99_s'] * 1e3:.2f}"
+                 if "paced_latency_median_s" in r else "-")
+        runs = ", ".join(f"{x:.0f}" for x in r["frames_per_s_runs"])
+        ratio = f"{r['ratio']:.2f}" if r["transport"] == "runtime" else "-"
+        cpu_ratio = f"{r['cpu_ratio']:.2f}" if r["transport"] == "runtime" else "-"
+        lines.append(f"| {'x'.join(map(str, r['frame_shape']))} | {r['transport']} | {r['frames_per_s']:.0f} "
+                     f"({runs}) | {r['gb_per_s']:.2f} | {r['latency_median_s'] * 1e3:.1f} / "
+                     f"{r['latency_p99_s'] * 1e3:.1f} | {paced} | {r['cpu_ms_per_frame_total']:.3f} | {ratio} "
+                     f"| {cpu_ratio} |")
+    return lines
+
+
+def _synth_case(r: dict) -> str:
+    return f"{r['preset']} {r['fidelity']} {r['attacker']} {'I/Q' if r['iq'] else 'I'}"
+
+
+def synth_rows(doc: dict) -> list[Row]:
+    return [(f"signal chain, {_synth_case(r)}, one core",
+             f"{r['cpu_time_per_cycle_s'] * 1e6:.0f} us CPU per cycle = {r['realtime_factor']:.3g} x real time",
+             "report", "-")
+            for r in doc["records"] if r["bench"] == "synth"]
+
+
+def synth_table(doc: dict) -> list[str]:
+    lines = ["| case | wall us/cycle | CPU us/cycle | cycles/s | radar cycles/s | x real time | first batch extra ms |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in doc["records"]:
+        if r["bench"] == "synth":
+            lines.append(f"| {_synth_case(r)} | {r['time_per_cycle_s'] * 1e6:.0f} | "
+                         f"{r['cpu_time_per_cycle_s'] * 1e6:.0f} | {r['cycles_per_s']:.0f} | "
+                         f"{r['radar_cycles_per_s']:.0f} | {r['realtime_factor']:.3g} | {r['cold_s'] * 1e3:.1f} |")
+    stages = [r for r in doc["records"] if r["bench"] == "synth_stage"]
+    if stages:
+        lines += ["", "Stages of one beat cycle without attacker (us):", "",
+                  "| preset | I/Q | " + " | ".join(dict.fromkeys(r["stage"] for r in stages)) + " |",
+                  "|---|---|" + "---:|" * len(dict.fromkeys(r["stage"] for r in stages))]
+        keys = dict.fromkeys((r["preset"], r["iq"]) for r in stages)
+        for preset, iq in keys:
+            cells = [f"{r['time_per_cycle_s'] * 1e6:.0f}" for r in stages if (r["preset"], r["iq"]) == (preset, iq)]
+            lines.append(f"| {preset} | {'I/Q' if iq else 'I'} | " + " | ".join(cells) + " |")
+    return lines
+
+
+STRESS_TARGET = 1e-12
+
+
+def detector_rows(doc: dict) -> list[Row]:
+    recs = doc["records"]
+    rows = []
+    stress = [r for r in recs if r["bench"] == "stress"]
+    if stress:
+        worst = max(r["max_rel_err_q"] for r in stress)
+        cases = "; ".join(f"{r['dtype']} {r['scales']}" for r in stress)
+        rows.append((f"Q against an exact reference ({cases})", f"max relative error {worst:.2g}",
+                     f"<= {STRESS_TARGET:g}", _met(worst <= STRESS_TARGET)))
+    for r in recs:
+        if r["bench"] == "kernel":
+            rows.append((f"detect() cost, {r['dtype']}", f"{r['ns_per_sample_detect']:.2f} ns/sample "
+                         f"(memory copy bandwidth {r['memory_gb_per_s']:.1f} GB/s)", "report", "-"))
+        elif r["bench"] == "sweep":
+            rows.append((f"table1 sweep, {r['source']}, {r['rarms']} RARMS x {r['trials']} trials x {r['eta']} eta, "
+                         "full samples", f"{r['seconds']:.2f} s", "<= 10 s", _met(r["seconds"] <= 10)))
+        elif r["bench"] == "energy" and r["workers"] == max(x["workers"] for x in recs if x["bench"] == "energy"):
+            rows.append((f"sufficient-statistic Monte Carlo, {r['attack']} attack, {r['workers']} workers",
+                         f"{r['cycles_per_s']:.3g} cycles/s", ">= 1e6 cycles/s", _met(r["cycles_per_s"] >= 1e6)))
+    return rows
+
+
+def detector_table(doc: dict) -> list[str]:
+    lines = ["| bench | case | figure |", "|---|---|---|"]
+    for r in doc["records"]:
+        b = r["bench"]
+        if b == "stress":
+            lines.append(f"| stress | {r['dtype']}, scales {r['scales']} | max relative error of Q "
+                         f"{r['max_rel_err_q']:.2g} (at {r['at_scale']}; eps {r['eps']:.1g}) |")
+        elif b == "memory":
+            lines.append(f"| memory | {r['what']} | {r['gb_per_s']:.1f} GB/s read + write |")
+        elif b == "kernel":
+            lines.append(f"| kernel | {r['dtype']} | detect {r['ns_per_sample_detect']:.3f} ns/sample "
+                         f"({r['ns_per_cycle_detect'] / 1e3:.1f} us per 64x1100 cycle, {r['gb_per_s_read']:.1f} GB/s); "
+                         f"chirp_rms {r['ns_per_sample_rms']:.3f} ns/sample |")
+        elif b == "sweep":
+            lines.append(f"| sweep | table1 {r['source']}, {r['rarms']} RARMS x {r['trials']} trials x {r['eta']} "
+                         f"eta | {r['seconds']:.2f} s ({r['cycles_per_s']:.0f} cycles/s) |")
+        elif b == "energy":
+            lines.append(f"| energy | {r['scene']}, {r['attack']}, {r['workers']} workers | "
+                         f"{r['cycles_per_s']:.3g} cycles/s ({r['cycles']} cycles in {r['seconds']:.2f} s) |")
+    return lines
+
+
+def estimators_rows(doc: dict) -> list[Row]:
+    from carav_stream.bench.estimation import TARGET_RATIO, TARGET_TIME_FACTOR, scores
+    recs = doc["records"]
+    presets = sorted({r["preset"] for r in recs})
+    target = f"<= {TARGET_RATIO:g} x CRLB at <= {TARGET_TIME_FACTOR:g} x fft_peak time"
+    rows = []
+    for m, (ratio, tf) in sorted(scores(recs, presets).items(), key=lambda kv: kv[1][1]):
+        rows.append((f"`{m}`, worst RMSE / CRLB from 10 to 30 dB ({', '.join(presets)}), median time over fft_peak",
+                     f"{_g(ratio)} x CRLB at {tf:.2f} x", target,
+                     _met(ratio <= TARGET_RATIO and tf <= TARGET_TIME_FACTOR)))
+    rows.append(("default estimator chosen by the benchmark", f"{doc.get('default')}: {doc.get('reason')}",
+                 "one estimator meets the target", _met(doc.get("default") is not None)))
+    return rows
+
+
+def estimators_table(doc: dict) -> list[str]:
+    lines = ["| preset | estimator | rho | SNR dB | range RMSE / CRLB | velocity RMSE / CRLB | us per cycle "
+             "| x fft_peak | missing |", "|---|---|---|---:|---:|---:|---:|---:|---:|"]
+    for r in sorted(doc["records"], key=lambda r: (r["preset"], r["estimator"], r["rho"], r["snr_db"])):
+        tf = "-" if r["time_ratio_to_fft_peak"] is None else f"{r['time_ratio_to_fft_peak']:.2f}"
+        lines.append(f"| {r['preset']} | {r['estimator']} | {r['rho']} | {r['snr_db']:g} | {_g(r['range_ratio'])} | "
+                     f"{_g(r['velocity_ratio'])} | {r['time_per_cycle_s'] * 1e6:.0f} | {tf} | {r['n_missing']} |")
+    return lines
+
+
+FUSED_TARGET = 1.3
+
+
+def pipeline_rows(doc: dict) -> list[Row]:
+    rows = []
+    for r in doc["records"]:
+        if r["mode"] != "pipeline":
+            continue
+        case = f"{r['preset']} {r['fidelity']}, batch {r['batch']}"
+        rows.append((f"pipeline (8 processes) against the radar's real time, {case}",
+                     f"{r['cycles_per_s']:.0f} cycles/s = {r['real_time_factor']:.3g} x real time",
+                     f">= 1 x ({r['radar_cycles_per_s']:.0f} cycles/s)", _met(r["real_time_factor"] >= 1)))
+        rows.append((f"pipeline against the same chain in one process, {case}",
+                     f"{r['speedup_over_fused']:.2f} x", f">= {FUSED_TARGET} x",
+                     _met(r["speedup_over_fused"] >= FUSED_TARGET)))
+    return rows
+
+
+def pipeline_table(doc: dict) -> list[str]:
+    lines = ["| preset | fidelity | batch | mode | cycles/s (runs) | x real time | x fused "
+             "| bottleneck (busy us/cycle) or CPU us/cycle |", "|---|---|---:|---|---|---:|---:|---|"]
+    for r in doc["records"]:
+        runs = ", ".join(f"{x:.0f}" for x in r["runs_cycles_per_s"])
+        extra = (f"{r['bottleneck_node']} ({r['busy_us_per_cycle'][r['bottleneck_node']]:.0f})"
+                 if r["mode"] == "pipeline" else f"{r['cpu_us_per_cycle']:.0f} CPU")
+        lines.append(f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} | {r['cycles_per_s']:.0f} "
+                     f"({runs}) | {r['real_time_factor']:.3g} | {r['speedup_over_fused']:.2f} | {extra} |")
+    return lines
+
+
+BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], list[str]]]] = {
+    "transport": ("Transport: runtime against raw pyzmq", transport_rows, transport_table),
+    "synth": ("Signal chain per simulated cycle", synth_rows, synth_table),
+    "detector": ("Detector: numerical stability, cost, Monte Carlo speed", detector_rows, detector_table),
+    "estimators": ("Estimators: error against run time", estimators_rows, estimators_table),
+    "pipeline": ("Pipeline: the multi-process radar graph", pipeline_rows, pipeline_table),
+}
+
+INTRO = """# Benchmarks
+
+Rendered by `carav bench report` from the records in `docs/bench/records/` (each written by the command shown
+with its section, `--json docs/bench/records/NAME.json`); do not edit by hand: rerun the benchmark, then
+`carav bench report`. Methods and the full tables: `docs/bench/NAME.md`. Figures are medians over several runs and
+comparisons are ratios measured in the same run, modes interleaved: the machines are shared, and absolute
+times vary between runs by more than the ratios do.
+"""
+
+
+def _machine(m: dict[str, Any]) -> str:
+    mem = f", {m['memory_gib']:g} GiB" if m.get("memory_gib") else ""
+    load = " / ".join(f"{x:g}" for x in m.get("load_average", []))
+    return (f"{m['cpu']}, {m['cores']} cores{mem}; Python {m['python']}, numpy {m['numpy']}; "
+            f"load average (1 / 5 / 15 min) {load} when written")
+
+
+def render(root: Path) -> dict[Path, str]:
+    """Every document as the records give it: {path: text}."""
+    folder = root / "docs" / "bench" / "records"
+    out: dict[Path, str] = {}
+    parts = [INTRO]
+    for name, (title, rows_of, table_of) in BENCHMARKS.items():
+        path = folder / f"{name}.json"
+        parts.append(f"## {title} (`docs/bench/{name}.md`)\n")
+        if not path.exists():
+            parts.append(f"No records yet: run `carav bench {name} --json docs/bench/records/{name}.json`.\n")
+            continue
+        doc = bench_records.read(path)
+        parts.append(f"Command: `{doc['command']}`  \nMachine: {_machine(doc['machine'])}\n")
+        rows = rows_of(doc)
+        parts.append("\n".join(["| figure | measured | target | met |", "|---|---|---|---|",
+                                *(f"| {' | '.join(r)} |" for r in rows)]) + "\n")
+        page = root / "docs" / "bench" / f"{name}.md"
+        if page.exists():
+            text = page.read_text()
+            if BEGIN not in text or END not in text:
+                raise ValueError(f"{page}: lacks the markers {BEGIN} ... {END}")
+            body = "\n".join([f"Command: `{doc['command']}`  ", f"Machine: {_machine(doc['machine'])}", "",
+                              *table_of(doc)])
+            head, _, rest = text.partition(BEGIN)
+            _, _, tail = rest.partition(END)
+            out[page] = f"{head}{BEGIN}\n{body}\n{END}{tail}"
+    out[root / "BENCHMARKS.md"] = "\n".join(parts)
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        docs = render(args.root)
+    except (ValueError, KeyError, OSError) as exc:
+        print(f"carav bench report: {exc}", file=sys.stderr)
+        return 1
+    stale = [p for p, text in docs.items() if not p.exists() or p.read_text() != text]
+    if args.check:
+        for p in stale:
+            print(f"carav bench report: {p} is not what its records give; run carav bench report", file=sys.stderr)
+        return 1 if stale else 0
+    for p in stale:
+        p.write_text(docs[p])
+        print(f"wrote {p}")
+    return 0
+

@@ -1,0 +1,54 @@
+"""`carav bench report`: the benchmark documents are rendered from records, and the committed ones are current."""
+import argparse
+import json
+from pathlib import Path
+
+import pytest
+
+from carav_stream.bench import records as bench_records
+from carav_stream.bench import report
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_the_committed_benchmark_documents_are_what_the_committed_records_give():
+    stale = [str(p) for p, text in report.render(ROOT).items() if not p.exists() or p.read_text() != text]
+    assert stale == [], "rerun `carav bench report` (documents edited by hand, or records updated without it)"
+
+
+def transport_doc(ratio: float) -> dict:
+    rec = {"frame_shape": [4, 8], "dtype": "complex64", "bytes_per_frame": 256, "processes": 6, "transport": "runtime",
+           "ratio": ratio, "runtime_frames_per_s": 100 * ratio, "raw_frames_per_s": 100.0, "cpu_ratio": 0.9,
+           "frames_per_s": 100 * ratio, "frames_per_s_runs": [100 * ratio], "gb_per_s": 0.1,
+           "latency_median_s": 0.01, "latency_p99_s": 0.02, "cpu_ms_per_frame_total": 1.0}
+    return {"command": "carav bench transport", "records": [rec],
+            "machine": {"cpu": "test cpu", "cores": 2, "memory_gib": 1, "python": "3", "numpy": "2",
+                        "load_average": [0, 0, 0]}}
+
+
+@pytest.mark.parametrize("ratio, met", [(0.85, "yes"), (0.79, "**no**")])
+def test_a_figure_is_judged_against_its_target(tmp_path, ratio, met):
+    (tmp_path / "docs" / "bench" / "records").mkdir(parents=True)
+    (tmp_path / "docs" / "bench" / "records" / "transport.json").write_text(json.dumps(transport_doc(ratio)))
+    (tmp_path / "docs" / "bench" / "transport.md").write_text(f"# T\n\nmethod\n\n{report.BEGIN}\nold\n{report.END}\n")
+    docs = report.render(tmp_path)
+    summary = docs[tmp_path / "BENCHMARKS.md"]
+    assert f"| {ratio:.2f} ({100 * ratio:.0f} / 100 frames/s; CPU ratio 0.90) | >= 0.8 | {met} |" in summary
+    assert "No records yet: run `carav bench pipeline --json docs/bench/records/pipeline.json`" in summary
+    page = docs[tmp_path / "docs" / "bench" / "transport.md"]
+    assert page.startswith("# T\n\nmethod\n\n") and "old" not in page and "| 4x8 | runtime |" in page
+    args = argparse.Namespace(root=tmp_path, check=True)
+    assert report.run(args) == 1                                   # not written yet
+    assert report.run(argparse.Namespace(root=tmp_path, check=False)) == 0
+    assert report.run(args) == 0                                   # now current
+
+
+def test_a_record_file_without_command_or_machine_is_refused(tmp_path):
+    (tmp_path / "r.json").write_text("[]")
+    with pytest.raises(ValueError, match="not a benchmark record file"):
+        bench_records.read(tmp_path / "r.json")
+
+
+def test_the_recorded_command_leaves_out_output_files():
+    args = argparse.Namespace(argv=["bench", "synth", "--json", "x.json", "--cycles", "4", "--plot=p.png"])
+    assert bench_records.command_line(args) == "carav bench synth --cycles 4"
