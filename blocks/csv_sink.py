@@ -33,7 +33,7 @@ def _cell(value) -> str:
 class CsvSink(Block):
     inputs = (In("estimates", doc="frames to record"), In("alarms", doc="optional second stream", required=False))
     merge_inputs = True
-    params = (Param("path", str, doc="output file, or - for stdout"),
+    params = (Param("path", str, doc="output file, or - for stdout", output=True),
               Param("columns", list, DEFAULT_COLUMNS, "columns after cycle and port"))
 
     def check_params(self) -> None:

@@ -19,7 +19,7 @@ from carav_stream.runtime import Block, Frame, In, Param
 class JsonlSink(Block):
     inputs = (In("inp", doc="frames to record"), In("extra", doc="optional second stream", required=False))
     merge_inputs = True
-    params = (Param("path", str, doc="output file, or - for stdout"),
+    params = (Param("path", str, doc="output file, or - for stdout", output=True),
               Param("max_values", int, 16, "largest payload written in full", low=0))
 
     def start(self) -> None:

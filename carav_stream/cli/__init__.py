@@ -7,16 +7,20 @@
     carav sweep ...            PF/PM Monte Carlo and threshold design
     carav reproduce ...        regenerate docs/REPRODUCTION.md
     carav experiment secondary-antenna ...
-    carav bench transport|synth|detector|estimators|pipeline ...
+    carav bench transport|synth|detector|estimators|pipeline ... --json docs/bench/records/NAME.json
+    carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
-for is imported (the studies and benchmarks import scipy and matplotlib).
+for is imported (the studies and benchmarks import scipy and matplotlib). Errors are one line naming the option,
+file or field; --debug (anywhere on the command line) shows the traceback of an unexpected one.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
 import sys
+
+from carav_stream.cli.common import EXIT_CODES_HELP, CommandError, Exit
 
 COMMANDS = {
     "run": ("carav_stream.cli.run", "run a graph and print its summary"),
@@ -37,6 +41,7 @@ BENCHES = {
     "detector": ("carav_stream.bench.detection", "detector stability, ns/sample and Monte Carlo speed"),
     "estimators": ("carav_stream.bench.estimation", "run time against error of the range/velocity estimators"),
     "pipeline": ("carav_stream.bench.pipeline", "cycles/s of the multi-process graph against one process"),
+    "report": ("carav_stream.bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS),
           "bench": ("benchmarks (JSON records, summarised in BENCHMARKS.md)", BENCHES)}
@@ -51,10 +56,17 @@ def _add(sub, name: str, module: str, help_text: str, wanted: bool) -> None:
         p.set_defaults(func=mod.run)
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse, with a bad command line reported in one line (and the usage only on --help)."""
+
+    def error(self, message: str) -> None:
+        self.exit(Exit.USAGE, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser(argv: list[str] = ()) -> argparse.ArgumentParser:
     words = [a for a in argv if not a.startswith("-")]
-    ap = argparse.ArgumentParser(prog="carav", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = Parser(prog="carav", description=__doc__, epilog=EXIT_CODES_HELP,
+                formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, (module, text) in COMMANDS.items():
         _add(sub, name, module, text, words[:1] == [name])
@@ -76,6 +88,29 @@ def run_as_command(module: str) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    args = build_parser(argv).parse_args(argv)
-    return args.func(args)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
+    parser = build_parser(argv)
+    if not argv:
+        parser.print_help(sys.stderr)
+        return Exit.USAGE
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:       # --help (0) or a bad command line (Exit.USAGE), already printed
+        return int(exc.code or 0)
+    args.argv = argv                # the command as given, for records that say how they were made
+    name = " ".join(w for w in (args.command, getattr(args, args.command, None)) if isinstance(w, str))
+    try:
+        return int(args.func(args))
+    except CommandError as exc:
+        print(f"carav {name}: {exc}", file=sys.stderr)
+        return int(exc.code)
+    except KeyboardInterrupt:
+        print(f"carav {name}: interrupted", file=sys.stderr)
+        return Exit.INTERRUPTED
+    except Exception as exc:        # one line for the user; the traceback with --debug
+        if debug:
+            raise
+        print(f"carav {name}: failed: {type(exc).__name__}: {exc} (--debug shows the traceback)", file=sys.stderr)
+        return Exit.FAILED

@@ -1,9 +1,10 @@
-"""What the command modules share: the error line, and finding and asking a running graph."""
+"""What the command modules share: exit codes, the error line, and finding and asking a running graph."""
 from __future__ import annotations
 
 import json
 import os
 import sys
+from enum import IntEnum
 from pathlib import Path
 from typing import Any
 
@@ -12,9 +13,30 @@ import zmq
 from carav_stream.runtime.protocol import pack, unpack
 
 
-def fail(text: str, code: int = 2) -> int:
+class Exit(IntEnum):
+    """One exit code per class of outcome, the same for every command (listed by `carav --help`)."""
+
+    OK = 0
+    FAILED = 1          # the work failed: a node crashed, frames were lost, a benchmark run broke, a swap refused
+    USAGE = 2           # a bad command line: unknown option, bad value, output path that cannot be written
+    INVALID = 3         # an invalid graph, scene or block parameter
+    INTERRUPTED = 130   # stopped by Ctrl-C or SIGTERM before it finished
+
+
+EXIT_CODES_HELP = "exit codes: " + ", ".join(f"{int(c)} {c.name.lower()}" for c in Exit)
+
+
+class CommandError(Exception):
+    """A user-facing error: one line, naming the option, file or field; `code` is its Exit class."""
+
+    def __init__(self, text: str, code: Exit = Exit.USAGE) -> None:
+        super().__init__(text)
+        self.code = code
+
+
+def fail(text: str, code: Exit = Exit.USAGE) -> int:
     print(f"carav: {text}", file=sys.stderr)
-    return code
+    return int(code)
 
 
 def running_graphs() -> list[dict[str, Any]]:
@@ -36,10 +58,9 @@ def pick_run(which: str | None) -> dict[str, Any]:
     if which:
         runs = [r for r in runs if r["run"] == which or Path(r["graph"]).stem == which or r["graph"] == which]
     if not runs:
-        raise SystemExit(fail(f"no running graph{' matches ' + repr(which) if which else ''}"))
+        raise CommandError(f"no running graph{' matches ' + repr(which) if which else ''}")
     if len(runs) > 1:
-        raise SystemExit(fail("several graphs are running; name one with its run id: "
-                              + ", ".join(r["run"] for r in runs)))
+        raise CommandError("several graphs are running; name one with its run id: " + ", ".join(r["run"] for r in runs))
     return runs[0]
 
 
@@ -52,7 +73,7 @@ def ask(run: dict[str, Any], kind: str, timeout_s: float = 40.0, **fields: Any) 
         sock.connect(run["admin"])
         sock.send(pack(kind, **fields))
         if not sock.poll(timeout_s * 1000):
-            raise SystemExit(fail(f"run {run['run']} did not answer within {timeout_s:.0f} s"))
+            raise CommandError(f"run {run['run']} did not answer within {timeout_s:.0f} s", Exit.FAILED)
         return unpack(sock.recv())
     finally:
         sock.close()

@@ -6,7 +6,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from carav_stream.cli.common import fail
+from carav_stream.cli.common import Exit, fail
+from carav_stream.cli.options import output_file
 from carav_stream.runtime.graph import GraphError
 from carav_stream.runtime.loader import load_graph
 
@@ -18,7 +19,7 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                    help="override a node's parameter, a graph-wide one with PARAM=VALUE, a [run] setting with "
                    "run.KEY=VALUE")
-    p.add_argument("--json", type=Path, metavar="FILE", help="write the summary as JSON")
+    p.add_argument("--json", type=output_file, metavar="FILE", help="write the summary as JSON")
     p.add_argument("--host", help="run only the nodes placed on this host (graphs with [hosts])")
     p.add_argument("--blocks", action="append", default=[], metavar="DIR", help="extra folder of block files")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
@@ -31,19 +32,21 @@ def run(args: argparse.Namespace) -> int:
         cycles = [] if args.cycles is None else [f"run.cycles={args.cycles}"]   # checked like the file's value
         graph = load_graph(args.graph, [*args.set, *cycles], args.blocks)
     except GraphError as exc:
-        return fail(f"{args.graph} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems))
+        return fail(f"{args.graph} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems), Exit.INVALID)
     if args.host is not None and args.host not in graph.hosts:
-        return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}")
+        return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     sup = Supervisor(graph, host=args.host, progress=args.progress)
     summary = sup.run()
     print_summary(summary)
     if args.json:
         args.json.write_text(json.dumps(summary, indent=2, default=str))
     if summary["failures"]:
-        return 1
+        return Exit.FAILED
     if summary["lost"]:
-        return fail(f"{summary['lost']} frame(s) lost in transport: {summary['lost_by_edge']}", 3)
-    return 0
+        return fail(f"{summary['lost']} frame(s) lost in transport: {summary['lost_by_edge']}", Exit.FAILED)
+    if summary["stopped_by"] == "signal":
+        return Exit.INTERRUPTED           # drained and summarised, but not the run that was asked for
+    return Exit.OK
 
 
 def print_summary(s: dict[str, Any]) -> None:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from carav_stream.cli.common import ask, fail, pick_run
+from carav_stream.cli.common import Exit, ask, fail, pick_run
 from carav_stream.runtime.graph import parse_value
 from carav_stream.runtime.protocol import Admin
 
@@ -25,6 +25,6 @@ def run(args: argparse.Namespace) -> int:
     target = pick_run(args.run)
     reply = ask(target, Admin.SWAP, node=args.node, block=args.block, params=params)
     if not reply.get("ok"):
-        return fail(f"swap refused: {reply.get('error')}", 1)
+        return fail(f"swap refused: {reply.get('error')}", Exit.INVALID)
     print(f"{args.node}: now {reply['block']}@{reply['version']}#{reply['generation']} from seq {reply['next_seq']}")
-    return 0
+    return Exit.OK

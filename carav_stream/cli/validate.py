@@ -5,6 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from carav_stream.cli.common import Exit
 from carav_stream.runtime.graph import GraphError
 from carav_stream.runtime.loader import load_graph
 
@@ -24,4 +25,4 @@ def run(args: argparse.Namespace) -> int:
         except GraphError as exc:
             bad += 1
             print("\n".join(exc.problems), file=sys.stderr)
-    return 1 if bad else 0
+    return Exit.INVALID if bad else Exit.OK

@@ -29,6 +29,8 @@ class Param:
     unit      shown by `carav blocks`; doc  a one-line meaning
     optional  None is accepted and means "not set" (for example: a model's own default)
     file      the value may name a file; a relative name written in a graph file is looked up next to the graph
+    output    the value names a file the block writes ("-": standard output); validation refuses a folder, or a
+              file in a folder that does not exist, before anything runs
     graph_wide  one value for a whole graph (a scene, a seed, a fidelity): written once at the top of a graph
               file, checked once, and refused when two blocks of the graph would use different values
     validate  callable(value) raising ValueError for a value that type and range checks cannot judge (a scene
@@ -46,6 +48,7 @@ class Param:
     unit: str = ""
     optional: bool = False
     file: bool = False
+    output: bool = False
     graph_wide: bool = False
     validate: Callable[[Any], Any] | None = None
 

@@ -8,6 +8,7 @@ block), connections (unknown nodes and ports, port kinds and dtypes), inputs con
 """
 from __future__ import annotations
 
+import os
 import re
 from graphlib import CycleError, TopologicalSorter
 from pathlib import Path
@@ -279,11 +280,28 @@ def _check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, 
     wide = {p.name for p in cls.params if p.graph_wide}
     found = [(p, t) for p, t in cls.param_problems(node.params) if p not in wide]
     problems += [f"{where}: blocks.{node.name}.{p}: {text}" for p, text in found]
+    for p in cls.params:
+        value = node.params.get(p.name)
+        if p.output and isinstance(value, str) and value != "-" and (text := _output_problem(Path(value))):
+            found.append((p.name, text))
+            problems.append(f"{where}: blocks.{node.name}.{p.name}: {text}")
     if not found and not wide & bad_wide:
         try:
             cls(**node.params)   # cross-parameter checks; __init__ does no I/O by contract
         except (BlockError, ValueError, TypeError) as exc:
             problems.append(f"{where}: blocks.{node.name}: {exc}")
+
+
+def _output_problem(path: Path) -> str | None:
+    """Why a block could not write `path` (relative to the working folder), or None."""
+    if path.is_dir():
+        return f"{str(path)!r} is a folder, not a file"
+    folder = path.parent
+    if not folder.is_dir():
+        return f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist"
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return f"cannot write {str(path)!r}: folder {str(folder)!r} is not writable"
+    return None
 
 
 def _edges(spec: Any, nodes: dict[str, Node], classes: dict[str, type[Block]], where: str,
@@ -384,20 +402,18 @@ def swap_problems(graph: Graph, node: str, block_type: str, params: dict[str, An
                  f"not {params[p.name]!r}" for p in new.params
                  if p.graph_wide and p.name in graph.params and p.name in params
                  and params[p.name] != graph.params[p.name]]
-    for e in graph.edges_into(node):
-        inp = next((p for p in new.inputs if p.name == e.dst_port), None)
-        src_out = next(p for p in graph.block_class(e.src).outputs if p.name == e.src_port)
-        if inp is None:
-            problems.append(f"{block_type} has no input {e.dst_port!r} (connected: '{e}')")
-        elif port_mismatch(src_out, inp):
-            problems.append(f"'{e}': {port_mismatch(src_out, inp)}")
-    for e in graph.edges_from(node):
-        out = next((p for p in new.outputs if p.name == e.src_port), None)
-        dst_in = next(p for p in graph.block_class(e.dst).inputs if p.name == e.dst_port)
-        if out is None:
-            problems.append(f"{block_type} has no output {e.src_port!r} (connected: '{e}')")
-        elif port_mismatch(out, dst_in):
-            problems.append(f"'{e}': {port_mismatch(out, dst_in)}")
+    def port(ports, name):
+        return next((p for p in ports if p.name == name), None)
+
+    ends = [(e, port(graph.block_class(e.src).outputs, e.src_port), port(new.inputs, e.dst_port), "input",
+             e.dst_port) for e in graph.edges_into(node)]
+    ends += [(e, port(new.outputs, e.src_port), port(graph.block_class(e.dst).inputs, e.dst_port), "output",
+              e.src_port) for e in graph.edges_from(node)]
+    for e, out, inp, side, name in ends:          # the new block's side of an edge may be missing, never the other
+        if out is None or inp is None:
+            problems.append(f"{block_type} has no {side} {name!r} (connected: '{e}')")
+        elif port_mismatch(out, inp):
+            problems.append(f"'{e}': {port_mismatch(out, inp)}")
     connected_in = {e.dst_port for e in graph.edges_into(node)}
     problems += [f"{block_type} input {p.name!r} is required but not connected at {node}"
                  for p in new.inputs if p.required and p.name not in connected_in]

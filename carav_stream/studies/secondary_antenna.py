@@ -25,6 +25,7 @@ import json
 
 import numpy as np
 
+from carav_stream.cli.options import count, number, output_file
 from carav_stream.core.units import KMH
 from carav_stream.estimate import Geometry, estimate
 
@@ -40,17 +41,21 @@ seen in the clean cycles (the car's own sidelobes and migration residue) times t
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--power", choices=("low", "medium", "high", "all"), default="all")
-    parser.add_argument("--trials", type=int, default=200, help="attacked cycles per power level (and clean cycles)")
+    parser.add_argument("--trials", type=count(1), default=200,
+                        help="attacked cycles per power level (and clean cycles)")
     parser.add_argument("--attacker", choices=("secondary_antenna", "ghost", "both"), default="both")
-    parser.add_argument("--eta", type=float, default=1.5, help="detector threshold")
+    parser.add_argument("--eta", type=number(0.0, strict=True), default=1.5, help="detector threshold")
     parser.add_argument("--method", default="music", help="range estimator (carav_stream.estimate METHODS)")
-    parser.add_argument("--antenna-range", type=float, default=30.0, help="secondary antenna distance [m]")
-    parser.add_argument("--ghost-range", type=float, default=45.0, help="range the ghost pretends [m]")
-    parser.add_argument("--snr-db", type=float, default=None,
+    parser.add_argument("--antenna-range", type=number(0.0, strict=True), default=30.0,
+                        help="secondary antenna distance [m]")
+    parser.add_argument("--ghost-range", type=number(0.0, strict=True), default=45.0,
+                        help="range the ghost pretends [m]")
+    parser.add_argument("--snr-db", type=number(), default=None,
                         help="per-sample SNR of the car [dB] (default: the preset's radar equation, about +2.2 dB)")
-    parser.add_argument("--seed", type=int, default=7, help="seed of the simulation (simulation only)")
-    parser.add_argument("--json", default=None, metavar="FILE", help="write the results as JSON")
-    parser.add_argument("--plot", default=None, metavar="FILE.png", help="PF/PM curves and Q against range error")
+    parser.add_argument("--seed", type=count(0), default=7, help="seed of the simulation (simulation only)")
+    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
+    parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png",
+                        help="PF/PM curves and Q against range error")
 
 
 def _make_attacker(kind: str, scene, rarms: float, args):

@@ -16,13 +16,19 @@ import time
 
 import numpy as np
 
+from carav_stream.cli.common import CommandError, Exit
+from carav_stream.cli.options import count, float_list, number, output_file
 from carav_stream.montecarlo.engine import PaperSource, eta_grid, sweep
 
 __all__ = ["configure", "run", "build_source", "plot_curves", "ProgressBar"]
 
 
 class ProgressBar:
-    """A one-line progress bar on stderr, redrawn at most every 0.2 s."""
+    """A one-line progress bar on stderr, redrawn at most every 0.2 s; `ProgressBar.wanted()`: only on a terminal."""
+
+    @staticmethod
+    def wanted(quiet: bool = False) -> bool:
+        return not quiet and sys.stderr.isatty()
 
     def __init__(self, label: str, stream=None, width: int = 30):
         self.label, self.stream, self.width = label, stream or sys.stderr, width
@@ -59,18 +65,21 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="extra attacker parameter, e.g. ghost.range_m=25 (repeatable)")
     parser.add_argument("--activation", choices=("seeded", "lfsr", "secure"), default="seeded",
                         help="activation source of the victim (lfsr to show the lfsr_predictor attack)")
-    parser.add_argument("--rarms", default="0.5,1,2,3,5", help="comma-separated RARMS values (sigma_a / sigma_n)")
-    parser.add_argument("--trials", type=int, default=1000, help="cycles per curve (default 1000, as the paper)")
+    parser.add_argument("--rarms", type=float_list(low=0.0), default="0.5,1,2,3,5",
+                        help="comma-separated RARMS values (sigma_a / sigma_n)")
+    parser.add_argument("--trials", type=count(1), default=1000, help="cycles per curve (default 1000, as the paper)")
     parser.add_argument("--eta", default="0.5:2.5:0.01", help="threshold grid START:STOP:STEP")
-    parser.add_argument("--seed", type=int, default=None, help="seed for reproducible runs")
+    parser.add_argument("--seed", type=count(0), default=None, help="seed for reproducible runs")
     parser.add_argument("--method", choices=("auto", "energy", "samples"), default="auto",
                         help="per-chirp energy draws (exact laws) or full sample simulation")
-    parser.add_argument("--cfar-pf", type=float, default=0.01, help="false-alarm target of the CFAR design")
-    parser.add_argument("--design-rarms", type=float, default=3.0,
+    parser.add_argument("--cfar-pf", type=number(0.0, strict=True), default=0.01,
+                        help="false-alarm target of the CFAR design")
+    parser.add_argument("--design-rarms", type=number(0.0), default=3.0,
                         help="top-level thresholds are designed against the worst PM over RARMS >= this")
-    parser.add_argument("--workers", type=int, default=2, help="threads for independent batches")
-    parser.add_argument("--json", default=None, metavar="FILE", help="write the result as JSON")
-    parser.add_argument("--plot", default=None, metavar="FILE.png", help="draw PF/PM against eta (matplotlib)")
+    parser.add_argument("--workers", type=count(1), default=2, help="threads for independent batches")
+    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the result as JSON")
+    parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png",
+                        help="draw PF/PM against eta (matplotlib)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -88,20 +97,13 @@ def build_source(args: argparse.Namespace):
     preset = args.preset or ("table1" if args.scene is None else None)
     if args.model == "paper":
         if args.scene:
-            raise SystemExit("carav sweep: --model paper takes --preset table1|awr1642, not --scene")
+            raise CommandError("--model paper takes --preset table1|awr1642, not --scene")
         from carav_stream.montecarlo.paper_model import paper_scene
 
         return PaperSource(paper_scene(preset.split("_")[0], n_chirps=args.nr, n_samples=args.ns, iq=args.iq,
                                        snr_db=0.0 if args.snr_db is None else args.snr_db))
-    try:
-        from carav_stream.montecarlo.radar_source import RadarSource
-        from carav_stream.radar.scene_loader import load_scene
-    except ImportError as exc:
-        if args.scene:
-            raise ValueError(f"scene: the radar signal chain is not available ({exc})") from None
-        print(f"carav sweep: radar chain unavailable ({exc}); using the paper model", file=sys.stderr)
-        args.model = "paper"
-        return build_source(args)
+    from carav_stream.montecarlo.radar_source import RadarSource
+    from carav_stream.radar.scene_loader import load_scene
 
     overrides = {}
     if args.nr is not None:
@@ -120,7 +122,7 @@ def build_source(args: argparse.Namespace):
         key, _, value = item.partition("=")
         kind, _, name = key.partition(".")
         if not (kind and name and value):
-            raise SystemExit(f"carav sweep: --attack-param expects KIND.KEY=VALUE, got {item!r}")
+            raise CommandError(f"--attack-param expects KIND.KEY=VALUE, got {item!r}")
         params.setdefault(kind, {})[name] = _parse_value(value)
     return RadarSource(scene, attack_params=params, activation=args.activation)
 
@@ -155,6 +157,11 @@ def plot_curves(result: dict, path: str, title: str | None = None) -> None:
     plt.close(fig)
 
 
+def _ci(ci) -> str:
+    """A 95 % confidence interval, rounded: [0.0012, 0.0101]."""
+    return "" if ci is None else f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
 def _print_table(result: dict, stream=None) -> None:
     stream = stream or sys.stdout
     eta = np.asarray(result["eta"])
@@ -175,8 +182,8 @@ def _print_table(result: dict, stream=None) -> None:
         if d.get("eta") is None:
             print(f"{name:>8}: {d.get('note')}", file=stream)
             continue
-        print(f"{name:>8}: eta={d['eta']:.3f} PF={d['pf']:.4g} {d.get('pf_ci')} PM={d['pm']:.4g} {d.get('pm_ci')}",
-              file=stream)
+        print(f"{name:>8}: eta={d['eta']:.3f} PF={d['pf']:.4g} {_ci(d.get('pf_ci'))} "
+              f"PM={d['pm']:.4g} {_ci(d.get('pm_ci'))}", file=stream)
     if "closed_form" in result:
         cf = result["closed_form"]
         print(f"closed form (Gaussian): PF(1.5) = {cf['pf_at_eta_1_5']:.3e}; CFAR eta for PF = 1e-6: "
@@ -186,12 +193,11 @@ def _print_table(result: dict, stream=None) -> None:
 def run(args: argparse.Namespace) -> int:
     try:
         eta = eta_grid(args.eta)
-        rarms = [float(v) for v in args.rarms.split(",") if v.strip()]
-        if not rarms or any(not np.isfinite(r) or r < 0 for r in rarms):
-            raise ValueError(f"rarms: expected comma-separated values >= 0, got {args.rarms!r}")
-        if args.trials < 1:
-            raise ValueError(f"trials: must be >= 1, got {args.trials}")
-        attacks = [a.strip() for a in args.attack.split(",") if a.strip()]
+    except ValueError as exc:
+        raise CommandError(f"--eta: {str(exc).removeprefix('eta: ')}") from None
+    rarms = args.rarms
+    attacks = [a.strip() for a in args.attack.split(",") if a.strip()]
+    try:
         source = build_source(args)
         for a in attacks:
             if hasattr(source, "make_attacker"):
@@ -199,10 +205,9 @@ def run(args: argparse.Namespace) -> int:
             elif a not in source.attacks:
                 raise ValueError(f"attack: {a!r} is not available in the paper model; expected one of "
                                  f"{', '.join(source.attacks)} (use --model radar for the others)")
-    except (ValueError, TypeError) as exc:
-        print(f"carav sweep: {exc}", file=sys.stderr)
-        return 2
-    progress = None if args.quiet else ProgressBar(f"sweep {source.name}")
+    except (ValueError, TypeError) as exc:     # the scene or an attacker's parameters
+        raise CommandError(str(exc), Exit.INVALID) from None
+    progress = ProgressBar(f"sweep {source.name}") if ProgressBar.wanted(args.quiet) else None
     t0 = time.perf_counter()
     result = sweep(source, attacks=attacks, rarms=rarms, n_trials=args.trials, eta=eta, seed=args.seed,
                    method=args.method, target_pf=args.cfar_pf, design_rarms=args.design_rarms,

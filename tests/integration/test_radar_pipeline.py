@@ -142,7 +142,7 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
     run = radar(carav, 0, "radar_taps_restart.toml", seed=24, batch=4)
     judged = carav.workdir / "judged.jsonl"
     n_at_restart = _kill_mid_run_and_stop(carav, run, victim, judged)
-    assert run.wait(60) in (0, 3), run.stderr()          # 3: frames died with the killed node (counted lost)
+    assert run.wait(60) in (0, 1), run.stderr()          # 1: frames died with the killed node (counted lost)
     s = run.summary()
     assert s["restarts"] == 1 and s["estimated_counts"] == [victim] and not s["failures"], s["failures"]
     assert s["rejected"] == 0, run.stderr()

@@ -137,7 +137,7 @@ def test_swap_checks_port_compatibility(tmp_path):
 
 def test_validate_command_exit_status(tmp_path, capsys):
     assert carav(["validate", str(write(tmp_path, GOOD))]) == 0
-    assert carav(["validate", str(write(tmp_path, GOOD.replace("adder", "nothing"), "bad.toml"))]) == 1
+    assert carav(["validate", str(write(tmp_path, GOOD.replace("adder", "nothing"), "bad.toml"))]) == 3
     assert "bad.toml: blocks.add.type: unknown block type 'nothing'" in capsys.readouterr().err
 
 

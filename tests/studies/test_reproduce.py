@@ -3,7 +3,10 @@ from __future__ import annotations
 
 import argparse
 
+import pytest
 
+
+@pytest.mark.slow
 def test_reproduce_writes_markdown_with_claims_and_figures(tmp_path):
     from carav_stream.studies import reproduce
     parser = argparse.ArgumentParser()

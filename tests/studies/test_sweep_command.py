@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from carav_stream.cli import main as carav
 from carav_stream.studies import sweep_command as sweep_cli
 
 
@@ -39,15 +40,23 @@ def test_sweep_cli_is_reproducible_with_seed(tmp_path):
 
 
 def test_sweep_cli_rejects_unknown_attack_for_paper_model(capsys):
-    assert _run(["--model", "paper", "--attack", "ghost", "--quiet"]) == 2
-    assert "attack: 'ghost' is not available in the paper model" in capsys.readouterr().err
+    assert carav(["sweep", "--model", "paper", "--attack", "ghost"]) == 3
+    err = capsys.readouterr().err
+    assert err == ("carav sweep: attack: 'ghost' is not available in the paper model; expected one of none, random, "
+                   "smart (use --model radar for the others)\n")
 
 
-def test_sweep_cli_rejects_bad_eta_and_rarms(capsys):
-    assert _run(["--model", "paper", "--eta", "2:1:0.1", "--quiet"]) == 2
-    assert "eta: need 0 < START <= STOP" in capsys.readouterr().err
-    assert _run(["--model", "paper", "--rarms", "1,-2", "--quiet"]) == 2
-    assert "rarms: expected comma-separated values >= 0" in capsys.readouterr().err
+def test_sweep_cli_rejects_bad_options_in_one_line_naming_the_option_before_any_work(capsys, tmp_path):
+    assert carav(["sweep", "--model", "paper", "--eta", "2:1:0.1"]) == 2
+    assert capsys.readouterr().err.startswith("carav sweep: --eta: need 0 < START <= STOP")
+    for argv, text in [(["--rarms", "1,-2"], "argument --rarms: '-2' in '1,-2': must be >= 0, got -2"),
+                       (["--rarms", "1,x"], "argument --rarms: 'x' in '1,x': expected a number, got 'x'"),
+                       (["--trials", "0"], "argument --trials: must be >= 1, got 0"),
+                       (["--json", str(tmp_path / "no" / "x.json")], "folder"),
+                       (["--plot", str(tmp_path)], "is a folder, not a file")]:
+        assert carav(["sweep", "--model", "paper", *argv]) == 2
+        err = capsys.readouterr().err
+        assert text in err and err.count("\n") == 1 and "Traceback" not in err, err
 
 
 def test_sweep_cli_radar_chain_accepts_any_attacker(tmp_path):

@@ -1,0 +1,88 @@
+"""Bad input on the command line: one line naming the option, file or field, the documented exit code, and no
+work started (so nothing is lost or left behind). Exit codes: common.Exit."""
+from pathlib import Path
+
+import pytest
+
+from carav_stream.cli import main as carav
+from carav_stream.cli.common import Exit
+
+ROOT = Path(__file__).resolve().parents[2]
+DEMO = str(ROOT / "graphs" / "demo.toml")
+
+
+def error_of(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    return err
+
+
+def test_no_arguments_prints_the_help_with_the_exit_codes(capsys):
+    assert carav([]) == Exit.USAGE
+    err = error_of(capsys)
+    assert "usage: carav" in err and "exit codes: 0 ok, 1 failed, 2 usage, 3 invalid, 130 interrupted" in err
+
+
+@pytest.mark.parametrize("argv, code, text", [
+    (["run", DEMO, "--cycles", "-5"], Exit.INVALID, "demo.toml: run.cycles: must be >= 0, got -5"),
+    (["run", str(ROOT / "graphs")], Exit.INVALID, "graphs: is a folder, not a graph file"),
+    (["run", DEMO, "--set", "detector.eta=nan"], Exit.INVALID, "blocks.detector.eta: must be a finite number, got nan"),
+    (["run", DEMO, "--set", "batch=0"], Exit.INVALID, "batch: must be >= 1, got 0"),
+    (["run", DEMO, "--blocks", "/nonexistent"], Exit.INVALID, "block folder '/nonexistent' does not exist"),
+    (["run", DEMO, "--set", "scene=nosuch"], Exit.INVALID, "scene: nosuch: no such scene file or preset"),
+    (["validate", DEMO, "--set", "attacker.rarms=-1"], Exit.INVALID, "blocks.attacker.rarms: must be >= 0, got -1"),
+    (["run", DEMO, "--json", "/nonexistent/dir/out.json"], Exit.USAGE,
+     "argument --json: /nonexistent/dir/out.json: folder '/nonexistent/dir' does not exist"),
+    (["run", DEMO, "--cycles", "x"], Exit.USAGE, "argument --cycles: invalid int value: 'x'"),
+    (["experiment", "secondary-antenna", "--trials", "0"], Exit.USAGE, "argument --trials: must be >= 1, got 0"),
+    (["bench", "pipeline", "--repeats", "0"], Exit.USAGE, "argument --repeats: must be >= 1, got 0"),
+    (["bench", "transport", "--json", "/"], Exit.USAGE, "argument --json: '/' is a folder, not a file"),
+    (["stop", "no-such-run"], Exit.USAGE, "carav stop: no running graph matches 'no-such-run'"),
+    (["nosuchcommand"], Exit.USAGE, "invalid choice: 'nosuchcommand'"),
+])
+def test_bad_input_is_refused_in_one_place_with_its_exit_code(capsys, argv, code, text):
+    assert carav(argv) == code
+    err = error_of(capsys)
+    assert text in err, err
+    assert scene_reported_once(err)
+
+
+def scene_reported_once(err: str) -> bool:
+    return err.count("no such scene file or preset") <= 1
+
+
+def test_a_scene_problem_is_reported_once_not_once_per_block(capsys):
+    assert carav(["validate", DEMO, "--set", "scene=nosuch"]) == Exit.INVALID
+    assert error_of(capsys).count("no such scene file or preset") == 1
+
+
+def test_a_sink_that_could_not_write_its_file_is_refused_before_anything_runs(capsys, tmp_path):
+    graph = tmp_path / "g.toml"
+    graph.write_text(f'include = "{ROOT / "graphs" / "radar_chain.toml"}"\nconnections = ["gate.alarms -> log.inp"]\n'
+                     f'[blocks]\nlog = {{ type = "jsonl_sink", path = "{tmp_path / "missing" / "a.jsonl"}" }}\n')
+    assert carav(["run", str(graph)]) == Exit.INVALID
+    assert f"blocks.log.path: cannot write '{tmp_path / 'missing' / 'a.jsonl'}': folder" in error_of(capsys)
+    graph.write_text(graph.read_text().replace(str(tmp_path / "missing" / "a.jsonl"), str(tmp_path)))
+    assert carav(["validate", str(graph)]) == Exit.INVALID
+    assert "is a folder, not a file" in error_of(capsys)
+
+
+def test_reproduce_refuses_zero_trials_and_leaves_no_figures_folder(capsys, tmp_path):
+    figures = tmp_path / "figs"
+    assert carav(["reproduce", "--trials", "0", "--figures", str(figures), "--out", str(tmp_path / "r.md")]) == 2
+    assert "argument --trials: must be >= 1, got 0" in error_of(capsys)
+    assert not figures.exists()
+
+
+def test_an_unexpected_failure_is_one_line_and_debug_shows_the_traceback(capsys, monkeypatch):
+    from carav_stream.cli import status
+
+    def broken(args):
+        raise RuntimeError("disk on fire")
+
+    monkeypatch.setattr(status, "run", broken)
+    assert carav(["status"]) == Exit.FAILED
+    err = error_of(capsys)
+    assert err == "carav status: failed: RuntimeError: disk on fire (--debug shows the traceback)\n"
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        carav(["status", "--debug"])
