@@ -40,8 +40,10 @@ def fail(text: str, code: Exit = Exit.USAGE) -> int:
 
 
 def running_graphs() -> list[dict[str, Any]]:
-    """The run.json of every graph running on this machine under this user."""
-    from carav_stream.runtime.supervisor import run_root
+    """The run.json of every graph running on this machine under this user (the folders of runs whose
+    supervisor was killed are removed on the way)."""
+    from carav_stream.runtime.supervisor import remove_stale_runs, run_root
+    remove_stale_runs()
     runs = []
     for f in sorted(run_root().glob("*/run.json")):
         try:

@@ -20,6 +20,7 @@ class ControlState:
         self.ended_ports: set[str] = set()            # inputs whose producer died for good
         self.cut_edges: set[str] = set()              # outputs whose consumer died for good
         self.reconnect_edges: set[str] = set()        # outputs whose consumer was restarted
+        self.seq_lease = 0                            # sources: seqs below this may be generated
 
     def apply(self, msg: dict[str, Any]) -> None:
         """Take one control message into the state; unknown kinds are ignored (a newer supervisor's)."""
@@ -40,6 +41,8 @@ class ControlState:
             self.reconnect_edges.update(_names(msg, "edges"))
         elif kind == Control.RECOVER:
             self.recovering = True
+        elif kind == Control.LEASE and isinstance(msg.get("upto"), int):
+            self.seq_lease = max(self.seq_lease, msg["upto"])
 
     def take_swap(self) -> dict[str, Any] | None:
         msg, self.pending_swap = self.pending_swap, None

@@ -8,6 +8,10 @@ travel on a DEALER socket to the supervisor's ROUTER (control.ControlState keeps
 exception ends the process with the block's traceback reported to the supervisor; a bad message is rejected,
 counted and reported, and the node keeps running.
 
+Sequence leases: a source generates a seq only below the lease its supervisor granted and asks for more ahead of
+time, so a restarted source resumes beyond every seq its killed incarnation may have sent (from the lease, not
+from counters that a SIGKILL leaves stale): no consumer ever sees one seq with two contents.
+
 Restarts: when a node's consumer is restarted, the node connects afresh at once and first sends a resume marker
 (outputs.py); a pairing node releases a frame without its partner as soon as another input shows the partner can
 never come (pairing.py).
@@ -30,7 +34,7 @@ from carav_stream.runtime.control import ControlState
 from carav_stream.runtime.frames import Frame, FrameError, decode, encode_with_header, header_packer
 from carav_stream.runtime.outputs import Outputs, runtime_message
 from carav_stream.runtime.pairing import Pairing
-from carav_stream.runtime.protocol import NodeSpec, Report, pack, unpack
+from carav_stream.runtime.protocol import LEASE_FRAMES, NodeSpec, Report, pack, unpack
 from carav_stream.runtime.registry import Registry
 
 HEARTBEAT_S = 0.5
@@ -73,6 +77,8 @@ class NodeRunner:
         self.outputs = Outputs(spec.outputs, self.connect, self.idle)
         self.pairing = Pairing(self.in_ports, max(4, 4 * spec.queue_frames), recovering=spec.recovering)
         self.ctl = ControlState(go=not self.cls.is_source(), recovering=spec.recovering)
+        self.ctl.seq_lease = spec.seq_lease
+        self.lease_asked = 0
         self.c_in = collections.Counter()
         self.c_out = collections.Counter()
         self.c_rejected = collections.Counter()
@@ -305,6 +311,8 @@ class NodeRunner:
         while not self.ctl.stopping and (not max_cycles or self.cycles < max_cycles):
             if self.ctl.pending_swap:
                 self.apply_swap()
+            if not self.within_lease():
+                continue
             self.block.cycle_budget = max_cycles - self.cycles if max_cycles else None
             t0 = time.thread_time()
             result = self.block.generate(self.seq)
@@ -317,6 +325,17 @@ class NodeRunner:
             self.emit(result, None)
             self.seq += 1
             self.idle()
+
+    def within_lease(self) -> bool:
+        """Ask for more seqs half a lease ahead; False (after waiting on control) while `self.seq` is beyond it."""
+        if self.seq + LEASE_FRAMES // 2 >= self.ctl.seq_lease and self.lease_asked < self.seq + LEASE_FRAMES:
+            self.lease_asked = self.seq + LEASE_FRAMES
+            self.tell(Report.LEASE, upto=self.lease_asked)
+        if self.seq < self.ctl.seq_lease:
+            return True
+        self.control.poll(transport.TICK_S * 1000)
+        self.serve_control()
+        return False
 
     def run_filter(self) -> None:
         poller = zmq.Poller()

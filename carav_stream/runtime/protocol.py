@@ -15,6 +15,8 @@ from typing import Any
 
 import msgpack
 
+LEASE_FRAMES = 64    # sources: seqs granted at a time (a restarted source skips at most this many)
+
 
 class Control(StrEnum):
     """Supervisor to node."""
@@ -27,6 +29,7 @@ class Control(StrEnum):
     CUT = "cut"                # a downstream node died for good: stop feeding these edges (edges)
     RECONNECT = "reconnect"    # a downstream node was restarted: connect afresh to these edges (edges)
     RECOVER = "recover"        # an upstream node was restarted: partners of buffered frames may be lost
+    LEASE = "lease"            # sources: you may generate every seq below `upto`
 
 
 class Report(StrEnum):
@@ -39,6 +42,7 @@ class Report(StrEnum):
     REJECT = "reject"          # a message refused on an input (port, reason, count)
     SWAPPED = "swapped"        # a swap took effect (id, block, version, generation, next_seq)
     SWAP_FAILED = "swap_failed"   # a swap could not be made; the old block runs on (id, error)
+    LEASE = "lease"            # sources: asks to generate seqs below `upto` (answered by Control.LEASE)
 
 
 class Admin(StrEnum):
@@ -101,6 +105,7 @@ class NodeSpec:
     generation: int = 0                                # blocks swapped in before this process
     incarnation: int = 0                               # restarts of this node before this process
     start_seq: int = 0                                 # a restarted source resumes its sequence here
+    seq_lease: int = 0                                 # sources: seqs below this may be generated (more on request)
     start_cycles: int = 0                              # ... and its cycle count here
     recovering: bool = False                           # restarted, or fed by a restarted node
 

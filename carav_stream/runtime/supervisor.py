@@ -27,7 +27,7 @@ import zmq
 
 from carav_stream.runtime import transport
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
-from carav_stream.runtime.protocol import Admin, Control, NodeSpec, OutEdge, Report, pack, unpack
+from carav_stream.runtime.protocol import LEASE_FRAMES, Admin, Control, NodeSpec, OutEdge, Report, pack, unpack
 from carav_stream.runtime.validate import swap_problems
 
 
@@ -36,6 +36,22 @@ def run_root() -> Path:
     root = base / f"carav-{os.getuid()}"
     root.mkdir(mode=0o700, parents=True, exist_ok=True)
     return root
+
+
+def remove_stale_runs(root: Path | None = None) -> list[str]:
+    """Remove the folders of runs whose supervisor died without cleaning up (SIGKILL, power loss): its pid file
+    names a process that no longer exists. Its nodes died with it (parent-death signal). Returns their names."""
+    removed = []
+    for folder in (root or run_root()).iterdir():
+        try:
+            pid = int((folder / "pid").read_text())
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            shutil.rmtree(folder, ignore_errors=True)
+            removed.append(folder.name)
+        except (OSError, ValueError):   # no pid file yet (a run starting), not ours, or unreadable: leave it
+            continue
+    return removed
 
 
 # The environment of node processes (settings in the user's environment win):
@@ -136,6 +152,7 @@ class Supervisor:
                 outputs={port: tuple(edges) for port, edges in outputs.items()},
                 queue_frames=int(g.run["queue_frames"]), drain_timeout_s=float(g.run["drain_timeout_s"]),
                 max_cycles=int(self.cycles or 0) if not g.edges_into(name) else 0,
+                seq_lease=0 if g.edges_into(name) else LEASE_FRAMES,
                 block_paths=tuple(str(p) for p in g.registry.paths[1:]),
                 security={k: str(v) for k, v in g.security.items()})
             self.nodes[name] = NodeState(name, spec)
@@ -198,6 +215,9 @@ class Supervisor:
             text = f"node {name!r} input {msg['port']!r}: rejected frame #{msg['count']}: {msg['reason']}"
             st.rejects.append(text)
             self.log(f"carav: {text}")
+        elif kind == Report.LEASE and isinstance(msg.get("upto"), int):
+            st.spec = st.spec.with_(seq_lease=max(st.spec.seq_lease, msg["upto"]))   # granted: remembered first
+            self.send(name, Control.LEASE, upto=st.spec.seq_lease)
         elif kind in (Report.SWAPPED, Report.SWAP_FAILED):
             if kind == Report.SWAPPED:
                 st.spec = st.spec.with_(type=msg["block"], generation=msg["generation"],
@@ -294,8 +314,10 @@ class Supervisor:
         if policy.policy == "on-failure" and st.restarts < policy.max_restarts and not self.signals:
             st.restarts += 1
             st.error = None
-            if not self.graph.edges_into(st.name):   # a source resumes where its incarnations left off
-                st.spec = st.spec.with_(start_seq=st.total("processed"), start_cycles=st.total("cycles"))
+            if not self.graph.edges_into(st.name):   # a source resumes beyond every seq it was allowed to send
+                start = max(st.spec.seq_lease, st.total("processed"))
+                st.spec = st.spec.with_(start_seq=start, seq_lease=start + LEASE_FRAMES,
+                                        start_cycles=st.total("cycles"))
             # its blocks' seeded streams must not replay the last ones: a new incarnation
             st.spec = st.spec.with_(recovering=True, incarnation=st.restarts)
             self.log(f"carav: restarting {st.name!r} ({st.restarts}/{policy.max_restarts})")
@@ -340,7 +362,9 @@ class Supervisor:
 
     # -- main ----------------------------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
+        remove_stale_runs(self.run_dir.parent)
         self.run_dir.mkdir(mode=0o700)
+        (self.run_dir / "pid").write_text(str(os.getpid()))     # how a later run knows this one is gone
         old = {s: signal.signal(s, self.on_signal) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
         self.ctx = zmq.Context()
         try:

@@ -18,3 +18,11 @@ def test_each_control_message_sets_what_it_names_and_nothing_else():
     ctl.apply({"type": Control.STOP})
     ctl.apply({"type": Control.EXIT})
     assert ctl.recovering and ctl.stopping and ctl.released
+
+
+def test_a_lease_only_grows():
+    ctl = ControlState(go=False)
+    ctl.apply({"type": Control.LEASE, "upto": 64})
+    ctl.apply({"type": Control.LEASE, "upto": 32})          # a late, smaller grant never takes seqs back
+    ctl.apply({"type": Control.LEASE, "upto": "lots"})
+    assert ctl.seq_lease == 64

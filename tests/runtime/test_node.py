@@ -4,11 +4,17 @@ Pairing itself is tested without sockets (test_pairing.py) and output delivery w
 (test_outputs.py); this file checks that the runner wires them to real sockets and to its control channel. Every
 wait is for an expected number of messages, with a deadline: no test relies on a quiet spell.
 """
-import numpy as np
+import os
+import time
 
+import numpy as np
+import zmq
+
+from carav_stream.runtime import transport
 from carav_stream.runtime.frames import Frame
-from carav_stream.runtime.protocol import Control
-from tests.runtime.conftest import EDGE
+from carav_stream.runtime.node import NodeRunner
+from carav_stream.runtime.protocol import LEASE_FRAMES, Control, NodeSpec, Report, pack, unpack
+from tests.runtime.conftest import EDGE, TOYS
 
 
 def test_frames_on_real_sockets_pair_by_seq_and_leave_in_order(harness):
@@ -63,3 +69,41 @@ def test_a_swap_to_an_unknown_block_is_reported_and_the_old_block_runs_on(harnes
     harness.feed("b", 0)
     harness.run_until(1)
     assert harness.outputs(1) == [(0, "paired", None)]
+
+
+def test_a_source_generates_only_within_its_lease_and_asks_for_more_ahead_of_time(tmp_path):
+    """Sequence leases: what a restarted source resumes beyond. Below half a lease from its end the source asks for
+    more; at its end it waits for the grant instead of generating."""
+    ctx = zmq.Context()
+    router = ctx.socket(zmq.ROUTER)
+    ctl = transport.ipc_endpoint(tmp_path, "ctl")
+    router.bind(ctl)
+    spec = NodeSpec(name="src", type="counter_source", params={}, control=ctl, inputs={}, outputs={},
+                    block_paths=(str(TOYS),), seq_lease=LEASE_FRAMES)
+    node = NodeRunner(spec)
+    try:
+        node.tell(Report.READY)
+        assert router.poll(5000) and unpack(router.recv_multipart()[1])["type"] == Report.READY
+        node.seq = LEASE_FRAMES // 2 - 1
+        assert node.within_lease() and not router.poll(200)               # far from the end: no request
+        node.seq = LEASE_FRAMES // 2
+        assert node.within_lease()
+        assert router.poll(5000)
+        ident, raw = router.recv_multipart()
+        assert unpack(raw) == {"type": "lease", "node": "src", "pid": os.getpid(), "upto": 3 * LEASE_FRAMES // 2}
+        node.seq = LEASE_FRAMES
+        assert not node.within_lease()                                     # at the end: waits, generates nothing
+        router.send_multipart([ident, pack(Control.LEASE, upto=3 * LEASE_FRAMES // 2)])
+        assert wait_for(node.within_lease)
+    finally:
+        node.close(crashed=True)
+        router.close(linger=0)
+        ctx.term()
+
+
+def wait_for(predicate, timeout_s: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+    return False
