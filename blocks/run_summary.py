@@ -17,19 +17,34 @@ import math
 import sys
 import time
 
-import numpy as np
-
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Param, n_cycles, per_cycle
 
 
-def _stats(errors: list[float]) -> dict:
-    if not errors:
-        return {"n": 0, "mean": None, "rmse": None, "max": None}
-    e = np.asarray(errors)
-    return {"n": int(e.size), "mean": float(e.mean()), "rmse": float(math.sqrt(np.mean(e ** 2))),
-            "max": float(np.max(np.abs(e)))}
+class ErrorStats:
+    """Count, mean, RMS and largest magnitude of a stream of errors, in constant memory (a run may be endless)."""
+
+    def __init__(self) -> None:
+        self.n, self.total, self.squares, self.largest = 0, 0.0, 0.0, 0.0
+
+    def add(self, e: float) -> None:
+        self.n += 1
+        self.total += e
+        self.squares += e * e
+        self.largest = max(self.largest, abs(e))
+
+    def merged(self, other: "ErrorStats") -> "ErrorStats":
+        out = ErrorStats()
+        out.n, out.total = self.n + other.n, self.total + other.total
+        out.squares, out.largest = self.squares + other.squares, max(self.largest, other.largest)
+        return out
+
+    def figures(self) -> dict:
+        if not self.n:
+            return {"n": 0, "mean": None, "rmse": None, "max": None}
+        return {"n": self.n, "mean": self.total / self.n, "rmse": math.sqrt(self.squares / self.n),
+                "max": self.largest}
 
 
 class RunSummary(Block):
@@ -49,8 +64,8 @@ class RunSummary(Block):
         self.cycles = self.attacked = self.detected = self.false_alarms = self.refused = self.unreadable = 0
         self.reasons: dict[str, int] = {}
         self.raised_by: dict[str, int] = {}
-        self.range_err = {"attacked": [], "clean": []}
-        self.velocity_err: list[float] = []
+        self.range_err = {"attacked": ErrorStats(), "clean": ErrorStats()}
+        self.velocity_err = ErrorStats()
         self.next_print = time.monotonic() + self.every_s
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
@@ -79,10 +94,10 @@ class RunSummary(Block):
             ranges, velocities = per.get("range_m") or [None] * n, per.get("velocity_mps") or [None] * n
             for i in range(n):
                 if ranges[i] and ranges[i][0] is not None:
-                    self.range_err["attacked" if attacked[i] else "clean"].append(ranges[i][0] - self.true_range_m)
+                    self.range_err["attacked" if attacked[i] else "clean"].add(ranges[i][0] - self.true_range_m)
                 if velocities[i] and velocities[i][0] is not None:
                     err = velocities[i][0] - self.true_velocity_mps
-                    self.velocity_err.append((err + self.v_max) % (2 * self.v_max) - self.v_max)
+                    self.velocity_err.add((err + self.v_max) % (2 * self.v_max) - self.v_max)
         if self.every_s and time.monotonic() >= self.next_print:
             self.next_print = time.monotonic() + self.every_s
             r = self.run_figures()
@@ -92,7 +107,7 @@ class RunSummary(Block):
 
     def run_figures(self) -> dict:
         alarms = sum(self.reasons.values())
-        all_range = self.range_err["attacked"] + self.range_err["clean"]
+        all_range = self.range_err["attacked"].merged(self.range_err["clean"])
         return {
             "cycles_judged": self.cycles, "cycles": self.cycles, "alarms": alarms, "alarm_reasons": self.reasons,
             "raised_by": self.raised_by, "attacked_cycles": self.attacked, "detected": self.detected,
@@ -101,9 +116,9 @@ class RunSummary(Block):
             "false_alarm_rate": (self.false_alarms / (self.cycles - self.attacked)
                                  if self.cycles > self.attacked else None),
             "refused_by_estimator": self.refused, "unreadable_cycles": self.unreadable,
-            "range_error_m": _stats(all_range),
-            "range_error_attacked_missed_m": _stats(self.range_err["attacked"]),
-            "velocity_error_mps": _stats(self.velocity_err),
+            "range_error_m": all_range.figures(),
+            "range_error_attacked_missed_m": self.range_err["attacked"].figures(),
+            "velocity_error_mps": self.velocity_err.figures(),
         }
 
     def summary(self) -> dict:

@@ -1,0 +1,58 @@
+"""Run summary: alarms by reason and detector, detections, and estimation errors in constant memory."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from carav_blocks.run_summary import ErrorStats, RunSummary
+from carav_stream.radar.streams import scene_of
+from carav_stream.runtime import Frame
+from tests.blocks.helpers import SCENE, wire
+
+
+@settings(max_examples=50)
+@given(st.lists(st.floats(-1e3, 1e3), min_size=1, max_size=200), st.integers(0, 200))
+def test_streamed_error_figures_equal_numpy_on_the_whole_list(errors, split):
+    a, b = ErrorStats(), ErrorStats()
+    for i, e in enumerate(errors):
+        (a if i < split else b).add(e)
+    got, e = a.merged(b).figures(), np.asarray(errors)
+    assert got["n"] == e.size and got["max"] == np.max(np.abs(e))
+    assert got["mean"] == pytest.approx(e.mean(), rel=1e-9, abs=1e-9)
+    assert got["rmse"] == pytest.approx(math.sqrt(np.mean(e ** 2)), rel=1e-9, abs=1e-12)
+    assert ErrorStats().figures() == {"n": 0, "mean": None, "rmse": None, "max": None}
+
+
+def test_the_summary_counts_alarms_detections_and_errors_against_the_scene_truth():
+    scene = scene_of(SCENE)
+    truth = scene.targets[0].range_m
+    s = RunSummary(scene=SCENE)
+    s.start()
+    est = wire(Frame.of(None, cycles=3, per_cycle={"cycle_index": [0, 1, 3], "attack_active": [False, False, True],
+                                                   "range_m": [[truth + 0.1], [truth - 0.3], [truth + 2.0]]}), 0)
+    per = {"cycle_index": [2, 4], "attack_active": [True, False], "reason": ["attack", "no_verdict"],
+           "raised_by": ["D0", None]}
+    alarms = wire(Frame.of(None, cycles=2, per_cycle=per), 1)
+    s.process(est, None)
+    s.process(None, alarms)
+    run = s.summary()["run"]
+    assert run["cycles_judged"] == 5 and run["attacked_cycles"] == 2 and run["detected"] == 1
+    assert run["missed"] == 1 and run["false_alarms"] == 1 and run["alarm_reasons"] == {"attack": 1, "no_verdict": 1}
+    assert run["raised_by"] == {"D0": 1}
+    assert run["range_error_m"]["n"] == 3 and run["range_error_m"]["max"] == pytest.approx(2.0)
+    assert run["range_error_m"]["rmse"] == pytest.approx(math.sqrt((0.1 ** 2 + 0.3 ** 2 + 2.0 ** 2) / 3))
+    assert run["range_error_attacked_missed_m"]["n"] == 1      # the one attacked cycle that reached ranging
+
+
+def test_memory_does_not_grow_with_the_cycles_seen():
+    s = RunSummary(scene=SCENE)
+    s.start()
+    truth = scene_of(SCENE).targets[0].range_m
+    frame = wire(Frame.of(None, cycles=64, per_cycle={"attack_active": [False] * 64,
+                                                      "range_m": [[truth]] * 64}), 0)
+    for _ in range(50):
+        s.process(frame, None)
+    assert s.summary()["run"]["range_error_m"]["n"] == 3200
+    assert all(isinstance(v, ErrorStats) for v in s.range_err.values())   # figures, not lists of errors
