@@ -155,7 +155,8 @@ def ghost_section(args, fig_dir: Path, data: dict) -> list[str]:
                     f"{rate(int(sp.alarm.sum()), n)} |")
     data["ghost"] = {"rows": out, "spectral_null_alarms": int(sp0.alarm.sum()), "threshold": sp0.threshold}
     _plot_ghost(scene, fig_dir, rng)
-    rows += ["", "![Range spectrum of a silent chirp with a ghost at RARMS 0.5](figures/repro_ghost_spectrum.png)"]
+    rows += ["", "![Range spectrum of a silent chirp with a ghost at RARMS 0.5]"
+                 f"({args.figure_link}/repro_ghost_spectrum.png)"]
     return rows
 
 
