@@ -134,7 +134,7 @@ def detector_table(doc: dict) -> list[str]:
             lines.append(f"| memory | {r['what']} | {r['gb_per_s']:.1f} GB/s read + write |")
         elif b == "kernel":
             lines.append(f"| kernel | {r['dtype']} | detect {r['ns_per_sample_detect']:.3f} ns/sample "
-                         f"({r['ns_per_cycle_detect'] / 1e3:.1f} us per 64x1100 cycle, {r['gb_per_s_read']:.1f} GB/s); "
+                         f"({r['ns_per_cycle_detect'] / 1e3:.1f} us per Table I cycle, {r['gb_per_s_read']:.1f} GB/s); "
                          f"chirp_rms {r['ns_per_sample_rms']:.3f} ns/sample |")
         elif b == "sweep":
             lines.append(f"| sweep | table1 {r['source']}, {r['rarms']} RARMS x {r['trials']} trials x {r['eta']} "
@@ -200,12 +200,42 @@ def pipeline_table(doc: dict) -> list[str]:
     return lines
 
 
+def soak_rows(doc: dict) -> list[Row]:
+    from carav_stream.bench.soak import SOAK_RSS_MB_PER_H, no_growth
+    r = doc["records"][0]
+    rows = [(f"lost cycles over {r['elapsed_s'] / 60:.1f} min, {r['cycles']} cycles, {r['swaps']} attacker swaps "
+             f"(glibc trim threshold {r.get('trim_mb', 512)} MB)",
+             f"{r['lost']} (failures: {len(r['failures'])})", "0", _met(r["lost"] == 0 and not r["failures"]))]
+    for p in r["processes"].values():
+        err = p.get("rss_mb_per_h_stderr", 0.0)
+        rows.append((f"{p['node']}: resident memory growth, second half",
+                     f"{p['rss_mb_per_h']:+.1f} +- {err:.1f} MB/h "
+                     f"({p['rss_mb_start']:.1f} -> {p['rss_mb_end']:.1f} MB)",
+                     f"< {SOAK_RSS_MB_PER_H:g} MB/h or < 3 standard errors", _met(no_growth(p["rss_mb_per_h"], err))))
+        rows.append((f"{p['node']}: open file descriptors, second half", f"{p['fds_start']} -> {p['fds_end']}",
+                     "no growth", _met(p["fds_end"] <= p["fds_start"])))
+    return rows
+
+
+def soak_table(doc: dict) -> list[str]:
+    r = doc["records"][0]
+    lines = [f"{r['cycles']} cycles in {r['elapsed_s']:.0f} s ({r['cycles_per_s']:.0f} cycles/s), {r['swaps']} swaps, "
+             f"lost {r['lost']}, rejected {r['rejected']}", "",
+             "| process | samples | RSS MB start / end | MB/h | descriptors start / end | per h |",
+             "|---|---:|---|---:|---|---:|"]
+    for name, p in r["processes"].items():
+        lines.append(f"| {name} | {p['samples']} | {p['rss_mb_start']:.1f} / {p['rss_mb_end']:.1f} | "
+                     f"{p['rss_mb_per_h']:+.1f} | {p['fds_start']} / {p['fds_end']} | {p['fds_per_h']:+.1f} |")
+    return lines
+
+
 BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], list[str]]]] = {
     "transport": ("Transport: runtime against raw pyzmq", transport_rows, transport_table),
     "synth": ("Signal chain per simulated cycle", synth_rows, synth_table),
     "detector": ("Detector: numerical stability, cost, Monte Carlo speed", detector_rows, detector_table),
     "estimators": ("Estimators: error against run time", estimators_rows, estimators_table),
     "pipeline": ("Pipeline: the multi-process radar graph", pipeline_rows, pipeline_table),
+    "soak": ("Soak: the demo graph for minutes with live swaps", soak_rows, soak_table),
 }
 
 INTRO = """# Benchmarks

@@ -5,9 +5,9 @@
     carav blocks [TYPE]
     carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
     carav sweep ...            PF/PM Monte Carlo and threshold design
-    carav reproduce ...        regenerate docs/REPRODUCTION.md
+    carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav experiment secondary-antenna ...
-    carav bench transport|synth|detector|estimators|pipeline ... --json docs/bench/records/NAME.json
+    carav bench transport|synth|detector|estimators|pipeline|soak ... --json docs/bench/records/NAME.json
     carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
@@ -30,7 +30,7 @@ COMMANDS = {
     "stop": ("carav_stream.cli.stop", "stop a running graph in order (sources first, drain, sinks last)"),
     "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),
     "sweep": ("carav_stream.studies.sweep_command", "PF/PM Monte Carlo over eta and RARMS, with threshold design"),
-    "reproduce": ("carav_stream.studies.reproduce", "regenerate docs/REPRODUCTION.md and its figures"),
+    "reproduce": ("carav_stream.studies.reproduce", "the paper's figures and claims beside ours, as markdown"),
 }
 EXPERIMENTS = {
     "secondary-antenna": ("carav_stream.studies.secondary_antenna", "the paper's Figures 6 to 8"),
@@ -41,6 +41,7 @@ BENCHES = {
     "detector": ("carav_stream.bench.detection", "detector stability, ns/sample and Monte Carlo speed"),
     "estimators": ("carav_stream.bench.estimation", "run time against error of the range/velocity estimators"),
     "pipeline": ("carav_stream.bench.pipeline", "cycles/s of the multi-process graph against one process"),
+    "soak": ("carav_stream.bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
     "report": ("carav_stream.bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS),

@@ -135,7 +135,7 @@ def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector
     assert not set(estimates) & set(alarms) and sorted([*estimates, *alarms]) == list(range(s["cycles"]))
 
 
-@pytest.mark.parametrize("victim", ["source", "channel", "attacker", "adc", "gate", "ranging"])
+@pytest.mark.parametrize("victim", ["source", "channel", "attacker", "adc", "gate", "ranging", "summary"])
 def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without_stalling(carav, victim):
     """SIGKILL one node mid-run: after its restart every later cycle is judged once, in order (no sink rejects a
     duplicate or out-of-order frame), what died with it is counted, and `carav stop` drains well within its

@@ -1,0 +1,35 @@
+"""`carav bench soak`: memory and descriptors sampled from /proc while the demo graph runs with live swaps."""
+import json
+import os
+
+import pytest
+
+from carav_stream.bench.soak import growth_per_hour, no_growth, proc_figures
+from carav_stream.cli import main as carav
+
+
+def test_growth_per_hour_is_the_slope_of_a_least_squares_line_with_its_standard_error():
+    slope, err = growth_per_hour([0, 10, 20, 30], [5.0, 6.0, 7.0, 8.0])
+    assert slope == pytest.approx(360.0) and err == pytest.approx(0.0, abs=1e-9)
+    slope, err = growth_per_hour([0, 10, 20, 30, 40], [5.0, 7.0, 5.0, 7.0, 5.0])   # noise, no trend
+    assert slope == pytest.approx(0.0, abs=1e-9) and err > 0
+    assert growth_per_hour([0, 1], [1.0, 9.0]) == (0.0, 0.0)            # too few samples to judge
+    assert no_growth(10.0, 1.0) and no_growth(50.0, 20.0) and not no_growth(50.0, 5.0)
+
+
+def test_process_figures_come_from_proc():
+    rss, fds = proc_figures(os.getpid())
+    assert rss > 10 and fds >= 3
+    assert proc_figures(2 ** 22 + 12345) is None                     # no such process
+
+
+@pytest.mark.integration
+def test_a_short_soak_swaps_the_attacker_samples_every_node_and_loses_nothing(tmp_path):
+    out = tmp_path / "soak.json"
+    assert carav(["bench", "soak", "--minutes", "0.2", "--swap-s", "2", "--sample-s", "0.5", "--batch", "8",
+                  "--json", str(out)]) == 0
+    rec = json.loads(out.read_text())["records"][0]
+    assert rec["lost"] == 0 and not rec["failures"] and rec["swaps"] >= 3 and rec["cycles"] > 0
+    nodes = {p["node"] for p in rec["processes"].values()}
+    assert nodes == {"source", "channel", "attacker", "adc", "detector", "gate", "ranging", "summary"}
+    assert all(p["rss_mb_end"] > 1 and p["fds_end"] > 0 for p in rec["processes"].values())
