@@ -140,7 +140,8 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                 proc.wait()
         summary = json.loads(summary_path.read_text())
     elapsed = time.monotonic() - t0
-    half = elapsed / 2
+    sampled = [t for samples in series.values() for t, *_ in samples]
+    half = (min(sampled) + max(sampled)) / 2 if sampled else 0.0   # of the sampled run, not of its stop
     nodes = {}
     for (node, pid), samples in sorted(series.items()):
         late = [s for s in samples if s[0] >= half]

@@ -26,7 +26,7 @@ def test_process_figures_come_from_proc():
 @pytest.mark.integration
 def test_a_short_soak_swaps_the_attacker_samples_every_node_and_loses_nothing(tmp_path):
     out = tmp_path / "soak.json"
-    assert carav(["bench", "soak", "--minutes", "0.2", "--swap-s", "2", "--sample-s", "0.5", "--batch", "8",
+    assert carav(["bench", "soak", "--minutes", "0.3", "--swap-s", "2", "--sample-s", "0.25", "--batch", "8",
                   "--json", str(out)]) == 0
     rec = json.loads(out.read_text())["records"][0]
     assert rec["lost"] == 0 and not rec["failures"] and rec["swaps"] >= 3 and rec["cycles"] > 0
