@@ -67,8 +67,8 @@ def growth_per_hour(t_s: list[float], values: list[float]) -> tuple[float, float
     if len(t_s) < 4 or max(t_s) == min(t_s):
         return 0.0, 0.0
     t, v = np.asarray(t_s, float), np.asarray(values, float)
-    slope, _ = np.polyfit(t, v, 1)
-    resid = v - np.polyval(np.polyfit(t, v, 1), t)
+    line = np.polyfit(t, v, 1)
+    slope, resid = line[0], v - np.polyval(line, t)
     stderr = math.sqrt(float(resid @ resid) / (len(t) - 2) / float(((t - t.mean()) ** 2).sum()))
     return float(slope * 3600.0), float(stderr * 3600.0)
 

@@ -8,12 +8,21 @@ starts, and a bad one is refused in one line that names the option (argparse add
 from __future__ import annotations
 
 import argparse
-import math
 import os
 from collections.abc import Callable
 from pathlib import Path
 
+from carav_stream.core.params import Param
+
 Error = argparse.ArgumentTypeError
+
+
+def _checked(param: Param, value):
+    """The value, or the problem the parameter system finds with it (the same rules and words as in graphs)."""
+    value, problem = param.check(value)
+    if problem:
+        raise Error(problem)
+    return value
 
 
 def count(low: int = 0) -> Callable[[str], int]:
@@ -23,9 +32,7 @@ def count(low: int = 0) -> Callable[[str], int]:
             value = int(text)
         except ValueError:
             raise Error(f"expected a whole number, got {text!r}") from None
-        if value < low:
-            raise Error(f"must be >= {low}, got {value}")
-        return value
+        return _checked(Param("value", int, low=low), value)
     parse.__name__ = "count"
     return parse
 
@@ -37,11 +44,7 @@ def number(low: float | None = None, strict: bool = False) -> Callable[[str], fl
             value = float(text)
         except ValueError:
             raise Error(f"expected a number, got {text!r}") from None
-        if not math.isfinite(value):
-            raise Error(f"must be a finite number, got {text!r}")
-        if low is not None and (value < low or (strict and value == low)):
-            raise Error(f"must be {'>' if strict else '>='} {low:g}, got {value:g}")
-        return value
+        return _checked(Param("value", float, low=low, strict=strict), value)
     parse.__name__ = "number"
     return parse
 

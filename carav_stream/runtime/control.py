@@ -11,7 +11,7 @@ from carav_stream.runtime.protocol import Control
 
 
 class ControlState:
-    def __init__(self, *, go: bool, recovering: bool = False) -> None:
+    def __init__(self, *, go: bool, recovering: bool = False, seq_lease: int = 0) -> None:
         self.go = go                                  # sources wait for it; other nodes start at once
         self.stopping = False                         # sources: stop generating
         self.released = False                         # every node drained: exit
@@ -20,7 +20,7 @@ class ControlState:
         self.ended_ports: set[str] = set()            # inputs whose producer died for good
         self.cut_edges: set[str] = set()              # outputs whose consumer died for good
         self.reconnect_edges: set[str] = set()        # outputs whose consumer was restarted
-        self.seq_lease = 0                            # sources: seqs below this may be generated
+        self.seq_lease = seq_lease                    # sources: seqs below this may be generated
 
     def apply(self, msg: dict[str, Any]) -> None:
         """Take one control message into the state; unknown kinds are ignored (a newer supervisor's)."""

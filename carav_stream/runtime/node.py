@@ -76,8 +76,7 @@ class NodeRunner:
                        for p in self.in_ports}
         self.outputs = Outputs(spec.outputs, self.connect, self.idle)
         self.pairing = Pairing(self.in_ports, max(4, 4 * spec.queue_frames), recovering=spec.recovering)
-        self.ctl = ControlState(go=not self.cls.is_source(), recovering=spec.recovering)
-        self.ctl.seq_lease = spec.seq_lease
+        self.ctl = ControlState(go=not self.cls.is_source(), recovering=spec.recovering, seq_lease=spec.seq_lease)
         self.lease_asked = 0
         self.c_in = collections.Counter()
         self.c_out = collections.Counter()
