@@ -29,6 +29,9 @@ class ChirpSource(Block):
         self.n_chirps = scene_of(self.scene).n_chirps
         seed_streams(self.seed, self.activation)
 
+    def param_warnings(self) -> list[str]:
+        return list(scene_of(self.scene).warnings)   # the scene's doubtful physics, e.g. an ambiguous velocity
+
     def start(self) -> None:
         self.streams = seed_streams(self.seed, self.activation, self.instance)
 

@@ -4,9 +4,10 @@ Counts every cycle once, from the gate's alarms and the estimator's records (eac
 cycles, per_cycle lists): cycles, alarms (by reason and by the detector that raised them), attacked cycles
 (per-cycle attack_active, set by the attacker), detected attacks, false alarms (alarms on cycles with no
 attack), missed attacks, and the range and velocity errors of the estimates against the scene's first
-target (mean, rmse, max), split into attacked and clean cycles. Velocity errors are folded into the
-unambiguous interval +-lambda / (4 T_c): a target faster than that (AWR1642's Table II car) is seen at its
-alias, which is all a chirp-to-chirp phase can tell.
+target (mean, rmse, max), split into attacked and clean cycles. The velocity error is the estimate minus the
+true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_c) (AWR1642's Table II car) is
+seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
+unambiguous interval (how well the alias was measured) is reported beside it.
 
 Ports   in  estimates   range_estimator records          (merged in arrival order with alarms)
         in  alarms      gate alarm records
@@ -65,7 +66,8 @@ class RunSummary(Block):
         self.reasons: dict[str, int] = {}
         self.raised_by: dict[str, int] = {}
         self.range_err = {"attacked": ErrorStats(), "clean": ErrorStats()}
-        self.velocity_err = ErrorStats()
+        self.velocity_err = ErrorStats()           # estimate - true range rate, as measured
+        self.velocity_err_folded = ErrorStats()    # the same error modulo the unambiguous interval
         self.next_print = time.monotonic() + self.every_s
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
@@ -97,7 +99,8 @@ class RunSummary(Block):
                     self.range_err["attacked" if attacked[i] else "clean"].add(ranges[i][0] - self.true_range_m)
                 if velocities[i] and velocities[i][0] is not None:
                     err = velocities[i][0] - self.true_velocity_mps
-                    self.velocity_err.add((err + self.v_max) % (2 * self.v_max) - self.v_max)
+                    self.velocity_err.add(err)
+                    self.velocity_err_folded.add((err + self.v_max) % (2 * self.v_max) - self.v_max)
         if self.every_s and time.monotonic() >= self.next_print:
             self.next_print = time.monotonic() + self.every_s
             r = self.run_figures()
@@ -119,6 +122,11 @@ class RunSummary(Block):
             "range_error_m": all_range.figures(),
             "range_error_attacked_missed_m": self.range_err["attacked"].figures(),
             "velocity_error_mps": self.velocity_err.figures(),
+            # the Doppler FFT measures velocity modulo 2 v_max: a target beyond +-v_max is reported folded, and
+            # its error above is the folded estimate's (tens of m/s); this one says how well the folded value fits
+            "velocity_ambiguous": self.true_velocity_mps is not None and abs(self.true_velocity_mps) >= self.v_max,
+            "unambiguous_velocity_mps": self.v_max,
+            "velocity_error_modulo_ambiguity_mps": self.velocity_err_folded.figures(),
         }
 
     def summary(self) -> dict:

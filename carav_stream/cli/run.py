@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,8 @@ def run(args: argparse.Namespace) -> int:
         return fail(f"{args.graph} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems), Exit.INVALID)
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
+    for w in graph.warnings:
+        print(f"carav run: warning: {w}", file=sys.stderr)
     sup = Supervisor(graph, host=args.host, progress=args.progress)
     summary = sup.run()
     print_summary(summary)

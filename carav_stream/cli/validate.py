@@ -22,6 +22,8 @@ def run(args: argparse.Namespace) -> int:
         try:
             g = load_graph(path, args.set, args.blocks)
             print(f"{path}: ok ({len(g.nodes)} nodes, {len(g.edges)} connections)")
+            for w in g.warnings:
+                print(f"{path}: warning: {w}", file=sys.stderr)
         except GraphError as exc:
             bad += 1
             print("\n".join(exc.problems), file=sys.stderr)

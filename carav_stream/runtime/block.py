@@ -98,6 +98,10 @@ class Block:
     def check_params(self) -> None:
         """Cross-parameter checks; raise BlockError (or ValueError) naming the parameters."""
 
+    def param_warnings(self) -> list[str]:
+        """Legal but doubtful settings, each explained in one line (shown by `carav validate` and `carav run`)."""
+        return []
+
     def start(self) -> None:
         pass
 

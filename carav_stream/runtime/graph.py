@@ -70,6 +70,7 @@ class Graph:
     block_paths: list[Path]
     registry: Registry
     params: dict[str, Any] = field(default_factory=dict)   # graph-wide parameters
+    warnings: list[str] = field(default_factory=list)      # the blocks' param_warnings(), each once
 
     def params_for(self, block_type: str, explicit: dict[str, Any]) -> dict[str, Any]:
         """A block's parameters: the graph-wide ones it declares, overridden by `explicit`."""

@@ -86,9 +86,10 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     for n, cls in classes.items():
         nodes[n].params = with_graph_params(cls, graph_params, nodes[n].params)
     bad_wide = _check_graph_wide(nodes, classes, where, problems)
+    warnings: dict[str, None] = {}     # ordered, each text once (a scene shared by several blocks warns once)
     for node in nodes.values():
         if node.name in classes:
-            _check_params(node, classes[node.name], bad_wide, where, problems)
+            warnings.update(dict.fromkeys(_check_params(node, classes[node.name], bad_wide, where, problems)))
     edges = _edges(data.get("connections", []), nodes, classes, where, problems)
     _check_inputs(nodes, classes, edges, where, problems)
     _check_cycles(nodes, edges, where, problems)
@@ -96,7 +97,7 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     if problems:
         raise GraphError(problems)
     return Graph(path, str(data.get("description", "")), nodes, edges, run, hosts, security, block_paths, registry,
-                 graph_params)
+                 graph_params, list(warnings))
 
 
 def _list_of_str(value: Any, where: str, key: str, problems: list[str]) -> list[str]:
@@ -276,7 +277,8 @@ def _check_graph_wide(nodes: dict[str, Node], classes: dict[str, type[Block]], w
     return bad
 
 
-def _check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, problems: list[str]) -> None:
+def _check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, problems: list[str]) -> list[str]:
+    """Adds the node's parameter problems to `problems`; returns its warnings."""
     wide = {p.name for p in cls.params if p.graph_wide}
     found = [(p, t) for p, t in cls.param_problems(node.params) if p not in wide]
     problems += [f"{where}: blocks.{node.name}.{p}: {text}" for p, text in found]
@@ -287,9 +289,10 @@ def _check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, 
             problems.append(f"{where}: blocks.{node.name}.{p.name}: {text}")
     if not found and not wide & bad_wide:
         try:
-            cls(**node.params)   # cross-parameter checks; __init__ does no I/O by contract
+            return cls(**node.params).param_warnings()   # cross-parameter checks; __init__ does no I/O by contract
         except (BlockError, ValueError, TypeError) as exc:
             problems.append(f"{where}: blocks.{node.name}: {exc}")
+    return []
 
 
 def _output_problem(path: Path) -> str | None:

@@ -56,3 +56,31 @@ def test_memory_does_not_grow_with_the_cycles_seen():
         s.process(frame, None)
     assert s.summary()["run"]["range_error_m"]["n"] == 3200
     assert all(isinstance(v, ErrorStats) for v in s.range_err.values())   # figures, not lists of errors
+
+
+def test_a_target_beyond_the_unambiguous_velocity_reports_its_true_error_and_says_it_is_ambiguous():
+    scene = scene_of("awr1642")
+    true_v, v_max = scene.range_rate_mps(scene.targets[0]), scene.max_velocity_mps
+    assert abs(true_v) > v_max                                   # Table II's head-on car: -83 m/s against +-6 m/s
+    alias = (true_v + v_max) % (2 * v_max) - v_max               # what a perfect Doppler FFT reports
+    s = RunSummary(scene="awr1642")
+    s.start()
+    s.process(wire(Frame.of(None, cycles=2, per_cycle={"attack_active": [False, False],
+                                                       "range_m": [[20.0], [20.0]],
+                                                       "velocity_mps": [[alias + 0.1], [alias - 0.1]]}), 0), None)
+    run = s.summary()["run"]
+    assert run["velocity_ambiguous"] is True and run["unambiguous_velocity_mps"] == pytest.approx(v_max)
+    assert run["velocity_error_mps"]["rmse"] == pytest.approx(math.sqrt((alias - true_v) ** 2 + 0.01), rel=1e-6)
+    assert run["velocity_error_mps"]["rmse"] > 70                # not hidden by folding
+    assert run["velocity_error_modulo_ambiguity_mps"]["rmse"] == pytest.approx(0.1, abs=1e-9)
+
+
+def test_a_target_within_the_unambiguous_velocity_is_not_flagged():
+    scene = scene_of(SCENE)
+    s = RunSummary(scene=SCENE)
+    s.start()
+    true_v = scene.range_rate_mps(scene.targets[0])
+    s.process(wire(Frame.of(None, cycles=1, per_cycle={"attack_active": [False], "range_m": [[1.0]],
+                                                       "velocity_mps": [[true_v + 0.5]]}), 0), None)
+    run = s.summary()["run"]
+    assert run["velocity_ambiguous"] is False and run["velocity_error_mps"]["max"] == pytest.approx(0.5)

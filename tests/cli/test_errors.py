@@ -86,3 +86,11 @@ def test_an_unexpected_failure_is_one_line_and_debug_shows_the_traceback(capsys,
     assert err == "carav status: failed: RuntimeError: disk on fire (--debug shows the traceback)\n"
     with pytest.raises(RuntimeError, match="disk on fire"):
         carav(["status", "--debug"])
+
+
+def test_validate_warns_once_about_a_velocity_beyond_the_unambiguous_interval(capsys):
+    assert carav(["validate", str(ROOT / "graphs" / "awr1642_smart.toml")]) == Exit.OK
+    err = error_of(capsys)
+    assert err.count("beyond the unambiguous") == 1 and "awr1642_smart.toml: warning:" in err
+    assert carav(["validate", DEMO]) == Exit.OK                      # table1's car: no warning
+    assert "warning" not in error_of(capsys)
