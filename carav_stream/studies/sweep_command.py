@@ -58,7 +58,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--nr", type=int, default=None, help="override the number of chirps per cycle N_r")
     parser.add_argument("--ns", type=int, default=None, help="override the samples per chirp N_s")
     parser.add_argument("--iq", action="store_true", help="complex I/Q samples instead of I only")
-    parser.add_argument("--snr-db", type=float, default=None, help="override the per-sample echo SNR (paper: 0 dB)")
+    parser.add_argument("--snr-db", type=float, default=None,
+                        help="per-sample echo SNR of the first target, dB (default: the scene's own, e.g. +2.2 dB "
+                             "for table1 from MATLAB's radar equation; the paper's runs: 0)")
     parser.add_argument("--ideal-adc", action="store_true", help="no quantisation (adc_bits = 0)")
     parser.add_argument("--attack", default="random", help="attacker kind(s), comma separated (default random)")
     parser.add_argument("--attack-param", action="append", default=[], metavar="KIND.KEY=VALUE",
@@ -166,7 +168,12 @@ def _print_table(result: dict, stream=None) -> None:
     stream = stream or sys.stdout
     eta = np.asarray(result["eta"])
     i15 = int(np.argmin(np.abs(eta - 1.5)))
-    print(f"scene {result['scene']['name']} ({result['scene']['model']}), {result['trials']} cycles per curve, "
+    scene = result["scene"]
+    snr_db = scene.get("snr_db", scene.get("echo_snr_db"))
+    snr = "" if snr_db is None else f", echo SNR {snr_db:+.1f} dB per sample"
+    if snr_db is not None and abs(snr_db) >= 0.05:
+        snr += " (the paper's runs set 0 dB: --snr-db 0)"
+    print(f"scene {scene['name']} ({scene['model']}){snr}, {result['trials']} cycles per curve, "
           f"PF from {result['pf_method']}", file=stream)
     print(f"{'attack':<18}{'RARMS':>7}{'method':>9}{'PF@1.5':>9}{'PM@1.5':>9}  PM 95% CI@1.5      minimax eta (band)",
           file=stream)

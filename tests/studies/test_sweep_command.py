@@ -65,3 +65,14 @@ def test_sweep_cli_radar_chain_accepts_any_attacker(tmp_path):
                  "--trials", "20", "--eta", "1:2:0.5", "--seed", "1", "--quiet", "--json", str(out)])
     assert code == 0
     assert json.loads(out.read_text())["curves"][0]["attack"] == "ghost"
+
+
+def test_sweep_table_header_states_the_echo_snr_and_the_papers_reading(capsys):
+    """table1's radar-equation echo is +2.2 dB per sample (MATLAB's hardware); the paper's runs set 0 dB."""
+    base = ["--preset", "table1", "--rarms", "1", "--trials", "20", "--eta", "1:2:0.5", "--seed", "1", "--quiet"]
+    assert _run(base) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "echo SNR +2.2 dB per sample (the paper's runs set 0 dB: --snr-db 0)" in header
+    assert _run(base + ["--snr-db", "0"]) == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "echo SNR +0.0 dB per sample," in header and "--snr-db 0" not in header
