@@ -26,7 +26,8 @@ ATTACK_ROWS = [  # (label, kind, activation, params, rarms list)
     ("smart", "smart", "seeded", {}, [1.0, 3.0]),
     ("ramp 0.5 -> RARMS over the run", "ramp", "seeded", {"rarms_start": 0.5}, [1.0, 3.0]),
     ("lfsr_predictor vs LFSR activation", "lfsr_predictor", "lfsr", {}, [1.0, 3.0]),
-    ("lfsr_predictor vs secure activation (os.urandom, not seeded)", "lfsr_predictor", "secure", {}, [1.0, 3.0]),
+    ("lfsr_predictor vs uniformly random activation (the secure source's law, seeded)", "lfsr_predictor",
+     "seeded", {}, [1.0, 3.0]),
     ("ghost at 25 m", "ghost", "seeded", {"range_m": 25.0}, [1.0, 3.0]),
     ("reactive repeater 30 m, 100 ns", "reactive", "seeded", {}, [1.0, 3.0]),
     ("secondary_antenna 30 m, 50 km/h", "secondary_antenna", "seeded", {}, [1.0, 3.0]),
@@ -265,7 +266,8 @@ ATTACKER_NOTES = """What the RMS detector cannot see, plainly:
   mean, so it is quiet too). Invisible at any RARMS; the latency test below catches it.
 - **lfsr_predictor** against an LFSR activation source learns the register from the on-air pattern
   (Berlekamp-Massey) and attacks only the chirps it predicts active: invisible, exactly as the paper warns. Against
-  the secure source its guesses are coin flips, it hits silent chirps, and D0 catches it.
+  uniformly random sequences (the law of the firmware's secure source, `os.urandom`; seeded here so that the table
+  reproduces) its guesses are coin flips, it hits silent chirps, and D0 catches it.
 - **ghost** transmits in every chirp period, so it lands on silent chirps too: D0 sees it once its raw RMS is large
   (RARMS above ~1.1), but a weak ghost stays under D0 while still planting a strong target after the range FFT
   (next section).

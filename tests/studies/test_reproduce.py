@@ -33,3 +33,29 @@ def test_in_place_needs_the_repository_root_and_takes_no_other_output(tmp_path, 
     (tmp_path / "docs").mkdir()
     assert carav(["reproduce", "--in-place", "--out", "x.md", *QUICK]) == 2
     assert "give it alone" in capsys.readouterr().err
+
+
+ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.slow
+def test_the_committed_reproduction_document_is_what_the_code_produces(monkeypatch, capsys):
+    """docs/REPRODUCTION.md is an output of `carav reproduce --in-place`: same defaults, same seed, same text."""
+    monkeypatch.chdir(ROOT)
+    code = carav(["reproduce", "--check", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 0, err[-3000:]
+
+
+def test_check_fails_naming_the_document_when_it_was_edited_by_hand(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    doc = tmp_path / "R.md"
+    assert carav(["reproduce", *QUICK, "--out", str(doc)]) == 0
+    capsys.readouterr()
+    assert carav(["reproduce", *QUICK, "--out", str(doc), "--check"]) == 0
+    assert "is what the code produces" in capsys.readouterr().out
+    doc.write_text(doc.read_text().replace("| 0.25 |", "| 0.26 |", 1))
+    assert carav(["reproduce", *QUICK, "--out", str(doc), "--check"]) == 1
+    err = capsys.readouterr().err
+    assert f"{doc} differs from what the code produces (2 lines)" in err and "-| 0.26 |" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["R.md", "figures"]     # --check wrote nothing new
