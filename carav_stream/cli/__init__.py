@@ -6,7 +6,7 @@
     carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
     carav sweep ...            PF/PM Monte Carlo and threshold design
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
-    carav experiment secondary-antenna ...
+    carav experiment secondary-antenna | matlab-table1 ...
     carav bench transport|synth|detector|estimators|pipeline|soak ... --json docs/bench/records/NAME.json
     carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
@@ -34,6 +34,7 @@ COMMANDS = {
 }
 EXPERIMENTS = {
     "secondary-antenna": ("carav_stream.studies.secondary_antenna", "the paper's Figures 6 to 8"),
+    "matlab-table1": ("carav_stream.studies.matlab_table1", "MATLAB's FMCWExample result beside our estimators"),
 }
 BENCHES = {
     "transport": ("carav_stream.bench.wire", "frames/s, GB/s and latency through a chain of processes"),

@@ -161,8 +161,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"clean cycles: PF(eta={args.eta:g}) = {np.mean(q0 >= args.eta):.3f}, range error median "
           f"{np.median(err0):.4f} m, max {np.max(err0):.4f} m; false-target threshold "
           f"{10 * np.log10(ft_threshold):.1f} dB below the strongest peak")
-    print(f"{'attacker':18s} {'power':6s} {'RARMS':>5s} {'PM':>6s} {'missed':>6s} {'max err missed m':>16s} "
-          f"{'false tgt|missed':>16s}  harmless(range / strict)")
+    print(f"{'attacker':18s} {'power':6s} {'RARMS':>5s} {'tx power':>9s} {'PM':>6s} {'missed':>6s} "
+          f"{'max err missed m':>16s} {'false tgt|missed':>16s}  harmless(range / strict)")
     for kind in kinds:
         for level in levels:
             res = simulate_level(kind, level, scene, geometry, rho, args, int(rng.integers(2**63)))
@@ -171,7 +171,10 @@ def run(args: argparse.Namespace) -> int:
             summaries.append(s)
             mm = "-" if s["max_missed_range_error_m"] is None else f"{s['max_missed_range_error_m']:.3f}"
             ftr = "-" if s["missed_false_target_rate"] is None else f"{s['missed_false_target_rate']:.3f}"
-            print(f"{kind:18s} {level:6s} {s['rarms']:5.2f} {s['pm']:6.3f} {s['n_missed']:6d} {mm:>16s} {ftr:>16s}  "
+            p_w = s["tx_power_w"]
+            tx = "-" if p_w is None else f"{p_w * 1e3:.3g} mW" if p_w >= 1e-3 else f"{p_w * 1e6:.3g} uW"
+            print(f"{kind:18s} {level:6s} {s['rarms']:5.2f} {tx:>9s} {s['pm']:6.3f} {s['n_missed']:6d} {mm:>16s} "
+                  f"{ftr:>16s}  "
                   f"{'yes' if s['harmless_range'] else 'NO'} / {'yes' if s['harmless_strict'] else 'NO'}", flush=True)
     for kind in kinds:
         rows = [s for s in summaries if s["attacker"] == kind]
