@@ -12,6 +12,12 @@ sequence rho (exactly N_r/2 ones):
 
 The detector sees a cycle only through its per-chirp RMS, so `detect` is `chirp_rms` followed by `detect_from_rms`.
 
+A blind side of D1: an active chirp weaker than the mean gives D1 = (Rbar - ||R_k||_r) / (Rbar + sigma_n)
+<= Rbar / (Rbar + sigma_n) < 1, so for eta >= 1 only an active chirp *above* the mean can raise an alarm. An attack
+that adds the same power to every active chirp lifts Rbar with them and is invisible to D1 at any strength; only
+D0, on the silent chirps, can see it (an attacker that knows rho, e.g. `lfsr_predictor` against an LFSR source,
+is therefore invisible to C(eta) altogether; the secure activation source removes that knowledge).
+
 Conventions for the degenerate cases (all documented, none emits a floating-point warning):
 
 - x / 0 in D0 or D1 is +inf when x > 0 and 0 when x = 0. So sigma_n = 0 (a noise-free receiver) makes any energy in

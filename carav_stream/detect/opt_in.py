@@ -3,6 +3,10 @@
 spectral_silent_test   range FFT of the *silent* chirps against an exact exponential threshold. A coherent attacker
                        (ghost) hides under D0 in raw RMS but concentrates N_s times its per-sample power in one
                        range bin; noise alone gives |X_b|^2 / (N_s sigma_n^2) ~ Exp(1), independent over bins.
+integrated_silent_test the same bins summed over the silent chirps of a cycle (non-coherent integration): a ghost
+                       sits in the same range bin of every silent chirp, so its power adds M times while the
+                       noise's spread grows as sqrt(M); under noise each bin's sum is Gamma(M, 1), independent over
+                       bins, so the threshold is exact too. It catches ghosts far below the single-chirp test.
 latency_test           reactive repeaters answer each active chirp after a reaction latency: the first samples of
                        the active chirps hold echo + noise only, the rest also the replica. Statistic: the power
                        ratio of the tail to the head of the active chirps, threshold calibrated on attack-free
@@ -18,11 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft
-from scipy import optimize
+from scipy import optimize, stats
 
 from carav_stream.detect.detector import _check_frames, check_rho
 
-__all__ = ["spectral_silent_test", "spectral_threshold", "SpectralResult", "latency_statistic",
+__all__ = ["spectral_silent_test", "spectral_threshold", "SpectralResult", "integrated_silent_test",
+           "integrated_threshold", "latency_statistic",
            "calibrate_threshold", "cusum_silent_power", "cusum_threshold", "silent_power_z"]
 
 
@@ -79,6 +84,37 @@ def spectral_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> Sp
     thr = spectral_threshold(pf, n_tested)
     stat = np.where(np.isnan(stat), np.inf, stat)
     return SpectralResult(stat, idx % power.shape[-1], thr, stat >= thr, n_tested)
+
+
+def integrated_threshold(pf: float, n_bins: int, n_summed: int) -> float:
+    """t with P(max of n_bins i.i.d. Gamma(n_summed, 1) >= t) = pf, exactly (a sum of n_summed Exp(1) bin powers)."""
+    if not 0 < pf < 1:
+        raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
+    per_bin = -np.expm1(np.log1p(-pf) / n_bins)
+    return float(stats.gamma.isf(per_bin, n_summed))
+
+
+def integrated_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> SpectralResult:
+    """Non-coherent integration of the silent chirps' range spectra.
+
+    frames, rho, sigma_n, pf  as `spectral_silent_test`
+    stat    max over tested bins of sum over the M silent chirps of |X_b|^2 / (N_s sigma_n^2) (Gamma(M, 1) per bin
+            under white Gaussian noise); n_bins_tested = bins per chirp; threshold from `integrated_threshold`
+    """
+    x = _check_frames(frames)
+    if x.ndim == 2:
+        x = x[None]
+    active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
+    if not sigma_n > 0:
+        raise ValueError(f"sigma_n: must be > 0 for the integrated test, got {sigma_n!r}")
+    n_s, m = x.shape[-1], x.shape[1] // 2
+    silent = x[~active].reshape(x.shape[0], m, n_s)
+    power = np.sum(_bin_powers(silent), axis=1) / (n_s * sigma_n ** 2)          # (cycles, bins)
+    idx = np.argmax(power, axis=1)
+    stat = power[np.arange(x.shape[0]), idx]
+    thr = integrated_threshold(pf, power.shape[1], m)
+    stat = np.where(np.isnan(stat), np.inf, stat)
+    return SpectralResult(stat, idx, thr, stat >= thr, power.shape[1])
 
 
 def latency_statistic(frames, rho, n_head: int) -> np.ndarray:

@@ -9,6 +9,8 @@ from carav_stream.detect.opt_in import (
     calibrate_threshold,
     cusum_silent_power,
     cusum_threshold,
+    integrated_silent_test,
+    integrated_threshold,
     latency_statistic,
     silent_power_z,
     spectral_silent_test,
@@ -45,6 +47,43 @@ def test_spectral_test_catches_coherent_ghost_that_d0_misses():
     assert not detect(x, rho, 1.0).alarm.any()                     # sqrt(1 + 0.25) = 1.12 < 1.5
     res = spectral_silent_test(x, rho, 1.0, pf=1e-6)
     assert res.alarm.all() and np.all(np.abs(res.peak_bin - 36) <= 1)   # rfft bin 37 minus the dropped DC
+
+
+@pytest.mark.parametrize("iq", [False, True])
+def test_integrated_test_false_alarm_rate_matches_exact_threshold(iq):
+    rng = np.random.default_rng(3)
+    n, n_r, n_s = 4000, 16, 64
+    rho = balanced_rows(rng, n, n_r)
+    x = rng.standard_normal((n, n_r, n_s))
+    if iq:
+        x = (x + 1j * rng.standard_normal((n, n_r, n_s))) / np.sqrt(2)
+    res = integrated_silent_test(x, rho, 1.0, pf=0.05)
+    assert res.n_bins_tested == (n_s if iq else n_s // 2 - 1)
+    lo, hi = clopper_pearson(int(res.alarm.sum()), n, 0.999)
+    assert lo <= 0.05 <= hi
+
+
+def test_integrated_threshold_is_the_chi_square_law_of_summed_bins():
+    """A sum of M Exp(1) is chi2(2M) / 2: an independent route to the same threshold."""
+    from scipy import stats
+
+    t = integrated_threshold(1e-6, 500, 32)
+    per_bin = 1 - (1 - 1e-6) ** (1 / 500)
+    assert t == pytest.approx(stats.chi2.isf(per_bin, 64) / 2, rel=1e-9)
+    assert integrated_threshold(1e-6, 500, 1) == pytest.approx(spectral_threshold(1e-6, 500), rel=1e-9)
+
+
+def test_integration_catches_a_ghost_the_single_chirp_test_misses():
+    rng = np.random.default_rng(4)
+    n, n_r, n_s = 200, 64, 256
+    rho = balanced_rows(rng, n, n_r)
+    # peak bin power N_s a^2 / 4 / sigma^2 = 5.1 per chirp (7 dB), far under the single-chirp threshold (~21)
+    ghost = 0.2 * np.sqrt(2) * np.cos(2 * np.pi * 41.0 / n_s * np.arange(n_s))   # RMS 0.2 sigma_n
+    x = rng.standard_normal((n, n_r, n_s)) + ghost
+    assert spectral_silent_test(x, rho, 1.0, pf=1e-6).alarm.mean() < 0.1
+    res = integrated_silent_test(x, rho, 1.0, pf=1e-6)
+    assert res.alarm.all() and np.all(res.peak_bin == 40)            # rfft bin 41 minus the dropped DC
+    assert not integrated_silent_test(rng.standard_normal((n, n_r, n_s)), rho, 1.0, pf=1e-6).alarm.any()
 
 
 def test_latency_statistic_grows_when_energy_starts_late_in_active_chirps():
