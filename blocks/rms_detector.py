@@ -18,7 +18,9 @@ Graph   detector = { type = "rms_detector", eta = 1.5 }
 import numpy as np
 
 from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
+from carav_stream.montecarlo.design import scene_law, threshold_warning
 from carav_stream.radar.adc import adc_step
+from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, per_cycle
 
@@ -35,6 +37,13 @@ class RmsDetector(Block):
         self.scene_obj = scene_of(self.scene)
         self.sigma = self.sigma_n or self.scene_obj.sigma_n
         self.lsb = adc_step(self.scene_obj)
+
+    def param_warnings(self) -> list[str]:
+        """eta is not universal: its false-alarm rate per cycle depends on the scene (montecarlo/design.py)."""
+        where = f"--preset {self.scene}" if self.scene in preset_names() else f"--scene {self.scene}"
+        text = threshold_warning(scene_law(self.scene_obj), self.eta, self.sigma, who="rms_detector",
+                                 design_hint=f"carav design {where}")
+        return [text] if text else []
 
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)

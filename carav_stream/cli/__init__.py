@@ -6,6 +6,7 @@
     carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
     carav sweep ...            PF/PM Monte Carlo and threshold design
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
+    carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 ...
     carav bench transport|synth|detector|estimators|pipeline|soak ... --json docs/bench/records/NAME.json
     carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
@@ -31,6 +32,7 @@ COMMANDS = {
     "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),
     "sweep": ("carav_stream.studies.sweep_command", "PF/PM Monte Carlo over eta and RARMS, with threshold design"),
     "reproduce": ("carav_stream.studies.reproduce", "the paper's figures and claims beside ours, as markdown"),
+    "design": ("carav_stream.studies.design_command", "detector thresholds of a scene for a target false-alarm rate"),
 }
 EXPERIMENTS = {
     "secondary-antenna": ("carav_stream.studies.secondary_antenna", "the paper's Figures 6 to 8"),

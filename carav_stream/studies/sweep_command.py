@@ -214,6 +214,14 @@ def run(args: argparse.Namespace) -> int:
                                  f"{', '.join(source.attacks)} (use --model radar for the others)")
     except (ValueError, TypeError) as exc:     # the scene or an attacker's parameters
         raise CommandError(str(exc), Exit.INVALID) from None
+    from carav_stream.montecarlo.design import scene_law, threshold_warning
+
+    hint = "carav design " + (f"--scene {args.scene}" if args.scene else f"--preset {args.preset or 'table1'}")
+    hint += "".join(f" --{k} {v}" for k, v in (("nr", args.nr), ("ns", args.ns)) if v is not None)
+    hint += " --iq" if args.iq else ""
+    warning = threshold_warning(scene_law(source.scene), 1.5, source.sigma_n, who="the paper's", design_hint=hint)
+    if warning:
+        print(f"carav sweep: warning: {warning}", file=sys.stderr)
     progress = ProgressBar(f"sweep {source.name}") if ProgressBar.wanted(args.quiet) else None
     t0 = time.perf_counter()
     result = sweep(source, attacks=attacks, rarms=rarms, n_trials=args.trials, eta=eta, seed=args.seed,
