@@ -97,7 +97,7 @@ def report(fig: dict, cycles: int, seed: int) -> list[str]:
     for name, unit in (("range", "m"), ("closing_speed", "m/s")):
         t = fig["matlab"][name]
         lo, hi = t["accepted"]
-        lines.append(f"MATLAB's {name.replace('_', ' ')} {t['published']:g} {unit}: z = {t['z']:+.2f} within the "
+        lines.append(f"- MATLAB's {name.replace('_', ' ')} {t['published']:g} {unit}: z = {t['z']:+.2f} within the "
                      f"replica's spread; |z| < 3 accepts any published value in [{lo:.4g}, {hi:.4g}] {unit} "
                      f"(width {hi - lo:.3g} {unit}; truth {t['truth']:.4g} {unit}).")
     return lines

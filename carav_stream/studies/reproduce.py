@@ -17,6 +17,7 @@ import os
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +38,7 @@ from carav_stream.studies.beyond_paper import (
     nuisance_table,
     reactive_and_ramp,
 )
-from carav_stream.studies.reporting import radar_scene, radar_source, rate
+from carav_stream.studies.reporting import log, radar_scene, radar_source, rate
 
 __all__ = ["configure", "run"]
 
@@ -58,7 +59,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--figures", type=output_folder, default=None,
                         help="folder for repro_*.png (default: figures/ next to --out)")
     parser.add_argument("--in-place", action="store_true",
-                        help="regenerate docs/REPRODUCTION.md and docs/figures (run from the repository's root)")
+                        help="regenerate docs/REPRODUCTION.md, docs/figures and every command output quoted in "
+                             "README.md and docs/*.md (run from the repository's root)")
     parser.add_argument("--trials", type=count(1), default=1000, help="cycles per curve (paper: 1000)")
     parser.add_argument("--beyond-trials", type=count(1), default=300,
                         help="cycles per cell of the beyond-paper tables")
@@ -68,7 +70,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="also write every number as JSON")
     parser.add_argument("--check", action="store_true",
                         help="regenerate in a temporary folder and fail (exit 1) if docs/REPRODUCTION.md (or --out) "
-                             "differs; writes nothing")
+                             "or a command output quoted in README.md or docs/*.md differs; writes nothing")
     parser.add_argument("--quiet", action="store_true")
 
 
@@ -301,24 +303,40 @@ def render(args: argparse.Namespace, fig_dir: Path, figure_link: str) -> tuple[s
     return HEADER.format(trials=args.trials, seed=args.seed) + "\n" + "\n".join(body) + "\n", data
 
 
+def _differs(what: str, committed: str, now: str, source: str) -> str:
+    """Print the start of a unified diff on stderr; returns the one-line verdict."""
+    diff = list(difflib.unified_diff(committed.splitlines(), now.splitlines(), f"{what} (committed)",
+                                     f"{source} (now)", lineterm="", n=0))
+    changed = sum(1 for line in diff if line[:1] in "+-" and line[:3] not in ("+++", "---"))
+    print("\n".join(diff[:60]), file=sys.stderr)
+    return f"{what} differs from what the code produces ({changed} lines)"
+
+
 def _check(args: argparse.Namespace, target: Path) -> int:
     """Regenerate into a temporary folder and compare with the committed document (text: every number of the
-    tables and the prose; the figures are drawn from the same numbers)."""
+    tables and the prose; the figures are drawn from the same numbers); then, for the repository's documents, every
+    quoted command output."""
+    from carav_stream.studies import doc_outputs
+
     if not target.is_file():
         raise CommandError(f"--check: {target} does not exist (run from the repository's root, or give --out)")
     link = Path(os.path.relpath(args.figures or target.parent / "figures", target.parent)).as_posix()
-    with tempfile.TemporaryDirectory(prefix="carav-reproduce-") as tmp:
-        text, _ = render(args, Path(tmp), link)
-    committed = target.read_text()
-    if text == committed:
-        print(f"{target} is what the code produces (--trials {args.trials}, --seed {args.seed})")
+    with ThreadPoolExecutor(1) as pool:      # the quoted commands run as processes beside this one's own work
+        quoted = None if args.out else pool.submit(doc_outputs.stale, Path("."),
+                                                   lambda m: log(args, f"checking {m}"))
+        with tempfile.TemporaryDirectory(prefix="carav-reproduce-") as tmp:
+            text, _ = render(args, Path(tmp), link)
+        stale = quoted.result() if quoted else []
+    problems = [] if text == target.read_text() else [_differs(str(target), target.read_text(), text,
+                                                               "carav reproduce")]
+    problems += [_differs(f"{q.path}: output of `{q.command}`", q.body, now, q.command) for q, now in stale]
+    if not problems:
+        quotes = "" if args.out else " and the command outputs quoted in README.md and docs/*.md are"
+        print(f"{target} (--trials {args.trials}, --seed {args.seed}) is{quotes} what the code produces")
         return 0
-    diff = list(difflib.unified_diff(committed.splitlines(), text.splitlines(), f"{target} (committed)",
-                                     "carav reproduce (now)", lineterm="", n=0))
-    changed = sum(1 for line in diff if line[:1] in "+-" and line[:3] not in ("+++", "---"))
-    print("\n".join(diff[:60]), file=sys.stderr)
-    print(f"carav reproduce: {target} differs from what the code produces ({changed} lines); regenerate it with "
-          "`carav reproduce --in-place`", file=sys.stderr)
+    for p in problems:
+        print(f"carav reproduce: {p}", file=sys.stderr)
+    print("carav reproduce: regenerate with `carav reproduce --in-place`", file=sys.stderr)
     return int(Exit.FAILED)
 
 
@@ -341,6 +359,12 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(data, indent=1, default=float))
     print(f"wrote {out} and {fig_dir}/repro_*.png in {time.perf_counter() - t0:.0f} s")
+    if args.in_place:
+        from carav_stream.studies import doc_outputs
+
+        changed = doc_outputs.regenerate(Path("."), log=lambda m: log(args, f"regenerating {m}"))
+        print(f"command outputs quoted in the documents: {len(changed)} document(s) changed "
+              f"({', '.join(map(str, changed)) or 'none'})")
     return 0
 
 
