@@ -7,16 +7,20 @@ descriptors from /proc (the pids come from `carav status`); every `--swap-s` sec
 `carav stop` and reads the run summary.
 
 Memory: the nodes run with the supervisor's allocator settings (supervisor.NODE_ENV), except glibc's trim
-threshold, set by `--trim-mb` (default 16 MB; the node default is 512 MB). With 512 MB, glibc keeps up to that much
-freed heap in each process on purpose (large frames are then reused instead of faulted in again), so resident
-memory creeps up towards the threshold whatever the code does, and a soak of minutes cannot tell that from a leak;
-with 16 MB resident memory follows what is live. `--trim-mb 512` measures the production setting.
+threshold, set by `--trim-mb` (default 0; the node default is 512 MB). glibc keeps up to that much freed heap in each
+process (with 512 MB on purpose: large frames are then reused instead of faulted in again), so resident memory
+creeps towards the threshold whatever the code does (with 16 MB the run-summary node, whose block keeps constant
+state, crept about +30 MB/h over 10 minutes). With 0, resident memory is what is live plus the frames in flight at
+the instant of the sample, which come and go; the benchmark therefore fits the floor of the series, the smallest
+sample in each `--floor-s` window, which a leak raises and frames in flight do not. `--trim-mb 512` measures the
+production setting.
 
 Figures per node: resident memory and file descriptors at the start of the second half of the run and at the
-end, and their growth per hour from a least-squares line through the second half's samples (the first half is
-warm-up: caches, allocator pools). Targets: no growth beyond noise (memory: a slope under SOAK_RSS_MB_PER_H per
-node and hour, or under three standard errors of the fitted slope; descriptors: none), and no lost cycle. Memory
-is sampled per process: a swapped or restarted node's new process is a new series.
+end, and the growth per hour of the memory floor and of the descriptors from a least-squares line through the
+second half (the first half is warm-up: caches, allocator pools); the line through every sample is kept in the
+record beside it. Targets: no growth beyond noise (memory floor: a slope under SOAK_RSS_MB_PER_H per node and hour,
+or under three standard errors of the fitted slope; descriptors: none), and no lost cycle. Memory is sampled per
+process: a swapped or restarted node's new process is a new series.
 """
 from __future__ import annotations
 
@@ -46,8 +50,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--swap-s", type=number(0.5), default=5.0, help="seconds between attacker swaps")
     parser.add_argument("--sample-s", type=number(0.1), default=2.0, help="seconds between memory samples")
     parser.add_argument("--batch", type=count(1), default=32, help="cycles per frame")
-    parser.add_argument("--trim-mb", type=count(0), default=16,
+    parser.add_argument("--trim-mb", type=count(0), default=0,
                         help="glibc's trim threshold in the nodes, MB (the node default is 512; see the module doc)")
+    parser.add_argument("--floor-s", type=number(0.1), default=30.0,
+                        help="window of the memory floor: the smallest sample per window is fitted (default 30 s)")
     parser.add_argument("--json", type=output_file, metavar="FILE", help="write the records as JSON")
 
 
@@ -73,6 +79,19 @@ def growth_per_hour(t_s: list[float], values: list[float]) -> tuple[float, float
     return float(slope * 3600.0), float(stderr * 3600.0)
 
 
+def floor(t_s: list[float], values: list[float], window_s: float) -> tuple[list[float], list[float]]:
+    """The smallest value in each window of window_s seconds from the first sample (at the window's middle);
+    windows with fewer than two samples are left out (a floor of one sample is just a sample)."""
+    t, v = np.asarray(t_s, float), np.asarray(values, float)
+    k = np.floor((t - t[0]) / window_s).astype(int)
+    out_t, out_v = [], []
+    for w in np.unique(k):
+        if np.count_nonzero(k == w) >= 2:
+            out_t.append(float(t[0] + (w + 0.5) * window_s))
+            out_v.append(float(v[k == w].min()))
+    return out_t, out_v
+
+
 def no_growth(per_h: float, stderr_per_h: float) -> bool:
     """The soak's target: growth under SOAK_RSS_MB_PER_H, or not told apart from noise (under 3 standard errors)."""
     return per_h < max(SOAK_RSS_MB_PER_H, 3.0 * stderr_per_h)
@@ -92,7 +111,8 @@ def _node_pids(env: dict[str, str]) -> dict[str, int]:
             if info.get("pid")}
 
 
-def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: int = 16) -> dict[str, Any]:
+def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: int = 0,
+         floor_s: float = 30.0) -> dict[str, Any]:
     from carav_graphs import graph_file
     with tempfile.TemporaryDirectory(prefix="cs", dir="/tmp") as tmp:     # ipc paths must stay short
         env = {**os.environ, "CARAV_RUN_DIR": tmp, "MALLOC_TRIM_THRESHOLD_": str(trim_mb << 20),
@@ -149,22 +169,27 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
             continue       # a process that lived through too little of the second half to judge
         t, rss, fds = zip(*late)
         rss_per_h, rss_err = growth_per_hour(t, rss)
+        t_floor, rss_floor = floor(t, rss, floor_s)
+        floor_per_h, floor_err = growth_per_hour(t_floor, rss_floor)
         nodes[f"{node}[{pid}]"] = {"node": node, "pid": pid, "samples": len(late), "rss_mb_start": rss[0],
                                    "rss_mb_end": rss[-1], "rss_mb_per_h": rss_per_h, "rss_mb_per_h_stderr": rss_err,
+                                   "floor_windows": len(rss_floor), "rss_floor_mb_per_h": floor_per_h,
+                                   "rss_floor_mb_per_h_stderr": floor_err,
                                    "fds_start": fds[0], "fds_end": fds[-1], "fds_per_h": growth_per_hour(t, fds)[0]}
-    return {"minutes": minutes, "trim_mb": trim_mb, "elapsed_s": elapsed, "swaps": swaps, "cycles": summary["cycles"],
+    return {"minutes": minutes, "trim_mb": trim_mb, "floor_s": floor_s, "elapsed_s": elapsed, "swaps": swaps,
+            "cycles": summary["cycles"],
             "cycles_per_s": summary["throughput_cycles_per_s"], "lost": summary["lost"],
             "failures": summary["failures"], "rejected": summary["rejected"], "processes": nodes}
 
 
 def run(args: argparse.Namespace) -> int:
-    rec = soak(args.minutes, args.swap_s, args.sample_s, args.batch, args.trim_mb)
+    rec = soak(args.minutes, args.swap_s, args.sample_s, args.batch, args.trim_mb, args.floor_s)
     print(f"soak: {rec['elapsed_s']:.0f} s, {rec['cycles']} cycles ({rec['cycles_per_s']:.0f} cycles/s), "
           f"{rec['swaps']} swaps, lost {rec['lost']}, rejected {rec['rejected']}, failures {len(rec['failures'])}")
-    print(f"{'process':<24}{'RSS MB start':>13}{'end':>8}{'MB/h':>9}{'fds':>6}{'end':>5}{'fds/h':>8}")
+    print(f"{'process':<24}{'RSS MB start':>13}{'end':>8}{'floor MB/h':>12}{'+-':>7}{'fds':>6}{'end':>5}{'fds/h':>8}")
     for name, p in rec["processes"].items():
-        print(f"{name:<24}{p['rss_mb_start']:>13.1f}{p['rss_mb_end']:>8.1f}{p['rss_mb_per_h']:>9.1f}"
-              f"{p['fds_start']:>6}{p['fds_end']:>5}{p['fds_per_h']:>8.1f}")
+        print(f"{name:<24}{p['rss_mb_start']:>13.1f}{p['rss_mb_end']:>8.1f}{p['rss_floor_mb_per_h']:>12.1f}"
+              f"{p['rss_floor_mb_per_h_stderr']:>7.1f}{p['fds_start']:>6}{p['fds_end']:>5}{p['fds_per_h']:>8.1f}")
     if args.json:
         bench_records.write(args.json, args, [rec])
     return 0 if rec["lost"] == 0 and not rec["failures"] else 1
