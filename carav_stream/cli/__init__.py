@@ -3,6 +3,7 @@
     carav run GRAPH [--cycles N] [--set node.param=value | param=value ...] [--json FILE]
     carav validate GRAPH ...
     carav blocks [TYPE]
+    carav scenes [NAME | FILE ...]   what a scene implies (resolution, max range and velocity, SNR, warnings)
     carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
     carav sweep ...            PF/PM Monte Carlo and threshold design
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
@@ -27,6 +28,7 @@ COMMANDS = {
     "run": ("carav_stream.cli.run", "run a graph and print its summary"),
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
+    "scenes": ("carav_stream.cli.scenes", "what the presets or scene files imply: rates, resolution, SNR, warnings"),
     "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
     "stop": ("carav_stream.cli.stop", "stop a running graph in order (sources first, drain, sinks last)"),
     "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),

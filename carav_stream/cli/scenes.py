@@ -1,0 +1,87 @@
+"""`carav scenes [NAME | FILE ...]`: what a scene implies, side by side, as a markdown table.
+
+Chirps and samples, sweep, slope, sampling rate, cycle rate, the targets, the per-sample SNR of the first target
+(radar equation), range resolution, maximum range, unambiguous velocity, the beat with Doppler (and where it folds
+to when the ADC cannot represent it), the ADC, and the scene's warnings. With no argument: every preset.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+
+from carav_stream.cli.common import CommandError, Exit
+
+__all__ = ["configure", "run", "scene_table"]
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenes", nargs="*", metavar="NAME|FILE", help="presets or scene files (default: every preset)")
+
+
+def _mhz(hz: float) -> str:
+    return f"{hz / 1e6:.4g} MHz"
+
+
+def _us(s: float) -> str:
+    return f"{s * 1e6:.4g} us"
+
+
+def _kmh(mps: float) -> str:
+    return f"{mps * 3.6:+.4g} km/h"
+
+
+def _column(scene) -> dict[str, str]:
+    from carav_stream.radar.scene import fold_beat_hz
+
+    t0 = scene.targets[0] if scene.targets else None
+    beat = "-"
+    if t0 is not None:
+        b = scene.beat_hz(t0)
+        folded = fold_beat_hz(scene, b)
+        beat = _mhz(b) + ("" if math.isclose(folded, b) else f", folds to {_mhz(folded)}")
+    targets = "; ".join(f"{t.range_m:g} m, {_kmh(t.velocity_mps)}, {t.rcs_m2:g} m^2"
+                        + (f", Swerling {t.swerling}" if t.swerling else "") for t in scene.targets) or "none"
+    v_max = scene.max_velocity_mps
+    rate = scene.range_rate_mps(t0) if t0 is not None else None
+    return {
+        "description": scene.description or "-",
+        "chirps x samples": f"{scene.n_chirps} x {scene.n_samples} ({'I/Q' if scene.iq else 'I only'})",
+        "sweep / chirp period": f"{_mhz(scene.bandwidth_hz)} in {_us(scene.t_sweep_s)} / {_us(scene.t_chirp_s)}",
+        "sampling window": f"{_us(scene.n_samples / scene.fs_hz)} from {_us(scene.t_adc_start_s)}",
+        "slope": f"{scene.slope_hz_per_s / 1e12:.4g} MHz/us",
+        "fs": _mhz(scene.fs_hz),
+        "cycle": f"{scene.t_cycle_s * 1e3:.4g} ms ({scene.cycles_per_s:.5g} cycles/s)",
+        "carrier": f"{scene.fc_hz / 1e9:.4g} GHz",
+        "radar speed": _kmh(scene.radar_speed_mps),
+        "targets": targets,
+        "range rate of target 1": "-" if rate is None else f"{rate:+.4g} m/s",
+        "beat of target 1 (with Doppler)": beat,
+        "SNR per sample, target 1": "-" if t0 is None else f"{scene.snr_db(0):+.2f} dB",
+        "range resolution": f"{scene.range_resolution_m:.4g} m",
+        "max range": f"{scene.max_range_m:.4g} m",
+        "unambiguous velocity": f"+-{v_max:.4g} m/s",
+        "ADC": f"{scene.adc_bits} bits" if scene.adc_bits else "ideal",
+        "warnings": str(len(scene.warnings)) if scene.warnings else "none",
+    }
+
+
+def scene_table(scenes) -> list[str]:
+    """A markdown table, one column per scene, then the warnings spelled out."""
+    cols = [_column(s) for s in scenes]
+    lines = ["| | " + " | ".join(f"`{s.name}`" for s in scenes) + " |", "|---" * (len(scenes) + 1) + "|"]
+    lines += [f"| {key} | " + " | ".join(c[key] for c in cols) + " |" for key in cols[0]]
+    notes = [f"- `{s.name}`: {w}" for s in scenes for w in s.warnings]
+    return lines + (["", "Warnings:", "", *notes] if notes else [])
+
+
+def run(args: argparse.Namespace) -> int:
+    from carav_stream.radar.scene import SceneError
+    from carav_stream.radar.scene_loader import load_scene, preset_names
+
+    names = args.scenes or preset_names()
+    try:
+        scenes = [load_scene(n) for n in names]
+    except (SceneError, OSError) as exc:
+        raise CommandError(str(exc), Exit.INVALID) from None
+    print("\n".join(scene_table(scenes)))
+    return 0

@@ -1,0 +1,42 @@
+"""`carav scenes`: what a scene implies, checked against the textbook formulas computed here from Table I's numbers."""
+from __future__ import annotations
+
+from carav_stream.cli import main as carav
+from carav_stream.cli.common import Exit
+
+C = 299_792_458.0
+
+
+def _column(out: str, name: str) -> dict[str, str]:
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in out.splitlines() if line.startswith("| ")]
+    col = rows[0].index(f"`{name}`")
+    return {r[0]: r[col] for r in rows[1:]}
+
+
+def test_table1_figures_are_the_textbook_ones(capsys):
+    assert carav(["scenes", "table1"]) == Exit.OK
+    t = _column(capsys.readouterr().out, "table1")
+    # the preset: 150 MHz swept in 7.33 us (also the chirp period), 1100 samples at 150 MHz, 64 chirps, 77 GHz
+    t_chirp, slope = 7.33e-6, 150e6 / 7.33e-6
+    assert t["range resolution"] == f"{C / (2 * slope * 1100 / 150e6):.4g} m"      # c / 2 B_sampled
+    assert t["unambiguous velocity"] == f"+-{C / 77e9 / (4 * t_chirp):.4g} m/s"     # lambda / 4 T_c
+    assert t["max range"] == f"{75e6 * C / (2 * slope):.4g} m"                     # beat at fs / 2 (I only)
+    assert t["cycle"].endswith(f"({1 / (64 * t_chirp):.5g} cycles/s)")
+    assert t["SNR per sample, target 1"] == "+2.20 dB" and t["warnings"] == "none"
+    # the car closes at 100 - 96 km/h; beat = S tau + 2 v / lambda with v the range rate
+    v = (96 - 100) / 3.6
+    beat = slope * 2 * 43 / C + 2 * v / (C / 77e9)
+    assert t["beat of target 1 (with Doppler)"] == f"{beat / 1e6:.4g} MHz"
+
+
+def test_every_preset_by_default_with_its_warnings_spelled_out(capsys):
+    assert carav(["scenes"]) == Exit.OK
+    out = capsys.readouterr().out
+    assert out.splitlines()[0] == "| | `awr1642` | `awr1642_literal` | `table1` |"
+    assert "folds to 0.3811 MHz" in out and "- `awr1642`: " in out and "beyond the unambiguous" in out
+
+
+def test_an_unknown_scene_is_one_line_and_invalid(capsys):
+    assert carav(["scenes", "nope"]) == Exit.INVALID
+    err = capsys.readouterr().err
+    assert err.startswith("carav scenes: ") and "nope" in err and len(err.strip().splitlines()) <= 2
