@@ -114,11 +114,21 @@ def resolve_method(source: CycleSource, attack: str, method: str) -> str:
 
 
 def simulate_q(source: CycleSource, attack: str, rarms: float, n_trials: int, seed_seq: np.random.SeedSequence,
-               *, method: str = "auto", workers: int = 2, progress: Callable[[int], None] | None = None) -> QDraw:
-    """Draw Q for n_trials cycles (eta = 1 is passed to the detector: Q itself does not depend on eta)."""
+               *, method: str = "auto", workers: int = 2, progress: Callable[[int], None] | None = None,
+               detector: str = "carav") -> QDraw:
+    """Draw Q for n_trials cycles (eta = 1 is passed to the detector: Q itself does not depend on eta); for an
+    opt-in detector (carav_stream.montecarlo.detectors) its statistic instead, on full samples."""
     if n_trials < 1:
         raise ValueError(f"n_trials: must be >= 1, got {n_trials}")
-    used = resolve_method(source, attack, method)
+    if detector != "carav":
+        if not hasattr(source, "draw_stat"):
+            raise ValueError(f"detector: {detector!r} needs every sample; the {source.name} source gives RMS "
+                             "levels only (use the radar model)")
+        if method == "energy":
+            raise ValueError(f"method: detector {detector!r} needs every sample; use samples or auto")
+        used = "samples"
+    else:
+        used = resolve_method(source, attack, method)
     per = (ENERGY_CYCLES_PER_BATCH if used == "energy"
            else max(1, SAMPLES_PER_BATCH // (source.n_chirps * source.n_samples)))
     sizes = [min(per, n_trials - i) for i in range(0, n_trials, per)]
@@ -127,7 +137,11 @@ def simulate_q(source: CycleSource, attack: str, rarms: float, n_trials: int, se
     def one(args):
         size, child = args
         rng = np.random.default_rng(child)
-        q, by_d1 = source.draw_q(size, attack, rarms, rng, used)
+        if detector != "carav":
+            q = source.draw_stat(size, attack, rarms, rng, detector)
+            by_d1 = np.zeros(q.shape, bool)
+        else:
+            q, by_d1 = source.draw_q(size, attack, rarms, rng, used)
         if progress is not None:
             progress(size)
         return q, by_d1
@@ -178,12 +192,13 @@ def _as_lists(a: np.ndarray) -> list:
 
 def sweep(source: CycleSource, *, attacks, rarms, n_trials: int, eta, seed: int | None = None,
           method: str = "auto", target_pf: float = 0.01, design_rarms: float = 3.0, workers: int = 2,
-          progress: Callable[[int, int], None] | None = None) -> dict:
+          progress: Callable[[int, int], None] | None = None, detector: str = "carav") -> dict:
     """PF and PM curves for every (attack, RARMS), thresholds per curve and for the design set, JSON-ready.
 
     PF comes from n_trials attack-free cycles shared by all curves. The top-level `thresholds` are designed against
     the worst PM (pointwise max) over the curves with RARMS >= design_rarms (the paper's "harmful" attacks; all
-    curves when none qualifies).
+    curves when none qualifies). `detector` scores C(eta) ("carav") or an opt-in detector, whose statistic is in
+    units of its PF = 1e-6 threshold (carav_stream.montecarlo.detectors).
     """
     eta = np.asarray(eta, dtype=np.float64)
     attacks = list(attacks)
@@ -202,14 +217,14 @@ def sweep(source: CycleSource, *, attacks, rarms, n_trials: int, eta, seed: int 
     draws = {}
     for (attack, r), child in zip(jobs, children):
         draws[(attack, r)] = simulate_q(source, attack, r, n_trials, child, method=method, workers=workers,
-                                        progress=tick)
+                                        progress=tick, detector=detector)
     q0 = draws[("none", 0.0)]
     curves = []
     for attack in attacks:
         for r in rarms:
             qa = draws[(attack, r)]
             c = curves_from_q(q0.q, qa.q, eta)
-            entry = {"attack": attack, "rarms": r, "trials": n_trials, "method": qa.method,
+            entry = {"detector": detector, "attack": attack, "rarms": r, "trials": n_trials, "method": qa.method,
                      "eta": _as_lists(eta), "pf": _as_lists(c["pf"]), "pm": _as_lists(c["pm"]),
                      "pf_ci": _as_lists(c["pf_ci"]), "pm_ci": _as_lists(c["pm_ci"]),
                      "miss_by_d1_share": float(np.mean(qa.by_d1)),
@@ -217,7 +232,7 @@ def sweep(source: CycleSource, *, attacks, rarms, n_trials: int, eta, seed: int 
             entry["thresholds"] = design_thresholds(eta, c["pf"], c["pm"], target_pf=target_pf,
                                                     pf_ci=c["pf_ci"], pm_ci=c["pm_ci"])
             cf = source.closed_form(attack if attack in ("none", "random") else "none")
-            if cf is not None and attack in ("none", "random"):
+            if cf is not None and attack in ("none", "random") and detector == "carav":
                 entry["closed_form"] = {
                     "pf": _as_lists(pf_pm_closed_form(eta, **cf)["p_alarm"]),
                     "pm": _as_lists(pf_pm_closed_form(eta, **cf, rarms=r)["p_quiet"]),
@@ -231,14 +246,14 @@ def sweep(source: CycleSource, *, attacks, rarms, n_trials: int, eta, seed: int 
     pm = pm_all[worst, np.arange(eta.size)]
     pm_ci = np.array([c["pm_ci"] for c in design])[worst, np.arange(eta.size)]
     result = {
-        "scene": source.describe(), "seed": seed, "trials": n_trials, "eta": _as_lists(eta),
+        "scene": source.describe(), "detector": detector, "seed": seed, "trials": n_trials, "eta": _as_lists(eta),
         "pf_method": q0.method, "curves": curves,
         "thresholds": design_thresholds(eta, pf, pm, target_pf=target_pf, pf_ci=pf_ci, pm_ci=pm_ci),
         "design": {"rarms_min": design_rarms, "curves": [[c["attack"], c["rarms"]] for c in design],
                    "pm": "pointwise worst case over the design curves", "cfar_target_pf": target_pf},
         "false_alarm_by_d1_share": float(np.mean(q0.by_d1)),
     }
-    cf = source.closed_form("none")
+    cf = source.closed_form("none") if detector == "carav" else None
     if cf is not None:
         pf_cf = pf_pm_closed_form(eta, **cf)
         result["closed_form"] = {

@@ -112,6 +112,18 @@ class RadarSource:
             pm = self.paper_equivalent()
             rho = balanced_rows(rng, n_cycles, self.n_chirps)
             return paper_model.sample_rms(pm, rho, rng, attack, rarms), rho
+        frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
+        return chirp_rms(frames), rho
+
+    def draw_stat(self, n_cycles, attack, rarms, rng, detector: str):
+        """An opt-in detector's statistic (carav_stream.montecarlo.detectors) on n_cycles full-sample cycles."""
+        from carav_stream.montecarlo.detectors import statistic
+
+        frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
+        return statistic(detector, frames, rho, self.sigma_n)
+
+    def draw_frames(self, n_cycles, attack, rarms, rng):
+        """Every sample of n_cycles cycles of the current job (its attacker, activation and cycle count)."""
         from carav_stream.radar.synth import simulate_cycles
 
         if self._job is None or self._job["key"] != (attack, rarms):
@@ -127,7 +139,7 @@ class RadarSource:
         job["cycle0"] += n_cycles
         job["clipped"] += int(cyc.clipped.sum())
         job["samples"] += cyc.frames.size
-        return chirp_rms(cyc.frames), rho
+        return cyc.frames, rho
 
     def draw_q(self, n_cycles, attack, rarms, rng, method):
         if method == "energy" and paper_model.exchangeable(self.paper_equivalent(), attack):

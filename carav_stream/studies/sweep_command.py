@@ -70,6 +70,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rarms", type=float_list(low=0.0), default="0.5,1,2,3,5",
                         help="comma-separated RARMS values (sigma_a / sigma_n)")
     parser.add_argument("--trials", type=count(1), default=1000, help="cycles per curve (default 1000, as the paper)")
+    parser.add_argument("--detector", default="carav",
+                        help="detector(s) to score, comma separated: carav (C(eta), default), spectral, integrated "
+                             "(opt-in; their statistic is in units of its PF = 1e-6 threshold, so eta = 1 is that "
+                             "design; full samples, radar model)")
     parser.add_argument("--eta", default="0.5:2.5:0.01", help="threshold grid START:STOP:STEP")
     parser.add_argument("--seed", type=count(0), default=None, help="seed for reproducible runs")
     parser.add_argument("--method", choices=("auto", "energy", "samples"), default="auto",
@@ -136,10 +140,11 @@ def plot_curves(result: dict, path: str, title: str | None = None) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    attacks = list(dict.fromkeys(c["attack"] for c in result["curves"]))
-    fig, axes = plt.subplots(1, len(attacks), figsize=(6.4 * len(attacks), 4.4), squeeze=False)
-    for ax, attack in zip(axes[0], attacks):
-        curves = [c for c in result["curves"] if c["attack"] == attack]
+    panels = list(dict.fromkeys((c.get("detector", "carav"), c["attack"]) for c in result["curves"]))
+    fig, axes = plt.subplots(1, len(panels), figsize=(6.4 * len(panels), 4.4), squeeze=False)
+    for ax, (detector, attack) in zip(axes[0], panels):
+        curves = [c for c in result["curves"] if (c.get("detector", "carav"), c["attack"]) == (detector, attack)]
+        ref = reference_eta(detector)
         eta = np.asarray(curves[0]["eta"])
         ax.plot(eta, curves[0]["pf"], color="k", lw=2, label="$P_F$ (no attack)")
         colors = plt.cm.viridis(np.linspace(0, 0.9, len(curves)))
@@ -147,11 +152,13 @@ def plot_curves(result: dict, path: str, title: str | None = None) -> None:
             ax.plot(eta, c["pm"], color=col, lw=1.5, label=f"$P_M$ RARMS={c['rarms']:g}")
             lo, hi = np.asarray(c["pm_ci"]).T
             ax.fill_between(eta, lo, hi, color=col, alpha=0.15, lw=0)
-        ax.axvline(1.5, color="r", ls="--", lw=1, label=r"$\eta$ = 1.5")
-        ax.set_xlabel(r"threshold $\eta$")
+        ax.axvline(ref, color="r", ls="--", lw=1,
+                   label=r"$\eta$ = 1.5" if detector == "carav" else "PF = 1e-6 design")
+        ax.set_xlabel(r"threshold $\eta$" if detector == "carav" else f"{detector} threshold / its PF = 1e-6 value")
         ax.set_ylabel("probability")
         ax.set_ylim(-0.02, 1.02)
-        ax.set_title(f"{title or result['scene']['name']}: {attack} attack, {curves[0]['trials']} cycles/curve")
+        label = "" if detector == "carav" else f" ({detector} test)"
+        ax.set_title(f"{title or result['scene']['name']}{label}: {attack} attack, {curves[0]['trials']} cycles/curve")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="center right")
     fig.tight_layout()
@@ -164,19 +171,29 @@ def _ci(ci) -> str:
     return "" if ci is None else f"[{ci[0]:.4g}, {ci[1]:.4g}]"
 
 
+def reference_eta(detector: str) -> float:
+    """The threshold a table reports at: the paper's 1.5 for C(eta), the PF = 1e-6 design (1) for opt-in ones."""
+    return 1.5 if detector == "carav" else 1.0
+
+
 def _print_table(result: dict, stream=None) -> None:
     stream = stream or sys.stdout
     eta = np.asarray(result["eta"])
-    i15 = int(np.argmin(np.abs(eta - 1.5)))
+    detector = result.get("detector", "carav")
+    ref = reference_eta(detector)
+    i15 = int(np.argmin(np.abs(eta - ref)))
     scene = result["scene"]
     snr_db = scene.get("snr_db", scene.get("echo_snr_db"))
     snr = "" if snr_db is None else f", echo SNR {snr_db:+.1f} dB per sample"
     if snr_db is not None and abs(snr_db) >= 0.05:
         snr += " (the paper's runs set 0 dB: --snr-db 0)"
-    print(f"scene {scene['name']} ({scene['model']}){snr}, {result['trials']} cycles per curve, "
+    what = ("detector C(eta)" if detector == "carav"
+            else f"detector {detector} (threshold in units of its PF = 1e-6 value)")
+    print(f"scene {scene['name']} ({scene['model']}){snr}, {what}, {result['trials']} cycles per curve, "
           f"PF from {result['pf_method']}", file=stream)
-    print(f"{'attack':<18}{'RARMS':>7}{'method':>9}{'PF@1.5':>9}{'PM@1.5':>9}  PM 95% CI@1.5      minimax eta (band)",
-          file=stream)
+    at = f"@{ref:g}"
+    print(f"{'attack':<18}{'RARMS':>7}{'method':>9}{'PF' + at:>9}{'PM' + at:>9}  {'PM 95% CI' + at:<19}"
+          "minimax eta (band)", file=stream)
     for c in result["curves"]:
         mm = c["thresholds"]["minimax"]
         lo, hi = c["pm_ci"][i15]
@@ -204,6 +221,13 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(f"--eta: {str(exc).removeprefix('eta: ')}") from None
     rarms = args.rarms
     attacks = [a.strip() for a in args.attack.split(",") if a.strip()]
+    from carav_stream.montecarlo.detectors import DETECTORS
+
+    detectors = list(dict.fromkeys(d.strip() for d in args.detector.split(",") if d.strip()))
+    unknown = [d for d in detectors if d not in DETECTORS]
+    if unknown or not detectors:
+        raise CommandError(f"--detector: unknown {', '.join(map(repr, unknown)) or 'empty list'}; expected "
+                           f"{', '.join(DETECTORS)}", Exit.USAGE)
     try:
         source = build_source(args)
         for a in attacks:
@@ -222,14 +246,25 @@ def run(args: argparse.Namespace) -> int:
     warning = threshold_warning(scene_law(source.scene), 1.5, source.sigma_n, who="the paper's", design_hint=hint)
     if warning:
         print(f"carav sweep: warning: {warning}", file=sys.stderr)
-    progress = ProgressBar(f"sweep {source.name}") if ProgressBar.wanted(args.quiet) else None
     t0 = time.perf_counter()
-    result = sweep(source, attacks=attacks, rarms=rarms, n_trials=args.trials, eta=eta, seed=args.seed,
-                   method=args.method, target_pf=args.cfar_pf, design_rarms=args.design_rarms,
-                   workers=args.workers, progress=progress)
+    results = []
+    for detector in detectors:
+        progress = ProgressBar(f"sweep {source.name} {detector}") if ProgressBar.wanted(args.quiet) else None
+        try:
+            results.append(sweep(source, attacks=attacks, rarms=rarms, n_trials=args.trials, eta=eta,
+                                 seed=args.seed, method=args.method, target_pf=args.cfar_pf,
+                                 design_rarms=args.design_rarms, workers=args.workers, progress=progress,
+                                 detector=detector))
+        except ValueError as exc:          # a detector the source or method cannot serve
+            raise CommandError(f"--detector {detector}: {exc}", Exit.USAGE) from None
+        _print_table(results[-1])
+    result = results[0]
+    if len(results) > 1:      # one JSON: every detector's curves, each detector's designed thresholds
+        result["curves"] = [c for r in results for c in r["curves"]]
+        result["detectors"] = detectors
+        result["thresholds_by_detector"] = {r["detector"]: r["thresholds"] for r in results}
     result["elapsed_s"] = time.perf_counter() - t0
     result["command"] = " ".join(sys.argv)
-    _print_table(result)
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(result, fh, indent=1)

@@ -76,3 +76,29 @@ def test_sweep_table_header_states_the_echo_snr_and_the_papers_reading(capsys):
     assert _run(base + ["--snr-db", "0"]) == 0
     header = capsys.readouterr().out.splitlines()[0]
     assert "echo SNR +0.0 dB per sample," in header and "--snr-db 0" not in header
+
+
+def test_sweep_scores_opt_in_detectors_on_the_same_cycles_with_a_detector_key_per_curve(tmp_path, capsys):
+    """A ghost at RARMS 0.2 (7 dB per silent chirp in its bin): C(1.5) misses it, the integrated test at its
+    PF = 1e-6 design (eta = 1) catches every cycle; the single-chirp test lies between."""
+    out = tmp_path / "s.json"
+    assert _run(["--attack", "ghost", "--attack-param", "ghost.range_m=25", "--rarms", "0.2", "--trials", "150",
+                 "--detector", "carav,integrated", "--eta", "0.5:3:0.01", "--seed", "3", "--quiet",
+                 "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "detector integrated (threshold in units of its PF = 1e-6 value)" in text
+    res = json.loads(out.read_text())
+    assert res["detectors"] == ["carav", "integrated"] and set(res["thresholds_by_detector"]) == {"carav",
+                                                                                                   "integrated"}
+    by = {c["detector"]: c for c in res["curves"]}
+    i15, i1 = res["eta"].index(1.5), res["eta"].index(1.0)
+    assert by["carav"]["pm"][i15] == 1.0 and by["integrated"]["pm"][i1] == 0.0
+    assert by["integrated"]["pf"][i1] == 0.0 and "closed_form" not in by["integrated"]
+
+
+def test_sweep_refuses_an_opt_in_detector_it_cannot_serve(capsys):
+    assert carav(["sweep", "--model", "paper", "--detector", "spectral", "--trials", "10", "--quiet"]) == 2
+    assert "--detector spectral: " in capsys.readouterr().err
+    assert carav(["sweep", "--detector", "spectral", "--method", "energy", "--trials", "10", "--quiet"]) == 2
+    assert carav(["sweep", "--detector", "nope", "--quiet"]) == 2
+    assert "--detector: unknown 'nope'; expected carav, spectral, integrated" in capsys.readouterr().err

@@ -1,0 +1,39 @@
+"""Detectors a sweep can score: the paper's C(eta) and the opt-in ones, each as one statistic per cycle.
+
+`carav`        Q of the RMS detector (an alarm is Q >= eta); the Monte Carlo's own fast paths apply.
+`spectral`     the single-chirp spectral silent-chirp test (carav_stream/detect/opt_in.py)
+`integrated`   the same bins summed over the silent chirps (opt_in.integrated_silent_test)
+
+The opt-in statistics are divided by their exact threshold for PF = 1e-6 per cycle (white Gaussian noise), so a
+sweep's eta grid reads the same for every detector: an alarm is statistic >= eta, and eta = 1 is the 1e-6 design.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from carav_stream.detect import opt_in
+
+__all__ = ["DETECTORS", "OPT_IN", "statistic"]
+
+DESIGN_PF = 1e-6
+
+
+def _spectral(frames, rho, sigma_n):
+    res = opt_in.spectral_silent_test(frames, rho, sigma_n, pf=DESIGN_PF)
+    return res.stat / res.threshold
+
+
+def _integrated(frames, rho, sigma_n):
+    res = opt_in.integrated_silent_test(frames, rho, sigma_n, pf=DESIGN_PF)
+    return res.stat / res.threshold
+
+
+OPT_IN = {"spectral": _spectral, "integrated": _integrated}
+DETECTORS = ("carav", *OPT_IN)
+
+
+def statistic(detector: str, frames, rho, sigma_n: float) -> np.ndarray:
+    """float64 (n_cycles,) statistic of an opt-in detector, in units of its PF = 1e-6 threshold."""
+    if detector not in OPT_IN:
+        raise ValueError(f"detector: unknown {detector!r}, expected one of {', '.join(DETECTORS)}")
+    return np.asarray(OPT_IN[detector](frames, rho, sigma_n), dtype=np.float64)
