@@ -8,7 +8,7 @@
     carav sweep ...            PF/PM Monte Carlo and threshold design
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
-    carav experiment secondary-antenna | matlab-table1 | interference ...
+    carav experiment secondary-antenna | matlab-table1 | interference | cfar ...
     carav bench transport|synth|detector|estimators|pipeline|soak ... --json docs/bench/records/NAME.json
     carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
@@ -40,6 +40,7 @@ EXPERIMENTS = {
     "secondary-antenna": ("carav_stream.studies.secondary_antenna", "the paper's Figures 6 to 8"),
     "matlab-table1": ("carav_stream.studies.matlab_table1", "MATLAB's FMCWExample result beside our estimators"),
     "interference": ("carav_stream.studies.interference", "another car's FMCW radar: false alarms by detector"),
+    "cfar": ("carav_stream.studies.cfar_experiment", "the radar's CFAR target detection against its design"),
 }
 BENCHES = {
     "transport": ("carav_stream.bench.wire", "frames/s, GB/s and latency through a chain of processes"),
