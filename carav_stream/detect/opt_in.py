@@ -7,6 +7,12 @@ integrated_silent_test the same bins summed over the silent chirps of a cycle (n
                        sits in the same range bin of every silent chirp, so its power adds M times while the
                        noise's spread grows as sqrt(M); under noise each bin's sum is Gamma(M, 1), independent over
                        bins, so the threshold is exact too. It catches ghosts far below the single-chirp test.
+coherent_silent_test   the range-Doppler map of the silent chirps alone (the radar's own map, built from the other
+                       half of the cycle): a ghost that transmits in every chirp period integrates coherently
+                       there exactly as in the radar's map of the active chirps, so whatever the radar's CFAR
+                       would report, this test sees with the same gain. Cells are Exp(1) under noise (see
+                       detect/cfar.py); they are correlated across Doppler, so the threshold ln(cells / pf) is
+                       the union bound: the false-alarm rate per cycle is at most pf (slightly below).
 latency_test           reactive repeaters answer each active chirp after a reaction latency: the first samples of
                        the active chirps hold echo + noise only, the rest also the replica. Statistic: the power
                        ratio of the tail to the head of the active chirps, threshold calibrated on attack-free
@@ -24,10 +30,11 @@ import numpy as np
 import scipy.fft
 from scipy import optimize, stats
 
+from carav_stream.detect.cfar import rd_power
 from carav_stream.detect.detector import _check_frames, check_rho
 
 __all__ = ["spectral_silent_test", "spectral_threshold", "SpectralResult", "integrated_silent_test",
-           "integrated_threshold", "latency_statistic",
+           "integrated_threshold", "coherent_silent_test", "latency_statistic",
            "calibrate_threshold", "cusum_silent_power", "cusum_threshold", "silent_power_z"]
 
 
@@ -114,6 +121,26 @@ def integrated_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> 
     stat = power[np.arange(x.shape[0]), idx]
     thr = integrated_threshold(pf, power.shape[1], m)
     stat = np.where(np.isnan(stat), np.inf, stat)
+    return SpectralResult(stat, idx, thr, stat >= thr, power.shape[1])
+
+
+def coherent_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> SpectralResult:
+    """The silent chirps' own range-Doppler map (Hann in range, zeros at the active chirps).
+
+    stat    max cell of the normalised map (Exp(1) per cell under white Gaussian noise); peak_bin is the cell's
+            flat index doppler * n_range_bins + range_bin; threshold ln(n_cells / pf) (union bound: PF <= pf)
+    """
+    x = _check_frames(frames)
+    if x.ndim == 2:
+        x = x[None]
+    active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
+    if not 0 < pf < 1:
+        raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
+    power = rd_power(x, ~active, sigma_n).reshape(x.shape[0], -1)
+    idx = np.argmax(power, axis=1)
+    stat = power[np.arange(x.shape[0]), idx]
+    stat = np.where(np.isnan(stat), np.inf, stat)
+    thr = float(np.log(power.shape[1] / pf))
     return SpectralResult(stat, idx, thr, stat >= thr, power.shape[1])
 
 

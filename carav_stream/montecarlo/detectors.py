@@ -3,9 +3,11 @@
 `carav`        Q of the RMS detector (an alarm is Q >= eta); the Monte Carlo's own fast paths apply.
 `spectral`     the single-chirp spectral silent-chirp test (carav_stream/detect/opt_in.py)
 `integrated`   the same bins summed over the silent chirps (opt_in.integrated_silent_test)
+`coherent`     the silent chirps' own range-Doppler map (opt_in.coherent_silent_test; union-bound threshold)
 
-The opt-in statistics are divided by their exact threshold for PF = 1e-6 per cycle (white Gaussian noise), so a
-sweep's eta grid reads the same for every detector: an alarm is statistic >= eta, and eta = 1 is the 1e-6 design.
+The opt-in statistics are divided by their threshold for PF = 1e-6 per cycle (white Gaussian noise; exact, or a
+union bound for `coherent`), so a sweep's eta grid reads the same for every detector: an alarm is
+statistic >= eta, and eta = 1 is the 1e-6 design.
 """
 from __future__ import annotations
 
@@ -28,7 +30,12 @@ def _integrated(frames, rho, sigma_n):
     return res.stat / res.threshold
 
 
-OPT_IN = {"spectral": _spectral, "integrated": _integrated}
+def _coherent(frames, rho, sigma_n):
+    res = opt_in.coherent_silent_test(frames, rho, sigma_n, pf=DESIGN_PF)
+    return res.stat / res.threshold
+
+
+OPT_IN = {"spectral": _spectral, "integrated": _integrated, "coherent": _coherent}
 DETECTORS = ("carav", *OPT_IN)
 
 

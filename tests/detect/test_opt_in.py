@@ -121,3 +121,23 @@ def test_silent_power_z_is_standard_normal_under_noise():
     x = rng.standard_normal((20_000, 8, 32))
     z = silent_power_z(detect(x, rho, 1.0).rms, rho, 1.0, 32)
     assert abs(z.mean()) < 0.03 and z.std() == pytest.approx(1.0, abs=0.03)
+
+
+def test_coherent_silent_test_keeps_its_pf_and_integrates_a_ghost_coherently():
+    from carav_stream.detect.opt_in import coherent_silent_test
+
+    rng = np.random.default_rng(6)
+    n, n_r, n_s = 300, 64, 256
+    rho = balanced_rows(rng, n, n_r)
+    res = coherent_silent_test(rng.standard_normal((n, n_r, n_s)), rho, 1.0, pf=0.05)
+    lo, hi = clopper_pearson(int(res.alarm.sum()), n, 0.999)
+    assert lo <= 0.05 and res.n_bins_tested == n_r * (n_s // 2 - 1)      # the union bound: PF <= pf
+    assert res.alarm.mean() > 0.02                                      # and not far below it
+    # a ghost in every chirp period with a steady Doppler phase (on a Doppler bin), 3 dB per silent chirp in its
+    # range bin: the 32 silent chirps add coherently to 2 x 32 x 2/3 (Hann) = 42.7 against the 22.8 threshold
+    t, m = np.arange(n_s), np.arange(n_r)[:, None]
+    a = np.sqrt(8 / n_s)                                                # |X|^2 / N_s = a^2 N_s / 4 = 2 (3 dB)
+    x = rng.standard_normal((n, n_r, n_s)) + a * np.cos(2 * np.pi * (41.0 / n_s * t + 0.125 * m))
+    res = coherent_silent_test(x, rho, 1.0, pf=1e-6)
+    assert res.alarm.mean() > 0.95
+    assert np.all(res.peak_bin[res.alarm] == 8 * (n_s // 2 - 1) + 40)    # Doppler bin 8, range bin 41 - DC

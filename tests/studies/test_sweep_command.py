@@ -101,4 +101,4 @@ def test_sweep_refuses_an_opt_in_detector_it_cannot_serve(capsys):
     assert "--detector spectral: " in capsys.readouterr().err
     assert carav(["sweep", "--detector", "spectral", "--method", "energy", "--trials", "10", "--quiet"]) == 2
     assert carav(["sweep", "--detector", "nope", "--quiet"]) == 2
-    assert "--detector: unknown 'nope'; expected carav, spectral, integrated" in capsys.readouterr().err
+    assert "--detector: unknown 'nope'; expected carav, spectral, integrated, coherent" in capsys.readouterr().err
