@@ -19,18 +19,31 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 from carav_graphs import graph_file
 from carav_stream.algorithm1 import run_algorithm1
 from carav_stream.bench import records as bench_records
+from carav_stream.capture.sigmf_io import open_recording
 from carav_stream.cli.options import count, number, output_file
+from carav_stream.cli.record import record_graph
+from carav_stream.cli.replay import overrides_for
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.supervisor import NODE_ENV, Supervisor
 
 CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000))
+MODES = ("pipeline", "fused", "record", "replay")
+
+
+def _modes(text: str) -> list[str]:
+    wanted = [] if text == "none" else text.split(",")
+    if set(wanted) - {"record", "replay"} or "replay" in wanted and "record" not in wanted:
+        raise argparse.ArgumentTypeError(f"expected record, record,replay or none, got {text!r}")
+    return wanted
 
 
 def pipeline_overrides(preset: str, fidelity: str, n: int, method: str, batch: int) -> list[str]:
@@ -48,15 +61,36 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         "list runs each (default: the blocks' default 16 and the table1 graphs' 32)")
     parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
     parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
+    parser.add_argument("--with", dest="with_modes", default=["record", "replay"], type=_modes, metavar="MODES",
+                        help="extra modes beside pipeline and fused: record, replay (needs record), or none")
 
 
-def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, dict]:
-    graph = load_graph(graph_file("radar_chain"), pipeline_overrides(preset, fidelity, n, method, batch))
+def _run(graph, n: int, what: str) -> dict:
     summary = Supervisor(graph, cycles=n, progress=False, log=lambda text: None).run()
     if summary["failures"] or summary["lost"] or summary["cycles_judged"] != n:
-        raise RuntimeError(f"pipeline run of {preset}/{fidelity} failed: {summary['failures']} lost {summary['lost']}")
+        raise RuntimeError(f"{what} failed: {summary['failures']} lost {summary['lost']}")
+    return summary
+
+
+def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int,
+              record_to: Path | None = None) -> tuple[float, dict, dict]:
+    """cycles/s, busy us per cycle by node, and the run summary; with record_to, the graph with its recorder
+    (carav record) writing into that folder."""
+    overrides = pipeline_overrides(preset, fidelity, n, method, batch)
+    graph = load_graph(graph_file("radar_chain"), overrides)
+    if record_to is not None:
+        graph = load_graph(record_graph(graph, record_to, overrides), overrides)
+    summary = _run(graph, n, f"{'record' if record_to else 'pipeline'} run of {preset}/{fidelity}")
     busy = {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
-    return summary["throughput_cycles_per_s"], busy
+    return summary["throughput_cycles_per_s"], busy, summary
+
+
+def _replay(folder: Path, n: int, method: str) -> tuple[float, dict]:
+    """cycles/s and busy us per cycle of graphs/replay.toml on the recording in `folder` (carav replay)."""
+    rec = open_recording(folder, verify_hash=False)
+    overrides = [*overrides_for(rec, "source", {}, recorded_settings=False), f"ranging.method={method}"]
+    summary = _run(load_graph(graph_file("replay"), overrides), n, f"replay of {folder}")
+    return summary["throughput_cycles_per_s"], {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
 
 
 _WORKER = ("import json, sys; from carav_stream.bench.pipeline import _fused_worker; "
@@ -86,6 +120,7 @@ def _fused_worker(preset: str, fidelity: str, n: int, method: str, batch: int) -
 def run(args: argparse.Namespace) -> int:
     wanted = None if args.cases == "all" else {tuple(c.split(":")) for c in args.cases.split(",")}
     batches = [int(b) for b in str(args.batch).split(",")]
+    modes = {"pipeline", "fused", *args.with_modes}
     records = []
     for preset, fidelity, n in CASES:
         if wanted and (preset, fidelity) not in wanted:
@@ -93,17 +128,25 @@ def run(args: argparse.Namespace) -> int:
         n = max(20, int(n * args.scale))
         rate_radar = scene_of(preset).cycles_per_s
         for batch in batches:
-            runs = {"pipeline": [], "fused": []}
-            busy_runs, fused_cpu = [], []
+            runs = {mode: [] for mode in MODES if mode in modes}
+            busy_runs, fused_cpu, bytes_per_cycle = {m: [] for m in runs}, [], None
             for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
-                rate, busy = _pipeline(preset, fidelity, n, args.method, batch)
+                rate, busy, _ = _pipeline(preset, fidelity, n, args.method, batch)
                 runs["pipeline"].append(rate)
-                busy_runs.append(busy)
+                busy_runs["pipeline"].append(busy)
                 rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
                 runs["fused"].append(rate)
                 fused_cpu.append(cpu_us)
-            busy = {node: statistics.median(b[node] for b in busy_runs) for node in busy_runs[0]}
-            bottleneck = max(busy, key=busy.get)
+                if "record" in runs:
+                    with tempfile.TemporaryDirectory(prefix="carav-bench-") as folder:
+                        rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, Path(folder))
+                        runs["record"].append(rate)
+                        busy_runs["record"].append(busy)
+                        bytes_per_cycle = summary["recording"]["bytes_per_cycle"]
+                        if "replay" in runs:
+                            rate, busy = _replay(Path(folder), n, args.method)
+                            runs["replay"].append(rate)
+                            busy_runs["replay"].append(busy)
             fused = statistics.median(runs["fused"])
             for mode, rates in runs.items():
                 rate = statistics.median(rates)
@@ -111,16 +154,21 @@ def run(args: argparse.Namespace) -> int:
                        "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
                        "runs_cycles_per_s": rates, "real_time_factor": rate / rate_radar,
                        "radar_cycles_per_s": rate_radar, "speedup_over_fused": rate / fused}
-                if mode == "pipeline":
-                    rec["bottleneck_node"] = bottleneck
-                    rec["busy_us_per_cycle"] = busy
-                else:
+                note = ""
+                if mode == "fused":
                     rec["cpu_us_per_cycle"] = statistics.median(fused_cpu)
+                else:
+                    busy = {node: statistics.median(b[node] for b in busy_runs[mode]) for node in busy_runs[mode][0]}
+                    rec["bottleneck_node"] = bottleneck = max(busy, key=busy.get)
+                    rec["busy_us_per_cycle"] = busy
+                    note = f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)"
+                if mode in ("record", "replay"):
+                    rec["bytes_per_cycle"] = bytes_per_cycle
+                    rec["ratio_to_pipeline"] = rate / statistics.median(runs["pipeline"])
+                    note += f"  {bytes_per_cycle} B/cycle on disk, x{rec['ratio_to_pipeline']:.2f} live graph"
                 records.append(rec)
                 print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {rate:9.1f} cycles/s  real-time "
-                      f"x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}"
-                      + (f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)" if mode == "pipeline" else ""),
-                      flush=True)
+                      f"x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}{note}", flush=True)
     if args.json:
         bench_records.write(args.json, args, records)
     return 0

@@ -176,9 +176,16 @@ FUSED_TARGET = 1.3
 def pipeline_rows(doc: dict) -> list[Row]:
     rows = []
     for r in doc["records"]:
+        case = f"{r['preset']} {r['fidelity']}, batch {r['batch']}"
+        if r["mode"] in ("record", "replay"):
+            what = ("the graph recording its ADC output (carav record)" if r["mode"] == "record" else
+                    "a recording replayed through detection and ranging (carav replay)")
+            rows.append((f"{what} against the radar's real time, {case}",
+                         f"{r['cycles_per_s']:.0f} cycles/s = {r['real_time_factor']:.3g} x real time, "
+                         f"{r['ratio_to_pipeline']:.2f} x the live graph, {r['bytes_per_cycle'] / 1e3:.1f} kB/cycle",
+                         f">= 1 x ({r['radar_cycles_per_s']:.0f} cycles/s)", _met(r["real_time_factor"] >= 1)))
         if r["mode"] != "pipeline":
             continue
-        case = f"{r['preset']} {r['fidelity']}, batch {r['batch']}"
         rows.append((f"pipeline (8 processes) against the radar's real time, {case}",
                      f"{r['cycles_per_s']:.0f} cycles/s = {r['real_time_factor']:.3g} x real time",
                      f">= 1 x ({r['radar_cycles_per_s']:.0f} cycles/s)", _met(r["real_time_factor"] >= 1)))
@@ -194,7 +201,9 @@ def pipeline_table(doc: dict) -> list[str]:
     for r in doc["records"]:
         runs = ", ".join(f"{x:.0f}" for x in r["runs_cycles_per_s"])
         extra = (f"{r['bottleneck_node']} ({r['busy_us_per_cycle'][r['bottleneck_node']]:.0f})"
-                 if r["mode"] == "pipeline" else f"{r['cpu_us_per_cycle']:.0f} CPU")
+                 if "bottleneck_node" in r else f"{r['cpu_us_per_cycle']:.0f} CPU")
+        if "bytes_per_cycle" in r:
+            extra += f"; {r['bytes_per_cycle'] / 1e3:.1f} kB/cycle on disk"
         lines.append(f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} | {r['cycles_per_s']:.0f} "
                      f"({runs}) | {r['real_time_factor']:.3g} | {r['speedup_over_fused']:.2f} | {extra} |")
     return lines

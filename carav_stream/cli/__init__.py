@@ -1,6 +1,8 @@
 """carav: run, validate and steer carav-stream graphs; sweep thresholds; reproduce the paper; benchmark.
 
     carav run GRAPH [--cycles N] [--set node.param=value | param=value ...] [--json FILE]
+    carav record GRAPH --out DIR [carav run options]   the run's ADC output as SigMF (+ private activation log)
+    carav replay DIR [--graph FILE] [--json FILE]       a recording through detection and ranging again
     carav validate GRAPH ...
     carav blocks [TYPE]
     carav scenes [NAME | FILE ...]   what a scene implies (resolution, max range and velocity, SNR, warnings)
@@ -26,6 +28,8 @@ from carav_stream.cli.common import EXIT_CODES_HELP, CommandError, Exit
 
 COMMANDS = {
     "run": ("carav_stream.cli.run", "run a graph and print its summary"),
+    "record": ("carav_stream.cli.record", "run a graph and record its ADC output as SigMF, rho in a private log"),
+    "replay": ("carav_stream.cli.replay", "a SigMF recording through detection, gate and ranging again"),
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
     "scenes": ("carav_stream.cli.scenes", "what the presets or scene files imply: rates, resolution, SNR, warnings"),

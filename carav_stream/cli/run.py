@@ -7,14 +7,19 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from carav_stream.cli.common import Exit, fail
+from carav_stream.cli.common import CommandError, Exit, fail
 from carav_stream.cli.options import output_file
-from carav_stream.runtime.graph import GraphError
+from carav_stream.runtime.graph import Graph, GraphError
 from carav_stream.runtime.loader import load_graph
 
 
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("graph", type=Path)
+    run_options(p)
+
+
+def run_options(p: argparse.ArgumentParser) -> None:
+    """The options of `carav run` (shared by `carav record` and `carav replay`)."""
     p.add_argument("--cycles", type=int, help="cycles each source generates (a frame may carry several; default: "
                    "the graph's run.cycles; 0 = until stopped)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
@@ -28,16 +33,26 @@ def configure(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from carav_stream.runtime.supervisor import Supervisor
+    return execute(load(args.graph, args), args)
+
+
+def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:
+    """The graph file with `overrides`, then the command line's --set and --cycles; CommandError if invalid."""
+    cycles = [] if args.cycles is None else [f"run.cycles={args.cycles}"]   # checked like the file's value
     try:
-        cycles = [] if args.cycles is None else [f"run.cycles={args.cycles}"]   # checked like the file's value
-        graph = load_graph(args.graph, [*args.set, *cycles], args.blocks)
+        return load_graph(path, [*overrides, *args.set, *cycles], args.blocks)
     except GraphError as exc:
-        return fail(f"{args.graph} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems), Exit.INVALID)
+        raise CommandError(f"{shown_as or path} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems),
+                           Exit.INVALID) from None
+
+
+def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int:
+    """Run a loaded graph with the options of `carav run` (host, progress, json) and report it."""
+    from carav_stream.runtime.supervisor import Supervisor
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     for w in graph.warnings:
-        print(f"carav run: warning: {w}", file=sys.stderr)
+        print(f"carav {command}: warning: {w}", file=sys.stderr)
     sup = Supervisor(graph, host=args.host, progress=args.progress)
     summary = sup.run()
     print_summary(summary)

@@ -29,7 +29,7 @@ from typing import Any
 import zmq
 
 from carav_stream.runtime import transport
-from carav_stream.runtime.block import Block
+from carav_stream.runtime.block import Block, BlockError
 from carav_stream.runtime.control import ControlState
 from carav_stream.runtime.frames import Frame, FrameError, decode, encode_with_header, header_packer
 from carav_stream.runtime.outputs import Outputs, runtime_message
@@ -416,9 +416,10 @@ class NodeRunner:
 
 
 def _report_crash(spec: NodeSpec, runner: NodeRunner | None, exc: BaseException) -> None:
-    """Tell the supervisor why this node failed, with the traceback; let what it already sent leave."""
-    tb = traceback.format_exc()
-    print(tb, file=sys.stderr, flush=True)
+    """Tell the supervisor why this node failed, with the traceback (none for a BlockError: the block's own
+    one-line statement that its input cannot go on, e.g. a truncated file); let what it already sent leave."""
+    tb = None if isinstance(exc, BlockError) else traceback.format_exc()
+    print(tb or f"{spec.name}: {exc}", file=sys.stderr, flush=True)
     msg = pack(Report.ERROR, node=spec.name, pid=os.getpid(), error=f"{type(exc).__name__}: {exc}", traceback=tb,
                counters=runner.counters() if runner else {})
     if runner is None:

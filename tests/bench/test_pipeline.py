@@ -27,8 +27,11 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
     assert doc["machine"]["cores"] >= 1
     records = doc["records"]
     assert [(r["preset"], r["fidelity"], r["mode"], r["batch"]) for r in records] == [
-        ("awr1642", "beat", mode, b) for b in (4, 8) for mode in ("pipeline", "fused")]
+        ("awr1642", "beat", mode, b) for b in (4, 8) for mode in ("pipeline", "fused", "record", "replay")]
     for r in records:
         assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
     assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")
     assert all(r["cpu_us_per_cycle"] > 0 for r in records if r["mode"] == "fused")   # measured in its own process
+    # on disk: awr1642's 128 chirps x 256 real int16 codes per cycle, nothing else
+    assert all(r["bytes_per_cycle"] == 128 * 256 * 2 for r in records if r["mode"] in ("record", "replay"))
+    assert all("recorder" in r["busy_us_per_cycle"] for r in records if r["mode"] == "record")

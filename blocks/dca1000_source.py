@@ -1,0 +1,85 @@
+"""DCA1000 player: raw ADC captures of a TI AWR1642-family radar (DCA1000 .bin) into the detector and estimator.
+
+Reads the .bin layout TI documents for xWR16xx devices (two LVDS lanes, int16, real or complex, interleaved by
+receiver and lane: carav_stream/capture/dca1000.py), cuts it into cycles of the scene's n_chirps chirps, keeps
+receiver `rx`, and sends each cycle as this project's ADC frames, with the activation sequence of every cycle
+from a log the capture's firmware wrote (carav_stream/capture/activation_log.py), so that rms_detector, gate
+and range_estimator run on a real radar's samples when its firmware silenced chirps by a known sequence.
+
+The scene file describes the capture's chirp configuration: n_chirps (chirps per cycle), n_samples, fs_hz,
+slope (bandwidth_hz / t_sweep_s), t_chirp_s, iq (true: complex capture), adc_bits (12, 14 or 16) and
+adc_full_scale (the volts, or sqrt(W), of one full-scale code; the detector's sigma_n is in the same unit).
+A capture that ends within a cycle (truncated) is warned about when the graph is validated; its whole cycles are
+all sent, and then the node fails with an error naming the file and the bytes left over.
+
+Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's codes (per_cycle attack_active
+                     from the log's third column if present, else not set)
+        out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
+Params  path (str, required): the .bin capture; activation (str, required): its activation log
+        n_rx (int, 4): receivers enabled in the capture; rx (int, 0): the receiver to process
+        scene (graph-wide), batch (int, 16)
+Graph   source = { type = "dca1000_source", path = "adc_data.bin", activation = "adc_data.activation" }
+"""
+from pathlib import Path
+
+import numpy as np
+
+from carav_stream.capture.activation_log import ActivationLogError, read_log
+from carav_stream.capture.dca1000 import Layout, complete_cycles, read_cycles
+from carav_stream.radar.streams import SCENE, scene_of
+from carav_stream.runtime import Block, BlockError, Frame, Out, Param
+
+
+class Dca1000Source(Block):
+    outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="one receiver's ADC codes per cycle"),
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
+    params = (Param("path", str, doc="DCA1000 .bin capture", file=True),
+              Param("activation", str, doc="activation log of the capture", file=True),
+              Param("n_rx", int, 4, "receivers enabled in the capture", low=1, high=4),
+              Param("rx", int, 0, "receiver to process", low=0, high=3),
+              SCENE,
+              Param("batch", int, 16, "cycles per frame", low=1, high=4096))
+
+    def check_params(self) -> None:
+        scene = scene_of(self.scene)
+        if self.rx >= self.n_rx:
+            raise ValueError(f"rx: receiver {self.rx} is not among the capture's n_rx = {self.n_rx}")
+        self.layout = Layout(self.n_rx, scene.n_samples, scene.n_chirps, scene.iq,
+                             scene.adc_bits if scene.adc_bits in (12, 14) else 16)
+        if not Path(self.path).is_file():
+            raise ValueError(f"path: {self.path}: capture file not found")
+        self.cycles, self.left = complete_cycles(self.path, self.layout)
+        try:
+            self.log_cycles, self.rho = read_log(self.activation, scene.n_chirps)
+        except ActivationLogError as exc:
+            raise ValueError(f"activation: {exc}") from None
+        if len(self.log_cycles) < self.cycles:
+            raise ValueError(f"activation: {self.activation}: {len(self.log_cycles)} cycles, shorter than the "
+                             f"capture's {self.cycles} whole cycles ({self.path})")
+        bad = np.flatnonzero(self.log_cycles[:self.cycles] != np.arange(self.cycles))
+        if bad.size:
+            raise ValueError(f"activation: {self.activation}: row {bad[0]} is cycle {self.log_cycles[bad[0]]}; a "
+                             "capture's log lists cycles 0, 1, 2, ... in capture order")
+
+    def param_warnings(self) -> list[str]:
+        return [self._truncated()] if self.left else []
+
+    def _truncated(self) -> str:
+        return (f"{self.path} is truncated: {self.left} bytes after its {self.cycles} whole cycles are not a cycle "
+                f"({self.layout.bytes_per_cycle} bytes: {self.layout.n_chirps} chirps x {self.n_rx} receivers x "
+                f"{self.layout.n_samples} {'complex' if self.layout.complex else 'real'} int16 samples)")
+
+    def generate(self, seq: int) -> dict[str, Frame] | None:
+        first = seq * self.batch
+        n = min(self.batch, self.cycle_budget or self.batch, self.cycles - first)
+        if n <= 0:
+            if self.left:
+                raise BlockError(self._truncated() + f"; cycles 0..{self.cycles - 1} were sent")
+            return None
+        codes = read_cycles(self.path, self.layout, first, n, self.rx)
+        header = {"cycle": first, "cycles": n}
+        return {"frames": Frame.of(codes, **header), "rho": Frame.of(self.rho[first:first + n].copy(), **header)}
+
+    def summary(self) -> dict:
+        return {"run": {"capture": {"file": str(self.path), "whole_cycles": self.cycles,
+                                    "bytes_left_over": self.left}}}

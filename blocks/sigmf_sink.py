@@ -1,0 +1,143 @@
+"""SigMF recorder: the ADC's output of every cycle as a SigMF recording, the activation sequences in a private log.
+
+    BASE.sigmf-data   the ADC's codes, cycle after cycle (ri16_le | ci16_le; rf32_le | cf32_le for an ideal ADC)
+    BASE.sigmf-meta   sample rate, carrier, the scene's chirp structure, the graph and its seed, the software
+                      version; one annotation per cycle: attack on or off and its model, clipped and non-finite
+                      counts, the detector's verdict and Q, the gate's decision, the estimates
+    BASE.activation   the activation sequence of every cycle: firmware state, mode 0600, never in the two above
+
+The samples are written as they arrive; the metadata and the log when the stream ends (format: carav_stream/
+capture/sigmf_io.py). `carav record GRAPH --out DIR` adds this block to a graph and wires it; `carav replay DIR`
+runs the recording through detection and ranging again.
+
+Ports   in  frames     ADC frames (int16 codes, or float32 | complex64 samples of an ideal ADC)
+        in  rho        the activation sequences (the private edge the detector reads)
+        in  verdict    the detector's verdicts (optional)           (inputs merged in arrival order,
+        in  estimates  the range estimator's records (optional)      matched by cycle index)
+        in  alarms     the gate's refusals (optional)
+Params  path (str, required): base name of the recording (BASE.sigmf-meta, ...); scene, seed, batch (graph-wide,
+        for the metadata); graph (str): the recorded graph as JSON, for the metadata
+Graph   recorder = { type = "sigmf_sink", path = "rec/recording" }
+"""
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from carav_stream.capture.activation_log import log_path, write_log
+from carav_stream.capture.sigmf_io import NS, datatype_of, plain, write_meta
+from carav_stream.radar.scene_loader import preset_names
+from carav_stream.radar.streams import SCENE, SEED, scene_of
+from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle
+
+VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by")   # k_max and rbar stay out: they speak of rho
+ADC_FIELDS = ("attack_active", "clipped", "nonfinite")
+ESTIMATE_FIELDS = ("range_m", "velocity_mps")
+
+
+class SigmfSink(Block):
+    inputs = (In("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64")),
+              In("rho", kind="rho", dtypes=("bool",)),
+              In("verdict", kind="verdict", required=False),
+              In("estimates", kind="estimates", required=False),
+              In("alarms", kind="alarm", required=False))
+    merge_inputs = True
+    params = (Param("path", str, doc="base name of the recording (BASE.sigmf-meta, BASE.sigmf-data)", output=True),
+              SCENE, SEED,
+              Param("batch", int, 16, "cycles per frame of the recorded graph (metadata)", low=1),
+              Param("graph", str, "", "the recorded graph, as JSON (metadata)"))
+
+    def check_params(self) -> None:
+        self.scene_obj = scene_of(self.scene)
+        if self.graph:
+            try:
+                json.loads(self.graph)
+            except ValueError as exc:
+                raise ValueError(f"graph: not JSON: {exc}") from None
+
+    def start(self) -> None:
+        self.base = Path(self.path)
+        self.data = open(f"{self.base}.sigmf-data", "wb")
+        self.datatype: str | None = None
+        self.order: list[int] = []             # recorded cycles, in the order their samples were written
+        self.cycle: dict[int, dict] = {}       # cycle -> its annotation fields
+        self.rho: dict[int, bytes] = {}        # cycle -> packed activation sequence
+        self.bytes = 0
+
+    def _fields(self, cycle: int) -> dict:
+        return self.cycle.setdefault(cycle, {})
+
+    def process(self, frames: Frame | None, rho: Frame | None = None, verdict: Frame | None = None,
+                estimates: Frame | None = None, alarms: Frame | None = None) -> None:
+        if frames is not None:
+            self._samples(frames)
+        elif rho is not None:
+            r = np.asarray(rho.payload, dtype=bool)
+            if r.ndim != 2 or r.shape[1] != self.scene_obj.n_chirps or r.shape[0] != len(cycle_indices(rho)):
+                raise ValueError(f"rho frame seq {rho.seq}: {r.shape} is not one sequence of "
+                                 f"{self.scene_obj.n_chirps} chirps per cycle")
+            for c, row in zip(cycle_indices(rho), r):
+                self.rho[c] = np.packbits(row).tobytes()
+        else:
+            frame, names = ((verdict, VERDICT_FIELDS) if verdict is not None else (estimates, ESTIMATE_FIELDS)
+                            if estimates is not None else (alarms, ("reason",)))
+            per, index = per_cycle(frame), cycle_indices(frame)
+            gate = (["clean"] * len(index) if estimates is not None and not frame.header.get("refused") else
+                    per.get("reason") or ["refused"] * len(index) if alarms is not None else None)
+            for i, c in enumerate(index):
+                fields = self._fields(c)
+                fields.update({k: per[k][i] for k in names if k in per})
+                if gate is not None:
+                    fields["gate"] = gate[i]
+
+    def _samples(self, frames: Frame) -> None:
+        x = frames.payload
+        datatype = datatype_of(x, self.scene_obj.iq)
+        shape = (self.scene_obj.n_chirps, self.scene_obj.n_samples, *((2,) if datatype == "ci16_le" else ()))
+        if self.datatype not in (None, datatype) or x.shape[1:] != shape:
+            raise ValueError(f"frame seq {frames.seq}: {x.dtype} {x.shape} does not continue the recording of "
+                             f"{self.datatype or datatype} cycles of shape {shape}")
+        self.datatype = datatype
+        x.astype(x.dtype.newbyteorder("<"), copy=False).tofile(self.data)
+        self.bytes += x.nbytes
+        per = per_cycle(frames)
+        for i, c in enumerate(cycle_indices(frames)):
+            self.order.append(c)
+            fields = self._fields(c)
+            fields.update({k: per[k][i] for k in ADC_FIELDS if k in per})
+            fields["attack_model"] = frames.header.get("attack_model")
+            if frames.header.get("attack_lost"):
+                fields["attack_lost"] = True
+
+    def finish(self) -> None:
+        self.data.close()
+        scene, per_cycle_samples = self.scene_obj, self.scene_obj.n_chirps * self.scene_obj.n_samples
+        annotations = []
+        for i, c in enumerate(self.order):
+            fields = self.cycle.get(c, {})
+            annotations.append({"core:sample_start": i * per_cycle_samples, "core:sample_count": per_cycle_samples,
+                                "core:label": f"cycle {c}", f"{NS}:cycle": c,
+                                **{f"{NS}:{k}": plain(v) for k, v in fields.items()}})
+        known = [c for c in self.order if c in self.rho]
+        rho = np.array([np.unpackbits(np.frombuffer(self.rho[c], np.uint8))[:scene.n_chirps] for c in known],
+                       dtype=bool).reshape(len(known), scene.n_chirps)
+        write_log(log_path(self.base), known, rho)
+        self.without_rho = len(self.order) - len(known)
+        extra = {"cycles": len(self.order), "batch": self.batch, "activation_log": log_path(self.base).name,
+                 "scene": scene.name if self.scene in preset_names() else Path(self.scene).name,
+                 "graph": json.loads(self.graph) if self.graph else {}}
+        if self.seed != -1:
+            extra["seed"] = self.seed
+        if self.scene not in preset_names():   # a scene file travels with the recording
+            copy = Path(f"{self.base}.scene.toml")
+            shutil.copyfile(self.scene, copy)
+            extra["scene_file"] = copy.name
+        write_meta(self.base, self.datatype or datatype_of(np.zeros(0, np.int16), scene.iq), scene, annotations,
+                   extra)
+
+    def summary(self) -> dict:
+        n = len(self.order)
+        return {"run": {"recording": {"meta": f"{self.base}.sigmf-meta", "cycles": n, "bytes": self.bytes,
+                                      "bytes_per_cycle": self.bytes // n if n else None,
+                                      "cycles_without_activation": getattr(self, "without_rho", 0)}}}

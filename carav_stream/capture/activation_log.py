@@ -1,0 +1,72 @@
+"""The private activation log: the activation sequence of every recorded cycle, in its own file beside a recording.
+
+The sequence rho is the firmware's secret (Algorithm 1): whoever knows it can tell silent from active chirps and
+defeat the detector, so it never goes into the sample file or the recording's metadata. The log is written with
+mode 0600 (its owner alone may read it) and is needed only to judge the recording again (replay) or to run the
+detector on a real radar's capture whose firmware silenced chirps by a known sequence.
+
+    # carav activation log v1: private firmware state; do not share it with the recording
+    # n_chirps 64
+    0 0110100111010001...        one line per cycle: its index, then rho(0) .. rho(N_r - 1) as 0 and 1
+
+Lines starting with # are comments; cycles are in recording order (not necessarily consecutive).
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+MAGIC = "# carav activation log v1"
+SUFFIX = ".activation"
+
+
+class ActivationLogError(ValueError):
+    """A log that cannot be read, or does not fit its recording; the text names the file and line."""
+
+
+def write_log(path: str | Path, cycles: Sequence[int], rho: np.ndarray) -> None:
+    """Write the log (mode 0600, replacing any file there): rho bool (len(cycles), n_chirps)."""
+    rho = np.asarray(rho, dtype=bool)
+    if rho.ndim != 2 or rho.shape[0] != len(cycles):
+        raise ValueError(f"activation log {path}: {len(cycles)} cycles but rho of shape {rho.shape}")
+    digits = np.where(rho, ord("1"), ord("0")).astype(np.uint8)
+    lines = [f"{MAGIC}: private firmware state; do not share it with the recording", f"# n_chirps {rho.shape[1]}"]
+    lines += [f"{c} {row.tobytes().decode()}" for c, row in zip(cycles, digits)]
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    os.fchmod(fd, 0o600)   # an existing file keeps its mode through O_CREAT: make it private too
+    with os.fdopen(fd, "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+
+
+def read_log(path: str | Path, n_chirps: int) -> tuple[np.ndarray, np.ndarray]:
+    """(cycles int64 (n,), rho bool (n, n_chirps)) from a log; ActivationLogError naming the file and line."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise ActivationLogError(f"{path}: activation log not found (it goes beside the recording, "
+                                 f"named like it with {SUFFIX})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ActivationLogError(f"{path}: activation log cannot be read: {exc}") from None
+    cycles, rows = [], []
+    for number, line in enumerate(text.splitlines(), 1):
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        words = line.split()
+        if len(words) != 2 or not words[0].isdigit() or len(words[1]) != n_chirps or set(words[1]) - {"0", "1"}:
+            raise ActivationLogError(f"{path}:{number}: expected '<cycle> <{n_chirps} digits 0 or 1>', got "
+                                     f"{line[:60]!r}")
+        cycles.append(int(words[0]))
+        rows.append(np.frombuffer(words[1].encode(), dtype=np.uint8) == ord("1"))
+    if not rows:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, n_chirps), dtype=bool)
+    return np.array(cycles, dtype=np.int64), np.stack(rows)
+
+
+def log_path(base: str | Path) -> Path:
+    """The log beside the recording `base` (its name without the .sigmf-meta / .sigmf-data suffix)."""
+    return Path(f"{base}{SUFFIX}")

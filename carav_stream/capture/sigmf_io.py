@@ -1,0 +1,238 @@
+"""SigMF recordings of what the ADC delivered: metadata out of a run, and a recording checked before it is replayed.
+
+A recording is three files with one base name (SigMF 1.2, written and validated with the `sigmf` package):
+
+    BASE.sigmf-data     the ADC's output of every recorded cycle, cycle after cycle, chirp after chirp:
+                        ri16_le (real codes), ci16_le (I/Q codes), or rf32_le / cf32_le for an ideal ADC
+    BASE.sigmf-meta     global: sample rate, datatype, sha512, recorder, the scene's chirp structure
+                        (carav:n_chirps, carav:n_samples, ...), the graph with its seed (carav:graph, carav:seed);
+                        one capture (core:frequency = the carrier); one annotation per cycle: its index, whether
+                        an attack was on and its model, clipped and non-finite sample counts, the detector's
+                        verdict and Q, the gate's decision, the estimates
+    BASE.activation     the private activation log (activation_log.py, mode 0600); never in the two above.
+                        The detector's k_max (the chirp that decided) is left out of the annotations too: with
+                        raised_by it would tell whether that chirp was silent, one bit of the sequence per cycle.
+
+A scene that is not a preset is copied beside the recording (BASE.scene.toml), so a recording travels whole.
+Non-finite floats (Q of an invalid cycle is infinite) are written as the strings "inf", "-inf", "nan": JSON has
+no such numbers. Every float is written with Python's shortest round-trip repr, so Q reads back bit for bit.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from carav_stream.capture.activation_log import ActivationLogError, log_path, read_log
+from carav_stream.radar.scene import Scene
+
+NS = "carav"
+EXTENSION = {"name": NS, "version": "1.0.0", "optional": True}
+DATATYPES = {"ri16_le": ("<i2", False), "ci16_le": ("<i2", True), "rf32_le": ("<f4", False),
+             "cf32_le": ("<c8", False)}   # datatype -> (element dtype, I and Q as a last axis of 2 int16)
+SCENE_FIELDS = ("n_chirps", "n_samples", "iq", "adc_bits", "adc_full_scale", "fc_hz", "bandwidth_hz", "t_sweep_s",
+                "t_chirp_s", "t_cycle_s", "t_adc_start_s")
+CHECKED_FIELDS = ("n_chirps", "n_samples", "iq", "adc_bits", "adc_full_scale")   # what a replay's scene must match
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be replayed; the text names the file and the field."""
+
+
+def datatype_of(frames: np.ndarray, iq: bool) -> str:
+    """The SigMF datatype of an ADC frame payload (cycles, n_chirps, n_samples[, 2])."""
+    if frames.dtype == np.int16:
+        return "ci16_le" if iq else "ri16_le"
+    if frames.dtype == np.float32:
+        return "rf32_le"
+    if frames.dtype == np.complex64:
+        return "cf32_le"
+    raise ValueError(f"ADC frames of dtype {frames.dtype} have no SigMF datatype here (int16, float32, complex64)")
+
+
+def plain(value: Any) -> Any:
+    """A JSON-safe copy: non-finite floats as strings, numpy scalars as Python ones, lists element-wise."""
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return value
+
+
+def unplain(value: Any) -> Any:
+    """The inverse of `plain` for floats written as strings."""
+    if isinstance(value, list):
+        return [unplain(v) for v in value]
+    if value in ("inf", "-inf", "nan"):
+        return float(value)
+    return value
+
+
+def scene_globals(scene: Scene) -> dict[str, Any]:
+    return {f"{NS}:{k}": getattr(scene, k) for k in SCENE_FIELDS}
+
+
+def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[str, Any]],
+               extra: dict[str, Any]) -> Path:
+    """Write and validate BASE.sigmf-meta for the data file BASE.sigmf-data (hashed by the sigmf package)."""
+    import sigmf
+    from sigmf.sigmffile import SigMFFile
+
+    from carav_stream import __version__
+    glob = {"core:datatype": datatype, "core:sample_rate": scene.fs_hz, "core:version": sigmf.__specification__,
+            "core:num_channels": 1, "core:recorder": f"carav-stream {__version__}", "core:extensions": [EXTENSION],
+            "core:description": f"ADC output of a carav-stream radar graph, scene {scene.name}",
+            **scene_globals(scene), **{f"{NS}:{k}": plain(v) for k, v in extra.items()}}
+    meta = {"global": glob, "captures": [{"core:sample_start": 0, "core:frequency": scene.fc_hz}],
+            "annotations": annotations}
+    rec = SigMFFile(metadata=meta, data_file=str(base) + ".sigmf-data")   # computes core:sha512
+    rec.tofile(str(base), overwrite=True)                                    # validates against the schema
+    return Path(str(base) + ".sigmf-meta")
+
+
+def base_of(path: str | Path) -> Path:
+    """The base name of a recording given as BASE, BASE.sigmf-meta, BASE.sigmf-data, or a folder holding one."""
+    path = Path(path)
+    if path.is_dir():
+        metas = sorted(path.glob("*.sigmf-meta"))
+        if len(metas) != 1:
+            raise RecordingError(f"{path}: a folder with {'no' if not metas else len(metas)} SigMF recordings "
+                                 "(.sigmf-meta); name the one to read")
+        path = metas[0]
+    if path.suffix in (".sigmf-meta", ".sigmf-data"):
+        path = path.with_suffix("")
+    return path
+
+
+@dataclass
+class Recording:
+    """A recording, checked: its samples as a read-only map (cycles, n_chirps, n_samples[, 2]), one annotation
+    per recorded cycle, the global metadata, and (with the log) the activation sequence of every cycle."""
+
+    base: Path
+    meta: dict[str, Any]
+    samples: np.ndarray
+    cycles: np.ndarray                       # recorded cycle index of every row of `samples`
+    annotations: list[dict[str, Any]]
+    rho: np.ndarray | None = None            # bool (cycles, n_chirps), from the private log
+    scene_file: Path | None = None           # the copied scene, when the recording's scene is not a preset
+    problems: list[str] = field(default_factory=list)
+
+    def global_field(self, key: str, default: Any = None) -> Any:
+        return self.meta["global"].get(f"{NS}:{key}", default)
+
+    @property
+    def scene_ref(self) -> str:
+        """What a graph's `scene` must say to replay this recording: the preset name or the copied file."""
+        return str(self.scene_file) if self.scene_file else self.global_field("scene")
+
+
+def _field(meta_path: Path, glob: dict, key: str, kind: type) -> Any:
+    value = glob.get(key)
+    if type(value) is not kind:   # exactly: a bool is no count, an int no flag
+        raise RecordingError(f"{meta_path}: global {key}: expected {kind.__name__}, got {value!r}")
+    return value
+
+
+def open_recording(path: str | Path, activation: str | Path | None = None, *, with_log: bool = True,
+                   verify_hash: bool = True) -> Recording:
+    """Read and check a recording (and its activation log): RecordingError naming the file and field."""
+    import sigmf
+    from jsonschema.exceptions import ValidationError
+    from sigmf.error import SigMFError
+
+    base = base_of(path)
+    meta_path, data_path = Path(f"{base}.sigmf-meta"), Path(f"{base}.sigmf-data")
+    for p in (meta_path, data_path):
+        if not p.is_file():
+            raise RecordingError(f"{p}: not found (a recording is BASE.sigmf-meta beside BASE.sigmf-data)")
+    try:
+        meta = json.loads(meta_path.read_text())
+        rec = sigmf.SigMFFile(metadata=meta)
+        rec.validate()
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise RecordingError(f"{meta_path}: not a valid SigMF metadata file: {str(exc).splitlines()[0]}") from None
+    except ValidationError as exc:   # the schema's verdict, located: global/core:sample_rate, annotations/3/...
+        where = "/".join(str(p) for p in exc.absolute_path) or "metadata"
+        raise RecordingError(f"{meta_path}: not valid SigMF: {where}: {exc.message}") from None
+    except SigMFError as exc:
+        raise RecordingError(f"{meta_path}: {exc}") from None
+    glob = meta["global"]
+    datatype = glob.get("core:datatype")
+    if datatype not in DATATYPES:
+        raise RecordingError(f"{meta_path}: global core:datatype: {datatype!r} is not what an ADC of this project "
+                             f"writes ({', '.join(DATATYPES)})")
+    n_chirps = _field(meta_path, glob, f"{NS}:n_chirps", int)
+    n_samples = _field(meta_path, glob, f"{NS}:n_samples", int)
+    iq = _field(meta_path, glob, f"{NS}:iq", bool)
+    dtype, pair = DATATYPES[datatype]
+    if datatype.startswith("c") != iq:
+        raise RecordingError(f"{meta_path}: global core:datatype {datatype} does not fit carav:iq = {iq}")
+    annotations = meta.get("annotations", [])
+    per_cycle = n_chirps * n_samples
+    shape = (n_chirps, n_samples, 2) if pair else (n_chirps, n_samples)
+    cycle_bytes = per_cycle * np.dtype(dtype).itemsize * (2 if pair else 1)
+    size = data_path.stat().st_size
+    if size != len(annotations) * cycle_bytes:
+        raise RecordingError(f"{data_path}: {size} bytes, but the metadata ({meta_path.name}: annotations) describes "
+                             f"{len(annotations)} cycles of {cycle_bytes} bytes ({n_chirps} chirps x {n_samples} "
+                             f"samples, {datatype}) = {len(annotations) * cycle_bytes} bytes")
+    cycles = []
+    for i, a in enumerate(annotations):
+        start, count, cycle = a.get("core:sample_start"), a.get("core:sample_count"), a.get(f"{NS}:cycle")
+        if start != i * per_cycle or count != per_cycle or not isinstance(cycle, int):
+            raise RecordingError(f"{meta_path}: annotations[{i}]: expected core:sample_start {i * per_cycle}, "
+                                 f"core:sample_count {per_cycle} and an integer {NS}:cycle, got {start}, {count}, "
+                                 f"{cycle!r}")
+        cycles.append(cycle)
+    if verify_hash:
+        try:
+            rec.set_data_file(str(data_path))   # recomputes the sha512 and compares it with core:sha512
+        except SigMFError as exc:
+            raise RecordingError(f"{data_path}: {exc} (global core:sha512)") from None
+    samples = np.memmap(data_path, dtype=dtype, mode="r", shape=(len(annotations), *shape)) if annotations else \
+        np.zeros((0, *shape), dtype=dtype)
+    out = Recording(base, meta, samples, np.array(cycles, dtype=np.int64), annotations)
+    scene_file = glob.get(f"{NS}:scene_file")
+    if scene_file:
+        out.scene_file = base.parent / scene_file
+        if not out.scene_file.is_file():
+            raise RecordingError(f"{meta_path}: global {NS}:scene_file: {out.scene_file} not found")
+    if with_log:
+        log = Path(activation) if activation else log_path(base)
+        try:
+            log_cycles, rho = read_log(log, n_chirps)
+        except ActivationLogError as exc:
+            raise RecordingError(str(exc)) from None
+        if len(log_cycles) < len(cycles):
+            raise RecordingError(f"{log}: {len(log_cycles)} cycles, shorter than the recording's {len(cycles)} "
+                                 f"({meta_path.name}: annotations)")
+        if not np.array_equal(log_cycles[:len(cycles)], out.cycles) or len(log_cycles) > len(cycles):
+            where = next((i for i in range(min(len(cycles), len(log_cycles)))
+                          if log_cycles[i] != out.cycles[i]), min(len(cycles), len(log_cycles)))
+            raise RecordingError(f"{log}: cycle {log_cycles[where] if where < len(log_cycles) else 'none'} at "
+                                 f"row {where}, but the recording's row {where} is cycle "
+                                 f"{out.cycles[where] if where < len(cycles) else 'none'}: the log belongs to "
+                                 "another recording")
+        out.rho = rho
+    return out
+
+
+def check_scene(rec: Recording, scene: Scene) -> None:
+    """A replay's scene must describe the recorded samples: RecordingError naming the field otherwise."""
+    for key in CHECKED_FIELDS:
+        recorded, own = rec.global_field(key), getattr(scene, key)
+        if recorded != own and not (isinstance(own, float) and isinstance(recorded, (int, float))
+                                    and math.isclose(recorded, own, rel_tol=1e-12)):
+            raise RecordingError(f"{rec.base}.sigmf-meta: global {NS}:{key} = {recorded!r}, but scene {scene.name} "
+                                 f"has {key} = {own!r}")
+    rate = rec.meta["global"]["core:sample_rate"]
+    if not math.isclose(rate, scene.fs_hz, rel_tol=1e-12):
+        raise RecordingError(f"{rec.base}.sigmf-meta: global core:sample_rate = {rate}, but scene {scene.name} "
+                             f"samples at {scene.fs_hz}")
