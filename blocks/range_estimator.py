@@ -5,11 +5,20 @@ progression over the randomly missing active chirps. Methods: fft_peak, fft_zero
 root_music, ml (see carav_stream/estimate). A frame that does not carry the gate's clean verdict is refused
 (counted, and reported as a record with refused = true): target processing never runs without a verdict.
 
+Detection: "strongest" reports the n_targets strongest maxima of every cycle; "ca_cfar" | "os_cfar" reports the
+radar's target list (carav_stream/target_list.py): CFAR on the range-Doppler map of the active chirps at the
+design false-alarm rate `pfa` per cell, every detection refined by `method` (ml, music, root_music: jointly; the
+FFT methods keep the cells), up to max_targets, a variable number per cycle.
+
 Ports   in  frames      clean_frame: ADC frames (int16 codes or float32 | complex64 samples) of the clean
                         cycles + array rho
-        out estimates   header method, per_cycle range_m, velocity_mps (lists, one value per target; None
-                        where no target was found) beside the frame's own per-cycle fields
+        out estimates   header method, detection, per_cycle range_m, velocity_mps (lists, one value per target;
+                        "strongest": n_targets values, None where no target was found; CFAR: the listed
+                        targets only, and snr_db, amplitude beside them) beside the frame's own per-cycle fields
+Params  method, n_targets, detection ("strongest"), pfa (1e-6 per cell), max_targets (8), sigma_n (0: the
+        scene's noise RMS, the CFAR map's normalisation), scene
 Graph   ranging = { type = "range_estimator", method = "root_music" }
+        ranging = { type = "range_estimator", detection = "ca_cfar", pfa = 1e-6 }
 """
 import math
 
@@ -20,6 +29,7 @@ from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.adc import from_codes
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, pick
+from carav_stream.target_list import KINDS, target_list
 
 
 def _plain(values: np.ndarray) -> list:
@@ -30,7 +40,13 @@ class RangeEstimator(Block):
     inputs = (In("frames", kind="clean_frame", dtypes=("int16", "float32", "complex64")),)
     outputs = (Out("estimates", kind="estimates", dtypes=("none",)),)
     params = (Param("method", str, "ml", "estimator", choices=METHODS),
-              Param("n_targets", int, 1, "targets per cycle", low=1),
+              Param("n_targets", int, 1, "targets per cycle (detection strongest)", low=1),
+              Param("detection", str, "strongest", "which targets exist: the n_targets strongest, or a CFAR list",
+                    choices=("strongest", *KINDS)),
+              Param("pfa", float, 1e-6, "CFAR design false-alarm rate per range-Doppler cell", low=0.0, high=1.0,
+                    strict=True),
+              Param("max_targets", int, 8, "longest CFAR list per cycle", low=1, high=64),
+              Param("sigma_n", float, 0.0, "noise RMS per sample for the CFAR map; 0 = from the scene", low=0.0),
               SCENE)
 
     def check_params(self) -> None:
@@ -49,9 +65,19 @@ class RangeEstimator(Block):
         x = from_codes(self.scene_obj, frames.payload)
         if x.ndim != 3 or rho.shape != x.shape[:2] or x.shape[0] != n:
             raise ValueError(f"frame seq {frames.seq}: {n} cycles, frames {x.shape} and rho {rho.shape} disagree")
-        est = estimate(x, np.asarray(rho, dtype=bool), self.geometry, method=self.method, n_targets=self.n_targets)
-        return frames.derive(None, method=self.method, per_cycle=pick(
-            frames, range(n), range_m=_plain(est.range_m), velocity_mps=_plain(est.velocity_mps)))
+        rho = np.asarray(rho, dtype=bool)
+        if self.detection == "strongest":
+            est = estimate(x, rho, self.geometry, method=self.method, n_targets=self.n_targets)
+            return frames.derive(None, method=self.method, detection=self.detection, per_cycle=pick(
+                frames, range(n), range_m=_plain(est.range_m), velocity_mps=_plain(est.velocity_mps)))
+        tl = target_list(x, rho, self.geometry, self.sigma_n or self.scene_obj.sigma_n, detection=self.detection,
+                         pfa=self.pfa, method=self.method, max_targets=self.max_targets)
+        found = [slice(0, int(k)) for k in tl.n_found]
+        lists = {name: [_plain(values[i:i + 1, s])[0] for i, s in enumerate(found)]
+                 for name, values in (("range_m", tl.range_m), ("velocity_mps", tl.velocity_mps),
+                                      ("snr_db", tl.snr_db), ("amplitude", tl.amplitude))}
+        return frames.derive(None, method=self.method, detection=self.detection, pfa=self.pfa,
+                             per_cycle=pick(frames, range(n), **lists))
 
     def summary(self) -> dict:
         return {"refused": self.refused}

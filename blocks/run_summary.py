@@ -9,6 +9,12 @@ true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_
 seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
 unambiguous interval (how well the alias was measured) is reported beside it.
 
+With a CFAR target list (range_estimator detection = "ca_cfar" | "os_cfar") every cycle's list is scored against
+all of the scene's targets (carav_stream/target_list.associate: nearest pairs within 1.5 range cells plus half the
+cycle's range migration and 1.5 Doppler bins, velocities modulo the ambiguity): the probability of detection per
+true target and the false targets per cycle, on cycles without an attack and, apart, on attacked cycles the
+detector missed (where a ghost shows up as a false target).
+
 Ports   in  estimates   range_estimator records          (merged in arrival order with alarms)
         in  alarms      gate alarm records
 Params  scene (graph-wide): truth for the errors; every_s (float, 0): print a line every so many seconds
@@ -21,6 +27,7 @@ import time
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Param, n_cycles, per_cycle
+from carav_stream.target_list import KINDS, associate, gates
 
 
 class ErrorStats:
@@ -59,7 +66,11 @@ class RunSummary(Block):
         target = scene.targets[0] if scene.targets else None
         self.true_range_m = target.range_m if target else None
         self.true_velocity_mps = scene.range_rate_mps(target) if target else None
-        self.v_max = Geometry.from_scene(scene).max_velocity_mps
+        geometry = Geometry.from_scene(scene)
+        self.v_max = geometry.max_velocity_mps
+        self.truth = ([t.range_m for t in scene.targets], [scene.range_rate_mps(t) for t in scene.targets])
+        fastest = max((abs(v) for v in self.truth[1]), default=0.0)
+        self.gates = gates(geometry, scene.n_chirps, fastest)
 
     def start(self) -> None:
         self.cycles = self.attacked = self.detected = self.false_alarms = self.refused = self.unreadable = 0
@@ -69,6 +80,8 @@ class RunSummary(Block):
         self.velocity_err = ErrorStats()           # estimate - true range rate, as measured
         self.velocity_err_folded = ErrorStats()    # the same error modulo the unambiguous interval
         self.next_print = time.monotonic() + self.every_s
+        self.listing: dict[str, dict] = {}         # CFAR lists scored against the truth, by attacked / clean
+        self.detection: str | None = None
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
         frame = estimates if estimates is not None else alarms
@@ -94,6 +107,10 @@ class RunSummary(Block):
             self.refused += n
         elif self.true_range_m is not None:
             ranges, velocities = per.get("range_m") or [None] * n, per.get("velocity_mps") or [None] * n
+            if frame.header.get("detection") in KINDS:
+                self.detection = frame.header["detection"]
+                for i in range(n):
+                    self._score(ranges[i] or [], velocities[i] or [], "attacked_missed" if attacked[i] else "clean")
             for i in range(n):
                 if ranges[i] and ranges[i][0] is not None:
                     self.range_err["attacked" if attacked[i] else "clean"].add(ranges[i][0] - self.true_range_m)
@@ -107,6 +124,26 @@ class RunSummary(Block):
             print(f"[summary] {r['cycles']} cycles  alarms {r['alarms']}  attacked {r['attacked_cycles']}  "
                   f"detected {r['detected']}  false alarms {r['false_alarms']}  range rmse "
                   f"{r['range_error_m']['rmse']}", file=sys.stderr, flush=True)
+
+    def _score(self, ranges: list, velocities: list, kind: str) -> None:
+        pairs = [(r, v) for r, v in zip(ranges, velocities) if r is not None and v is not None]
+        found, false = associate([r for r, _ in pairs], [v for _, v in pairs], *self.truth, *self.gates, self.v_max)
+        tally = self.listing.setdefault(kind, {"cycles": 0, "detected": [0] * len(found), "false_targets": 0})
+        tally["cycles"] += 1
+        tally["detected"] = [d + int(f) for d, f in zip(tally["detected"], found)]
+        tally["false_targets"] += false
+
+    def target_list_figures(self) -> dict | None:
+        if self.detection is None:
+            return None
+        out = {"detection": self.detection, "gates": {"range_m": self.gates[0], "velocity_mps": self.gates[1]}}
+        for kind, t in self.listing.items():
+            out[kind] = {"cycles": t["cycles"], "false_targets": t["false_targets"],
+                         "false_targets_per_cycle": t["false_targets"] / t["cycles"],
+                         "targets": [{"range_m": r, "velocity_mps": v, "detected_cycles": d,
+                                      "probability_of_detection": d / t["cycles"]}
+                                     for r, v, d in zip(*self.truth, t["detected"])]}
+        return out
 
     def run_figures(self) -> dict:
         alarms = sum(self.reasons.values())
@@ -127,6 +164,7 @@ class RunSummary(Block):
             "velocity_ambiguous": self.true_velocity_mps is not None and abs(self.true_velocity_mps) >= self.v_max,
             "unambiguous_velocity_mps": self.v_max,
             "velocity_error_modulo_ambiguity_mps": self.velocity_err_folded.figures(),
+            "target_list": self.target_list_figures(),
         }
 
     def summary(self) -> dict:

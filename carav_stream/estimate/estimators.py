@@ -347,18 +347,77 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
         if method in ("ml", "music", "root_music"):
             f, nu, amp = _refine(x, chirps, f, nu, amp, method, n_newton, music_length, iq)
 
+    found = np.arange(width)[None, :] < order[:, None]
+    return _estimates(f, nu, amp, found, scale, chirps, geometry, method, couple)
+
+
+def _estimates(f, nu, amp, found, scale, chirps: _Chirps, geometry: Geometry, method: str, couple: bool) -> Estimates:
+    """Normalised (f, nu, amp) (C, K) -> Estimates in physical units; NaN where `found` is False."""
     nu = (nu + 0.5) % 1.0 - 0.5
     beat_hz = (f % 1.0) * geometry.fs_hz
     velocity = geometry.velocity_from_slow_freq(nu)
-    found = np.arange(width)[None, :] < order[:, None]
     one_chirp = chirps.count < 2
     velocity = np.where(one_chirp[:, None], np.nan, velocity)
     range_m = geometry.range_from_beat(beat_hz, np.nan_to_num(velocity) if couple else 0.0)
     nan = np.nan
     return Estimates(range_m=np.where(found, range_m, nan), velocity_mps=np.where(found, velocity, nan),
                      beat_hz=np.where(found, beat_hz, nan),
-                     amplitude=np.where(found, amp * (scale[:, None] * (1.0 if iq else 2.0)), nan),
-                     n_found=order.astype(np.int64), method=method)
+                     amplitude=np.where(found, amp * (scale[:, None] * (1.0 if geometry.iq else 2.0)), nan),
+                     n_found=found.sum(axis=1).astype(np.int64), method=method)
+
+
+def refine_at(frames, rho, geometry: Geometry, f0, nu0, *, method: str = DEFAULT_METHOD, n_newton: int = 1,
+              music_length: int | None = None, couple: bool = True) -> Estimates:
+    """Targets found elsewhere (a CFAR list, say) refined by `method` from where they were found.
+
+    f0, nu0   float (n_cycles, K): beat [cycles/sample] and slow-time frequency [cycles/chirp] of each target
+              (its cell), NaN after the last target of a cycle (targets first, padding after)
+    ml, music and root_music refine every target of a cycle jointly (the others cancelled, as in `estimate`);
+    fft_peak keeps the cells. Amplitudes are measured at the final frequencies.
+    """
+    frames, rho = _check_inputs(frames, rho, geometry, method)
+    f0, nu0 = np.asarray(f0, dtype=float), np.asarray(nu0, dtype=float)
+    if f0.ndim != 2 or f0.shape != nu0.shape or f0.shape[0] != frames.shape[0]:
+        raise ValueError(f"refine_at: f0 {f0.shape} and nu0 {nu0.shape} must be (n_cycles, K) for "
+                         f"{frames.shape[0]} cycles")
+    present = np.isfinite(f0) & np.isfinite(nu0)
+    counts = present.sum(axis=1)
+    if not np.array_equal(present, np.arange(f0.shape[1])[None, :] < counts[:, None]):
+        raise ValueError("refine_at: every cycle lists its targets first, NaN padding after")
+    chirps = _Chirps.of(rho)
+    _, scale, valid = _normalise(frames, chirps)
+    f, nu, amp = np.where(present, f0, 0.0), np.where(present, nu0, 0.0), np.zeros(f0.shape)
+    for k in np.unique(counts[counts > 0]):      # cycles with the same number of targets refine together
+        rows = np.flatnonzero(counts == k)
+        sub = _Chirps.of(rho[rows])
+        x, _, _ = _normalise(frames[rows], sub)
+        fs, nus = f[rows, :k], nu[rows, :k]
+        if method != "fft_peak":
+            fs, nus = _interpolate(x, sub, fs, nus, geometry.iq)
+        if method in ("ml", "music", "root_music"):
+            fs, nus, amps = _refine(x, sub, fs, nus, None, method, n_newton, music_length, geometry.iq)
+        else:
+            amps = np.stack([np.abs((_demod_slow(x, sub, fs[:, j]) * spectral.phasor(nus[:, j], sub.n_chirps)
+                                     * sub.rho).sum(axis=1)) / (x.shape[-1] * np.maximum(sub.count, 1))
+                             for j in range(k)], axis=1)
+        f[rows, :k], nu[rows, :k], amp[rows, :k] = fs, nus, amps
+    return _estimates(f, nu, amp, present & valid[:, None], scale, chirps, geometry, method, couple)
+
+
+def _interpolate(x, chirps: _Chirps, f, nu, iq):
+    """From cells to sub-bin frequencies, as `_one_target` does for one: the beat from Candan's three-bin formula
+    on the range-Doppler cells around each target's cell, the Doppler from the zero-padded Doppler column."""
+    n_samp, md = x.shape[-1], chirps.n_chirps
+    spec = scipy.fft.fft(x, axis=-1) if iq else scipy.fft.rfft(x, axis=-1)
+    nb = spec.shape[-1]
+    k0 = np.clip(np.rint(f * n_samp).astype(np.int64) % n_samp, 0, nb - 1)
+    l0 = np.rint(nu * md).astype(np.int64) % md
+    f_out = np.empty(f.shape)
+    for j in range(f.shape[1]):
+        k3 = np.stack([np.clip(k0[:, j] - 1, 0, nb - 1), k0[:, j], np.clip(k0[:, j] + 1, 0, nb - 1)], axis=1)
+        rd = _cells(spec, chirps, np.repeat(l0[:, j:j + 1], 3, axis=1), k3, md)
+        f_out[:, j] = (k0[:, j] + spectral.candan_delta(rd[:, 0], rd[:, 1], rd[:, 2], n_samp)) / n_samp
+    return f_out, _doppler_column(spec, chirps, k0, l0, md, f.shape[1])
 
 
 def _refine(x, chirps: _Chirps, f, nu, amp, method, n_newton, music_length, iq):

@@ -84,3 +84,21 @@ def test_a_target_within_the_unambiguous_velocity_is_not_flagged():
                                                        "velocity_mps": [[true_v + 0.5]]}), 0), None)
     run = s.summary()["run"]
     assert run["velocity_ambiguous"] is False and run["velocity_error_mps"]["max"] == pytest.approx(0.5)
+
+
+def test_a_cfar_list_is_scored_per_true_target_with_false_targets_counted_apart():
+    scene = scene_of(SCENE)
+    r0, v0 = scene.targets[0].range_m, scene.range_rate_mps(scene.targets[0])
+    s = RunSummary(scene=SCENE)
+    s.start()
+    per = {"cycle_index": [0, 1, 2, 3], "attack_active": [False, False, False, True],
+           "range_m": [[r0 + 0.05], [r0 + 0.05, 90.0], [], [r0, 25.0]],
+           "velocity_mps": [[v0], [v0 + 20.0, 3.0], [], [v0, -10.0]]}   # cycle 1: the car's Doppler is off
+    s.process(wire(Frame.of(None, cycles=4, detection="ca_cfar", per_cycle=per), 0), None)
+    listing = s.summary()["run"]["target_list"]
+    assert listing["detection"] == "ca_cfar"
+    assert listing["clean"]["cycles"] == 3 and listing["clean"]["false_targets"] == 2
+    assert listing["clean"]["targets"][0]["detected_cycles"] == 1
+    assert listing["clean"]["targets"][0]["probability_of_detection"] == pytest.approx(1 / 3)
+    ghost = listing["attacked_missed"]                                   # the ghost at 25 m of a missed attack
+    assert ghost["cycles"] == 1 and ghost["false_targets"] == 1 and ghost["targets"][0]["detected_cycles"] == 1

@@ -111,3 +111,14 @@ def test_bad_input_is_refused_by_name():
         cfar_threshold(np.ones((1, 4, 40)), pfa=1e-3, kind="go")
     with pytest.raises(ValueError, match="without active chirps"):
         rd_power(np.ones((1, 4, 8)), np.zeros((1, 4), bool), 1.0)
+
+
+def test_the_worst_off_grid_sidelobe_of_full_sampling_is_the_dirichlet_kernels_at_half_a_bin():
+    from carav_stream.detect.cfar import worst_sidelobe_ratio
+    m = 64
+    # all chirps: |P(u)| = |sin(pi u) / sin(pi u / M)|; the tone half a bin off, the cell two bins from the peak
+    closed = (np.sin(np.pi * 0.5 / m) / np.sin(np.pi * 1.5 / m)) ** 2
+    assert worst_sidelobe_ratio(np.ones((1, m), bool))[0] == pytest.approx(closed, rel=1e-9)
+    rho = balanced_rows(np.random.default_rng(2), 300, m)
+    worst, on_grid = worst_sidelobe_ratio(rho), peak_sidelobe_ratio(rho)
+    assert np.median(worst) > 2 * np.median(on_grid)        # off the grid, sparse sidelobes are not nulled
