@@ -2,8 +2,11 @@
 
 Counts every cycle once, from the gate's alarms and the estimator's records (each frame carries one or more
 cycles, per_cycle lists): cycles, alarms (by reason and by the detector that raised them), attacked cycles
-(per-cycle attack_active, set by the attacker), detected attacks, false alarms (alarms on cycles with no
-attack), missed attacks, and the range and velocity errors of the estimates against the scene's first
+(per-cycle attack_active, set by the attacker), detected attacks, false alarms (the detector's own alarms,
+C(eta) >= 1, on cycles with no attack), missed attacks, fail-closed refusals apart (cycles stopped without a
+verdict of the detector: invalid frames, no activation sequence, no verdict, a crashed detector; they are neither
+detections nor false alarms, and the rates are over the cycles the detector judged), the radar's own cycle rate
+(for the real-time factor), and the range and velocity errors of the estimates against the scene's first
 target (mean, rmse, max), split into attacked and clean cycles. The velocity error is the estimate minus the
 true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_c) (AWR1642's Table II car) is
 seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
@@ -67,6 +70,7 @@ class RunSummary(Block):
         self.true_range_m = target.range_m if target else None
         self.true_velocity_mps = scene.range_rate_mps(target) if target else None
         geometry = Geometry.from_scene(scene)
+        self.radar_rate = scene.cycles_per_s
         self.v_max = geometry.max_velocity_mps
         self.truth = ([t.range_m for t in scene.targets], [scene.range_rate_mps(t) for t in scene.targets])
         fastest = max((abs(v) for v in self.truth[1]), default=0.0)
@@ -74,6 +78,7 @@ class RunSummary(Block):
 
     def start(self) -> None:
         self.cycles = self.attacked = self.detected = self.false_alarms = self.refused = self.unreadable = 0
+        self.refused_attacked = 0                  # fail-closed refusals of attacked cycles (no detector verdict)
         self.reasons: dict[str, int] = {}
         self.raised_by: dict[str, int] = {}
         self.range_err = {"attacked": ErrorStats(), "clean": ErrorStats()}
@@ -101,8 +106,11 @@ class RunSummary(Block):
                 by = (per.get("raised_by") or [None] * n)[i]
                 if by is not None:
                     self.raised_by[by] = self.raised_by.get(by, 0) + 1
-                self.detected += bool(attacked[i])
-                self.false_alarms += not attacked[i]
+                if reason == "attack":             # the detector's own verdict: C(eta) >= 1
+                    self.detected += bool(attacked[i])
+                    self.false_alarms += not attacked[i]
+                else:                              # refused without a verdict (fail closed): counted apart
+                    self.refused_attacked += bool(attacked[i])
         elif frame.header.get("refused"):
             self.refused += n
         elif self.true_range_m is not None:
@@ -147,14 +155,20 @@ class RunSummary(Block):
 
     def run_figures(self) -> dict:
         alarms = sum(self.reasons.values())
+        refusals = {k: v for k, v in self.reasons.items() if k != "attack"}
+        judged_attacked = self.attacked - self.refused_attacked
+        judged_clean = self.cycles - self.attacked - (sum(refusals.values()) - self.refused_attacked)
         all_range = self.range_err["attacked"].merged(self.range_err["clean"])
         return {
             "cycles_judged": self.cycles, "cycles": self.cycles, "alarms": alarms, "alarm_reasons": self.reasons,
             "raised_by": self.raised_by, "attacked_cycles": self.attacked, "detected": self.detected,
-            "missed": self.attacked - self.detected, "false_alarms": self.false_alarms,
-            "detection_rate": self.detected / self.attacked if self.attacked else None,
-            "false_alarm_rate": (self.false_alarms / (self.cycles - self.attacked)
-                                 if self.cycles > self.attacked else None),
+            "missed": judged_attacked - self.detected, "false_alarms": self.false_alarms,
+            # rates over the cycles the detector judged: a refusal is neither a detection nor a false alarm
+            "detection_rate": self.detected / judged_attacked if judged_attacked else None,
+            "false_alarm_rate": self.false_alarms / judged_clean if judged_clean else None,
+            "refused": {"cycles": sum(refusals.values()), "by_reason": refusals,
+                        "attacked_cycles": self.refused_attacked},
+            "radar_cycles_per_s": self.radar_rate,
             "refused_by_estimator": self.refused, "unreadable_cycles": self.unreadable,
             "range_error_m": all_range.figures(),
             "range_error_attacked_missed_m": self.range_err["attacked"].figures(),

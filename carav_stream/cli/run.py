@@ -67,21 +67,120 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     return Exit.OK
 
 
+def _num(x: Any, digits: int = 3) -> str:
+    """A figure rounded to `digits` significant digits; None (nothing measured) as n/a."""
+    if x is None:
+        return "n/a"
+    if isinstance(x, bool) or isinstance(x, int):
+        return str(x)
+    if isinstance(x, float):
+        return f"{x:.{digits}g}"
+    return str(x)
+
+
+def _qty(x: float | None, unit: str) -> str:
+    """A length (unit "m") or speed ("m/s") with its unit, in milli-units below 0.1."""
+    if x is None:
+        return "n/a"
+    return f"{x * 1e3:.3g} m{unit}" if 0 < abs(x) < 0.1 else f"{x:.3g} {unit}"
+
+
+def _pct(x: float | None) -> str:
+    return "n/a" if x is None else f"{100 * x:.3g} %"
+
+
+def _errors(name: str, e: dict, unit: str) -> str:
+    if not e or not e.get("n"):
+        return f"  {name}: n/a (no estimate)"
+    return (f"  {name}: RMSE {_qty(e['rmse'], unit)}, mean {_qty(e['mean'], unit)}, absolute maximum "
+            f"{_qty(e['max'], unit)} over {e['n']} cycles")
+
+
+def _plain(value: Any) -> str:
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {_plain(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, list):
+        return "[" + ", ".join(_plain(v) for v in value) + "]"
+    return _num(value, 4)
+
+
+RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked_cycles", "detected", "missed",
+              "false_alarms", "detection_rate", "false_alarm_rate", "refused", "radar_cycles_per_s",
+              "range_error_m", "range_error_attacked_missed_m", "velocity_error_mps", "velocity_ambiguous",
+              "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
+              "refused_by_estimator", "unreadable_cycles"}
+RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
+                "failures", "swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node", "estimated_counts"}
+
+
+def _radar_lines(s: dict[str, Any]) -> list[str]:
+    """The run_summary block's figures, as a radar engineer reads them."""
+    if "cycles_judged" not in s:
+        return []
+    lines = []
+    refused = s.get("refused") or {"cycles": 0, "by_reason": {}, "attacked_cycles": 0}
+    judged_clean = s["cycles_judged"] - s["attacked_cycles"] - (refused["cycles"] - refused["attacked_cycles"])
+    by = ", ".join(f"{k} {v}" for k, v in sorted(s["raised_by"].items()) if k in ("D0", "D1")) or "none"
+    lines.append(f"  attacked cycles {s['attacked_cycles']}: detected {s['detected']}, missed {s['missed']} "
+                 f"(detection rate {_pct(s['detection_rate'])})")
+    lines.append(f"  false alarms {s['false_alarms']} on {judged_clean} clean cycles judged (false-alarm rate "
+                 f"{_pct(s['false_alarm_rate'])}); the detector's alarms raised by {by}")
+    reasons = ", ".join(f"{k} {v}" for k, v in sorted(refused["by_reason"].items()))
+    lines.append(f"  refused without a verdict (fail closed): {refused['cycles']} cycles"
+                 + (f" ({reasons}; {refused['attacked_cycles']} of them attacked)" if refused["cycles"] else ""))
+    lines.append(_errors("range error, first target", s.get("range_error_m"), "m"))
+    if s.get("range_error_attacked_missed_m", {}).get("n"):
+        lines.append(_errors("  of which attacked cycles the detector missed", s["range_error_attacked_missed_m"],
+                             "m"))
+    lines.append(_errors("velocity error, first target", s.get("velocity_error_mps"), "m/s"))
+    if s.get("velocity_ambiguous"):
+        lines.append(f"    the target is faster than the unambiguous +-{_qty(s['unambiguous_velocity_mps'], 'm/s')}: "
+                     "the error above is the aliased estimate's")
+        lines.append(_errors("  velocity error modulo the ambiguity", s.get("velocity_error_modulo_ambiguity_mps"),
+                             "m/s"))
+    for key, text in (("refused_by_estimator", "cycles the estimator refused (no clean verdict)"),
+                      ("unreadable_cycles", "cycles whose per-cycle fields could not be read")):
+        if s.get(key):
+            lines.append(f"  {text}: {s[key]}")
+    listing = s.get("target_list")
+    if listing:
+        for kind in ("clean", "attacked_missed"):
+            t = listing.get(kind)
+            if not t:
+                continue
+            where = "clean cycles" if kind == "clean" else "attacked cycles the detector missed"
+            per = "; ".join(f"target at {_qty(x['range_m'], 'm')}, {_qty(x['velocity_mps'], 'm/s')}: probability "
+                            f"of detection {_pct(x['probability_of_detection'])}" for x in t["targets"])
+            lines.append(f"  target list ({listing['detection']}), {t['cycles']} {where}: {per}; false targets "
+                         f"{_num(t['false_targets_per_cycle'])} per cycle")
+    return lines
+
+
 def print_summary(s: dict[str, Any]) -> None:
     print(f"graph {s['graph']}  run {s['run']}")
-    print(f"  cycles {s['cycles']}  lost {s['lost']}  rejected {s['rejected']}  unpaired {s['unpaired']}  "
-          f"restarts {s['restarts']}  {s['throughput_cycles_per_s']:.1f} cycles/s over {s['wall_s']:.2f} s")
-    skip = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts", "failures",
-            "swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node"}
+    rate, radar = s["throughput_cycles_per_s"], s.get("radar_cycles_per_s")
+    real_time = f", {_num(rate / radar)} x the radar's real time ({_num(radar, 4)} cycles/s)" if radar else ""
+    print(f"  {s['cycles']} cycles in {_num(s['wall_s'])} s: {_num(rate, 4)} cycles/s{real_time}")
+    print(f"  frames lost {s['lost']}, rejected {s['rejected']}, unpaired {s['unpaired']}; node restarts "
+          f"{s['restarts']}")
+    for line in _radar_lines(s):
+        print(line)
     for k, v in s.items():
-        if k not in skip:
-            print(f"  {k}: {json.dumps(v, default=str) if isinstance(v, (dict, list)) else v}")
-    print("  node            block              in        out       rejected  restarts")
+        if k not in RUNTIME_KEYS | RADAR_KEYS:
+            print(f"  {k.replace('_', ' ')}: {_plain(v)}")
+    if s.get("estimated_counts"):
+        print(f"  counts estimated from the last heartbeat of: {', '.join(s['estimated_counts'])}")
+    print("  node            block              frames in  frames out  rejected  restarts")
     for n, p in s["per_node"].items():
-        print(f"  {n:<15} {p['block']:<18} {sum(p['in'].values()):<9} {sum(p['out'].values()):<9} "
+        print(f"  {n:<15} {p['block']:<18} {sum(p['in'].values()):<10} {sum(p['out'].values()):<11} "
               f"{sum(p['rejected'].values()):<9} {p['restarts']}")
     for sw in s["swaps"]:
-        print(f"  swap: {sw['node']} -> {sw['block']}@{sw['version']}#{sw['generation']} from seq {sw['first_seq']}")
+        print(f"  {swap_words(sw)}")
     for f in s["failures"]:
         print(f"  FAILURE: {f}")
 
+
+def swap_words(sw: dict[str, Any]) -> str:
+    """A live swap in words: node, block and its version, which swap of the node it was, from which frame."""
+    return (f"swap: node {sw['node']} runs block {sw['block']} (version {sw['version']}) from frame seq "
+            f"{sw['first_seq']} on, its swap number {sw['generation']}")

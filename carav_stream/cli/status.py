@@ -5,6 +5,7 @@ import argparse
 import json
 
 from carav_stream.cli.common import ask, running_graphs
+from carav_stream.cli.run import swap_words
 from carav_stream.runtime.protocol import Admin
 
 
@@ -24,7 +25,9 @@ def run(args: argparse.Namespace) -> int:
         for n, st in s["nodes"].items():
             c = st["counters"]
             print(f"  {n:<15} {c.get('block', '?'):<18} {'up' if st['alive'] else 'DOWN':<5} "
-                  f"in {sum(c.get('in', {}).values()):<8} out {sum(c.get('out', {}).values()):<8} "
-                  f"rejected {sum(c.get('rejected', {}).values()):<5} {st['rate_per_s']:8.1f}/s  "
-                  f"restarts {st['restarts']}")
+                  f"frames in {sum(c.get('in', {}).values()):<8} out {sum(c.get('out', {}).values()):<8} "
+                  f"rejected {sum(c.get('rejected', {}).values()):<5} {st['rate_per_s']:8.1f} frames/s "
+                  f"{st.get('cycles_per_s', 0.0):9.1f} cycles/s  restarts {st['restarts']}")
+        for sw in s.get("swaps", []):
+            print(f"  {swap_words(sw)}")
     return 0

@@ -265,8 +265,10 @@ class Supervisor:
                 "nodes": {n: {"pid": st.proc.pid if st.proc else None,
                               "alive": bool(st.proc and st.proc.poll() is None),
                               "restarts": st.restarts, "counters": st.counters,
-                              "rate_per_s": st.counters.get("processed", 0) / elapsed if elapsed else 0.0}
-                          for n, st in self.nodes.items()}}
+                              "rate_per_s": st.counters.get("processed", 0) / elapsed if elapsed else 0.0,
+                              "cycles_per_s": st.counters.get("cycles", 0) / elapsed if elapsed else 0.0}
+                          for n, st in self.nodes.items()},
+                "swaps": self.swaps}
 
     def cycles_done(self) -> int:
         """Cycles the local sources generated (a frame may carry several, header `cycles`); on a host without

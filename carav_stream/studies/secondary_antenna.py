@@ -124,14 +124,15 @@ def _plot(results, q0, eta, path):
         ax = axes[i, 0]
         ax.plot(grid, pf, label="PF(eta)")
         ax.plot(grid, pm, label="PM(eta)")
-        ax.axvline(eta, color="k", ls="--", lw=0.8)
-        ax.set(xlabel="eta", ylabel="probability", title=f"{r['attacker']}, {r['power']} (RARMS {r['rarms']:g})")
+        ax.axvline(eta, color="k", ls="--", lw=0.8, label=f"eta = {eta:g}")
+        ax.set(xlabel="threshold eta (no unit)", ylabel="probability",
+               title=f"{r['attacker']}, {r['power']} (RARMS {r['rarms']:g}): PF and PM")
         ax.legend(fontsize=8)
         ax = axes[i, 1]
         ax.semilogx(np.maximum(r["range_error_m"], 1e-4), r["q"], ".", ms=3)
         ax.axhline(eta, color="k", ls="--", lw=0.8, label=f"Q = {eta:g}")
         ax.axvline(1.0, color="r", ls=":", lw=0.8, label="range resolution")
-        ax.set(xlabel="range error [m]", ylabel="Q", title="missed below the line")
+        ax.set(xlabel="range error [m]", ylabel="Q (no unit)", title="Q against range error: missed below the line")
         ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=100)

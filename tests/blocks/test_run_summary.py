@@ -39,11 +39,26 @@ def test_the_summary_counts_alarms_detections_and_errors_against_the_scene_truth
     s.process(None, alarms)
     run = s.summary()["run"]
     assert run["cycles_judged"] == 5 and run["attacked_cycles"] == 2 and run["detected"] == 1
-    assert run["missed"] == 1 and run["false_alarms"] == 1 and run["alarm_reasons"] == {"attack": 1, "no_verdict": 1}
+    # the clean cycle refused for want of a verdict is no false alarm: refusals are counted apart
+    assert run["missed"] == 1 and run["false_alarms"] == 0 and run["alarm_reasons"] == {"attack": 1, "no_verdict": 1}
+    assert run["refused"] == {"cycles": 1, "by_reason": {"no_verdict": 1}, "attacked_cycles": 0}
+    assert run["detection_rate"] == 0.5 and run["false_alarm_rate"] == 0.0      # over the 2 clean cycles judged
     assert run["raised_by"] == {"D0": 1}
     assert run["range_error_m"]["n"] == 3 and run["range_error_m"]["max"] == pytest.approx(2.0)
     assert run["range_error_m"]["rmse"] == pytest.approx(math.sqrt((0.1 ** 2 + 0.3 ** 2 + 2.0 ** 2) / 3))
     assert run["range_error_attacked_missed_m"]["n"] == 1      # the one attacked cycle that reached ranging
+
+
+def test_a_crashed_detector_reads_as_refusals_never_as_detections_or_false_alarms():
+    s = RunSummary(scene=SCENE)
+    s.start()
+    per = {"cycle_index": list(range(6)), "attack_active": [False, False, False, True, True, True],
+           "reason": ["no_verdict"] * 6}
+    s.process(None, wire(Frame.of(None, cycles=6, per_cycle=per), 0))
+    run = s.summary()["run"]
+    assert run["detected"] == 0 and run["false_alarms"] == 0 and run["missed"] == 0
+    assert run["detection_rate"] is None and run["false_alarm_rate"] is None
+    assert run["refused"] == {"cycles": 6, "by_reason": {"no_verdict": 6}, "attacked_cycles": 3}
 
 
 def test_memory_does_not_grow_with_the_cycles_seen():

@@ -260,7 +260,7 @@ def test_demo_graph_runs_and_reports_detection_figures(carav):
     assert s["attacked_cycles"] == 50 and s["detected"] == 50 and s["false_alarms"] == 0
     assert s["range_error_m"]["n"] == 150 and s["range_error_m"]["rmse"] < 0.05
     out = run.stdout()
-    assert "detection_rate: 1.0" in out and "lost 0" in out
+    assert "(detection rate 100 %)" in out and "frames lost 0" in out and "None" not in out
 
 
 def _free_port_base() -> int:

@@ -110,6 +110,9 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
     refused = carav.cli("swap", "t", "adder")
     assert refused.returncode == 3 and "has no input 'inp'" in refused.stderr
     wait_until(lambda: len(read_jsonl(out)) > 2500, 30, "frames after the last swap")
+    status = carav.cli("status").stdout                            # the swaps in words, not @1#1
+    assert "swap: node t runs block tagger (version 1) from frame seq" in status and "its swap number 2" in status
+    assert "frames/s" in status and "cycles/s" in status
     assert carav.cli("stop").returncode == 0
     assert run.wait(60) == 0, run.stderr()
     lines = read_jsonl(out)
