@@ -243,6 +243,27 @@ def soak_table(doc: dict) -> list[str]:
     return lines
 
 
+def study_rows(doc: dict) -> list[Row]:
+    from carav_stream.bench.study_bench import TARGET
+    r = doc["records"][0]
+    return [(f"carav study, 2 local workers over 1 on {r['cores']} cores ({r['points']} points of {r['trials']} "
+             "cycles, every sample)", f"{r['speedup_2_over_1']:.2f} x ({r['cycles_per_s']['1']:.0f} -> "
+             f"{r['cycles_per_s']['2']:.0f} cycles/s)", f">= {TARGET:g} x", _met(r["speedup_2_over_1"] >= TARGET)),
+            (f"Dask scheduler overhead per task ({r['overhead_tasks']} empty tasks, one worker)",
+             f"{r['overhead_s_per_task'] * 1e3:.2f} ms", "(reported)", "-")]
+
+
+def study_table(doc: dict) -> list[str]:
+    r = doc["records"][0]
+    lines = ["| workers | cycles/s (median) | runs | cluster start-up s |", "|---:|---:|---|---:|"]
+    for w in ("1", "2"):
+        runs = ", ".join(f"{x:.0f}" for x in r["runs_cycles_per_s"][w])
+        lines.append(f"| {w} | {r['cycles_per_s'][w]:.0f} | {runs} | {r['cluster_start_s'][w]:.1f} |")
+    lines += ["", f"2 workers over 1, run by run: {', '.join(f'{x:.2f}' for x in r['runs_speedup'])}; scheduler "
+              f"overhead {r['overhead_s_per_task'] * 1e3:.2f} ms per empty task."]
+    return lines
+
+
 BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], list[str]]]] = {
     "transport": ("Transport: runtime against raw pyzmq", transport_rows, transport_table),
     "synth": ("Signal chain per simulated cycle", synth_rows, synth_table),
@@ -250,6 +271,7 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], l
     "estimators": ("Estimators: error against run time", estimators_rows, estimators_table),
     "pipeline": ("Pipeline: the multi-process radar graph", pipeline_rows, pipeline_table),
     "soak": ("Soak: the demo graph for minutes with live swaps", soak_rows, soak_table),
+    "study": ("Studies on Dask: scaling over local workers", study_rows, study_table),
 }
 
 INTRO = """# Benchmarks

@@ -8,6 +8,7 @@
     carav scenes [NAME | FILE ...]   what a scene implies (resolution, max range and velocity, SNR, warnings)
     carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
     carav sweep ...            PF/PM Monte Carlo and threshold design
+    carav study STUDY.toml [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--plot]   sweeps on Dask
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar ...
@@ -38,6 +39,7 @@ COMMANDS = {
     "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),
     "sweep": ("carav_stream.studies.sweep_command", "PF/PM Monte Carlo over eta and RARMS, with threshold design"),
     "reproduce": ("carav_stream.studies.reproduce", "the paper's figures and claims beside ours, as markdown"),
+    "study": ("carav_stream.studies.study", "a declarative grid of sweeps on Dask distributed: CSV, JSON, figures"),
     "design": ("carav_stream.studies.design_command", "detector thresholds of a scene for a target false-alarm rate"),
 }
 EXPERIMENTS = {
@@ -52,6 +54,7 @@ BENCHES = {
     "detector": ("carav_stream.bench.detection", "detector stability, ns/sample and Monte Carlo speed"),
     "estimators": ("carav_stream.bench.estimation", "run time against error of the range/velocity estimators"),
     "pipeline": ("carav_stream.bench.pipeline", "cycles/s of the multi-process graph against one process"),
+    "study": ("carav_stream.bench.study_bench", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),
     "soak": ("carav_stream.bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
     "report": ("carav_stream.bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }

@@ -113,11 +113,11 @@ def resolve_method(source: CycleSource, attack: str, method: str) -> str:
     return method
 
 
-def simulate_q(source: CycleSource, attack: str, rarms: float, n_trials: int, seed_seq: np.random.SeedSequence,
-               *, method: str = "auto", workers: int = 2, progress: Callable[[int], None] | None = None,
-               detector: str = "carav") -> QDraw:
-    """Draw Q for n_trials cycles (eta = 1 is passed to the detector: Q itself does not depend on eta); for an
-    opt-in detector (carav_stream.montecarlo.detectors) its statistic instead, on full samples."""
+def batch_plan(source: CycleSource, attack: str, n_trials: int, *, method: str = "auto",
+               detector: str = "carav") -> tuple[str, list[int]]:
+    """(method used, cycles per batch): how a point's n_trials cycles are cut into seeded batches. Batch b of job j
+    draws from SeedSequence(seed, spawn_key=(j, b)), so whoever runs it (a thread here, a Dask worker in
+    `carav study`) draws the same numbers."""
     if n_trials < 1:
         raise ValueError(f"n_trials: must be >= 1, got {n_trials}")
     if detector != "carav":
@@ -131,20 +131,39 @@ def simulate_q(source: CycleSource, attack: str, rarms: float, n_trials: int, se
         used = resolve_method(source, attack, method)
     per = (ENERGY_CYCLES_PER_BATCH if used == "energy"
            else max(1, SAMPLES_PER_BATCH // (source.n_chirps * source.n_samples)))
-    sizes = [min(per, n_trials - i) for i in range(0, n_trials, per)]
+    return used, [min(per, n_trials - i) for i in range(0, n_trials, per)]
+
+
+def batches_independent(source: CycleSource, used: str) -> bool:
+    """Whether a point's batches may run apart, in any order: the sufficient-statistic (energy) path keeps no state
+    between batches; a source marked sequential (stateful attackers, an activation stream) needs them in order."""
+    return used == "energy" or not getattr(source, "sequential", False)
+
+
+def draw_batch(source: CycleSource, attack: str, rarms: float, size: int, seed: np.random.SeedSequence, used: str,
+               detector: str = "carav") -> tuple[np.ndarray, np.ndarray]:
+    """Q (or an opt-in detector's statistic) and by_d1 of one batch."""
+    rng = np.random.default_rng(seed)
+    if detector != "carav":
+        q = source.draw_stat(size, attack, rarms, rng, detector)
+        return q, np.zeros(q.shape, bool)
+    return source.draw_q(size, attack, rarms, rng, used)
+
+
+def simulate_q(source: CycleSource, attack: str, rarms: float, n_trials: int, seed_seq: np.random.SeedSequence,
+               *, method: str = "auto", workers: int = 2, progress: Callable[[int], None] | None = None,
+               detector: str = "carav") -> QDraw:
+    """Draw Q for n_trials cycles (eta = 1 is passed to the detector: Q itself does not depend on eta); for an
+    opt-in detector (carav_stream.montecarlo.detectors) its statistic instead, on full samples."""
+    used, sizes = batch_plan(source, attack, n_trials, method=method, detector=detector)
     children = seed_seq.spawn(len(sizes))
 
     def one(args):
         size, child = args
-        rng = np.random.default_rng(child)
-        if detector != "carav":
-            q = source.draw_stat(size, attack, rarms, rng, detector)
-            by_d1 = np.zeros(q.shape, bool)
-        else:
-            q, by_d1 = source.draw_q(size, attack, rarms, rng, used)
+        out = draw_batch(source, attack, rarms, size, child, used, detector)
         if progress is not None:
             progress(size)
-        return q, by_d1
+        return out
 
     if hasattr(source, "begin_job"):
         source.begin_job(attack, rarms)
@@ -203,9 +222,8 @@ def sweep(source: CycleSource, *, attacks, rarms, n_trials: int, eta, seed: int 
     eta = np.asarray(eta, dtype=np.float64)
     attacks = list(attacks)
     rarms = [float(r) for r in rarms]
-    jobs = [("none", 0.0)] + [(a, r) for a in attacks for r in rarms]
-    root = np.random.SeedSequence(seed)
-    children = root.spawn(len(jobs))
+    jobs = sweep_jobs(attacks, rarms)
+    children = np.random.SeedSequence(seed).spawn(len(jobs))
     total = n_trials * len(jobs)
     done = [0]
 
@@ -218,26 +236,40 @@ def sweep(source: CycleSource, *, attacks, rarms, n_trials: int, eta, seed: int 
     for (attack, r), child in zip(jobs, children):
         draws[(attack, r)] = simulate_q(source, attack, r, n_trials, child, method=method, workers=workers,
                                         progress=tick, detector=detector)
+    return assemble(source, draws, pairs=jobs[1:], n_trials=n_trials, eta=eta, seed=seed, target_pf=target_pf,
+                    design_rarms=design_rarms, detector=detector)
+
+
+def sweep_jobs(attacks, rarms) -> list[tuple[str, float]]:
+    """The jobs of a sweep in seed order: no attack first (PF), then every (attack, RARMS); job j draws from
+    SeedSequence(seed).spawn(...)[j]."""
+    return [("none", 0.0)] + [(a, float(r)) for a in attacks for r in rarms]
+
+
+def assemble(source: CycleSource, draws: dict, *, pairs, n_trials: int, eta, seed: int | None,
+             target_pf: float = 0.01, design_rarms: float = 3.0, detector: str = "carav") -> dict:
+    """The JSON result of a sweep from its draws {(attack, RARMS): QDraw} (see `sweep`); `pairs` the attacked
+    (attack, RARMS) points in order (draws also holds ("none", 0.0), the attack-free cycles)."""
+    eta = np.asarray(eta, dtype=np.float64)
     q0 = draws[("none", 0.0)]
     curves = []
-    for attack in attacks:
-        for r in rarms:
-            qa = draws[(attack, r)]
-            c = curves_from_q(q0.q, qa.q, eta)
-            entry = {"detector": detector, "attack": attack, "rarms": r, "trials": n_trials, "method": qa.method,
-                     "eta": _as_lists(eta), "pf": _as_lists(c["pf"]), "pm": _as_lists(c["pm"]),
-                     "pf_ci": _as_lists(c["pf_ci"]), "pm_ci": _as_lists(c["pm_ci"]),
-                     "miss_by_d1_share": float(np.mean(qa.by_d1)),
-                     "q_quantiles": {p: float(np.quantile(qa.q, p / 100)) for p in (1, 50, 99)}}
-            entry["thresholds"] = design_thresholds(eta, c["pf"], c["pm"], target_pf=target_pf,
-                                                    pf_ci=c["pf_ci"], pm_ci=c["pm_ci"])
-            cf = source.closed_form(attack if attack in ("none", "random") else "none")
-            if cf is not None and attack in ("none", "random") and detector == "carav":
-                entry["closed_form"] = {
-                    "pf": _as_lists(pf_pm_closed_form(eta, **cf)["p_alarm"]),
-                    "pm": _as_lists(pf_pm_closed_form(eta, **cf, rarms=r)["p_quiet"]),
-                    "note": "D0 part exact, D1 part approximate (stats.pf_pm_closed_form)"}
-            curves.append(entry)
+    for attack, r in pairs:
+        qa = draws[(attack, r)]
+        c = curves_from_q(q0.q, qa.q, eta)
+        entry = {"detector": detector, "attack": attack, "rarms": r, "trials": n_trials, "method": qa.method,
+                 "eta": _as_lists(eta), "pf": _as_lists(c["pf"]), "pm": _as_lists(c["pm"]),
+                 "pf_ci": _as_lists(c["pf_ci"]), "pm_ci": _as_lists(c["pm_ci"]),
+                 "miss_by_d1_share": float(np.mean(qa.by_d1)),
+                 "q_quantiles": {p: float(np.quantile(qa.q, p / 100)) for p in (1, 50, 99)}}
+        entry["thresholds"] = design_thresholds(eta, c["pf"], c["pm"], target_pf=target_pf,
+                                                pf_ci=c["pf_ci"], pm_ci=c["pm_ci"])
+        cf = source.closed_form(attack if attack in ("none", "random") else "none")
+        if cf is not None and attack in ("none", "random") and detector == "carav":
+            entry["closed_form"] = {
+                "pf": _as_lists(pf_pm_closed_form(eta, **cf)["p_alarm"]),
+                "pm": _as_lists(pf_pm_closed_form(eta, **cf, rarms=r)["p_quiet"]),
+                "note": "D0 part exact, D1 part approximate (stats.pf_pm_closed_form)"}
+        curves.append(entry)
     design = [c for c in curves if c["rarms"] >= design_rarms] or curves
     pf = np.asarray(design[0]["pf"])
     pf_ci = np.asarray(design[0]["pf_ci"])

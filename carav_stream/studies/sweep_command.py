@@ -20,7 +20,7 @@ from carav_stream.cli.common import CommandError, Exit
 from carav_stream.cli.options import count, float_list, number, output_file
 from carav_stream.montecarlo.engine import PaperSource, eta_grid, sweep
 
-__all__ = ["configure", "run", "build_source", "plot_curves", "ProgressBar"]
+__all__ = ["configure", "run", "build_source", "source_from_spec", "plot_curves", "ProgressBar"]
 
 
 class ProgressBar:
@@ -84,6 +84,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--design-rarms", type=number(0.0), default=3.0,
                         help="top-level thresholds are designed against the worst PM over RARMS >= this")
     parser.add_argument("--workers", type=count(1), default=2, help="threads for independent batches")
+    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT", default=None,
+                        help="draw on an existing Dask cluster, as carav study does (the same numbers)")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the result as JSON")
     parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png",
                         help="draw PF/PM against eta (matplotlib)")
@@ -101,29 +103,11 @@ def _parse_value(text: str):
 
 def build_source(args: argparse.Namespace):
     """The cycle source named by the arguments (radar chain, or the paper model)."""
-    preset = args.preset or ("table1" if args.scene is None else None)
-    if args.model == "paper":
-        if args.scene:
-            raise CommandError("--model paper takes --preset table1|awr1642, not --scene")
-        from carav_stream.montecarlo.paper_model import paper_scene
+    return source_from_spec(sweep_spec(args))
 
-        return PaperSource(paper_scene(preset.split("_")[0], n_chirps=args.nr, n_samples=args.ns, iq=args.iq,
-                                       snr_db=0.0 if args.snr_db is None else args.snr_db))
-    from carav_stream.montecarlo.radar_source import RadarSource
-    from carav_stream.radar.scene_loader import load_scene
 
-    overrides = {}
-    if args.nr is not None:
-        overrides["n_chirps"] = args.nr
-    if args.ns is not None:
-        overrides["n_samples"] = args.ns
-    if args.iq:
-        overrides["iq"] = True
-    if args.snr_db is not None:
-        overrides["snr_db"] = args.snr_db
-    if args.ideal_adc:
-        overrides["adc_bits"] = 0
-    scene = load_scene(args.scene or preset, overrides or None)
+def sweep_spec(args: argparse.Namespace) -> dict:
+    """The plain description of the source the arguments name (what a study's [[scenes]] entry says)."""
     params: dict = {}
     for item in args.attack_param:
         key, _, value = item.partition("=")
@@ -131,7 +115,36 @@ def build_source(args: argparse.Namespace):
         if not (kind and name and value):
             raise CommandError(f"--attack-param expects KIND.KEY=VALUE, got {item!r}")
         params.setdefault(kind, {})[name] = _parse_value(value)
-    return RadarSource(scene, attack_params=params, activation=args.activation)
+    if args.model == "paper" and args.scene:
+        raise CommandError("--model paper takes --preset table1|awr1642, not --scene")
+    return {"model": args.model, "preset": args.preset, "scene": args.scene, "nr": args.nr, "ns": args.ns,
+            "iq": args.iq, "snr_db": args.snr_db, "ideal_adc": args.ideal_adc, "activation": args.activation,
+            "attack_params": params}
+
+
+def source_from_spec(spec: dict):
+    """The cycle source of a plain description (what `carav sweep` options and a study's [[scenes]] entry say):
+    model radar | paper, preset or scene file, nr, ns, iq, snr_db, ideal_adc, activation, attack_params."""
+    preset = spec.get("preset") or ("table1" if spec.get("scene") is None else None)
+    if spec.get("model", "radar") == "paper":
+        from carav_stream.montecarlo.paper_model import paper_scene
+
+        return PaperSource(paper_scene(preset.split("_")[0], n_chirps=spec.get("nr"), n_samples=spec.get("ns"),
+                                       iq=bool(spec.get("iq")), snr_db=spec.get("snr_db") or 0.0))
+    from carav_stream.montecarlo.radar_source import RadarSource
+    from carav_stream.radar.scene_loader import load_scene
+
+    overrides = {}
+    for key, name in (("nr", "n_chirps"), ("ns", "n_samples"), ("snr_db", "snr_db")):
+        if spec.get(key) is not None:
+            overrides[name] = spec[key]
+    if spec.get("iq"):
+        overrides["iq"] = True
+    if spec.get("ideal_adc"):
+        overrides["adc_bits"] = 0
+    scene = load_scene(spec.get("scene") or preset, overrides or None)
+    return RadarSource(scene, attack_params=spec.get("attack_params") or {},
+                       activation=spec.get("activation") or "seeded")
 
 
 def plot_curves(result: dict, path: str, title: str | None = None) -> None:
@@ -215,6 +228,29 @@ def _print_table(result: dict, stream=None) -> None:
               f"{cf['cfar_eta_pf_1e-6']:.4f}", file=stream)
 
 
+def _on_dask(args, source, attacks, rarms, eta, detectors) -> list[dict]:
+    """The sweep's draws on a Dask cluster, through carav study's tasks: one group per detector."""
+    import tempfile
+    from pathlib import Path
+
+    from carav_stream.studies.study import Group, Study, execute, results
+    if not args.scheduler.startswith(("tcp://", "tls://")):
+        raise CommandError(f"--scheduler: expected tcp://HOST:PORT or tls://HOST:PORT, got {args.scheduler!r}")
+    if args.seed is None:
+        raise CommandError("--scheduler: needs --seed (every task draws from seeds spawned from it)")
+    spec = sweep_spec(args)
+    study = Study(Path("carav-sweep"), "carav sweep on Dask", args.seed, args.trials, eta, args.eta, None, 2_000_000,
+                  args.method, args.cfar_pf, args.design_rarms,
+                  [Group(source.name, d, spec) for d in detectors], [(a, float(r)) for a in attacks for r in rarms])
+    try:
+        with tempfile.TemporaryDirectory(prefix="carav-sweep-") as folder:
+            draws = execute(study, Path(folder), scheduler=args.scheduler, progress=ProgressBar.wanted(args.quiet),
+                            log=lambda text: None)
+        return [g["result"] for g in results(study, draws)[0]]
+    except ValueError as exc:              # a detector the source or method cannot serve
+        raise CommandError(f"--detector: {exc}", Exit.USAGE) from None
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         eta = eta_grid(args.eta)
@@ -249,7 +285,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"carav sweep: warning: {warning}", file=sys.stderr)
     t0 = time.perf_counter()
     results = []
+    if args.scheduler is not None:
+        results = _on_dask(args, source, attacks, rarms, eta, detectors)
     for detector in detectors:
+        if args.scheduler is not None:
+            _print_table(results[detectors.index(detector)])
+            continue
         progress = ProgressBar(f"sweep {source.name} {detector}") if ProgressBar.wanted(args.quiet) else None
         try:
             results.append(sweep(source, attacks=attacks, rarms=rarms, n_trials=args.trials, eta=eta,

@@ -1,0 +1,113 @@
+"""carav bench study: `carav study` on 1 and 2 local Dask workers, and the scheduler's cost per task.
+
+The same study runs on an embedded LocalCluster of 1 and of 2 single-threaded worker processes, modes interleaved
+run by run; the clock runs from the first task submitted to the last result gathered (cluster start-up apart,
+measured on its own), so the ratio is the scaling of the work itself. The study: Table I at the paper's 0 dB,
+every sample simulated (the path that needs a cluster), 12 points of --trials cycles (the attack-free one, the
+random attack at 11 RARMS): 12 tasks of a few seconds each. Scaling efficiency = cycles/s with 2 workers over 1.
+The scheduler's overhead: --tasks empty tasks on one worker, wall time per task.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from carav_stream.bench import records as bench_records
+from carav_stream.cli.options import count, output_file
+
+STUDY = """
+description = "carav bench study: Table I, every sample, the random attack"
+seed = 1
+trials = {trials}
+eta = "0.5:3:0.01"
+method = "samples"
+[[scenes]]
+preset = "table1"
+snr_db = 0.0
+[[attacks]]
+kind = "random"
+rarms = [0.25, 0.5, 0.75, 0.9, 1.0, 1.05, 1.1, 1.2, 1.5, 2.0, 3.0]
+"""
+TARGET = 1.8
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", type=output_file, metavar="FILE", help="write the records as JSON")
+    parser.add_argument("--repeats", type=count(1), default=3, help="runs per worker count (median reported)")
+    parser.add_argument("--trials", type=count(1), default=2000, help="cycles per point")
+    parser.add_argument("--tasks", type=count(1), default=500, help="empty tasks for the overhead measurement")
+
+
+def _noop(i: int) -> int:
+    return i
+
+
+def _timed_run(study, workers: int) -> tuple[float, float]:
+    """(seconds from first submission to last result, cluster start-up seconds) of the study's points."""
+    from dask.distributed import Client, LocalCluster, wait
+
+    from carav_stream.studies.study import plan, run_batches
+    t0 = time.perf_counter()
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                      host="127.0.0.1") as cluster, Client(cluster) as client:
+        client.wait_for_workers(workers)
+        started = time.perf_counter() - t0
+        import json
+        t1 = time.perf_counter()
+        futures = [client.submit(run_batches, json.dumps(study.groups[p.group].spec, sort_keys=True),
+                                 study.groups[p.group].detector, p.attack, p.rarms, p.used, study.seed, batches,
+                                 pure=False) for p in plan(study) for batches in p.tasks()]
+        wait(futures)
+        return time.perf_counter() - t1, started
+
+
+def _overhead(n: int) -> float:
+    from dask.distributed import Client, LocalCluster, wait
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                      host="127.0.0.1") as cluster, Client(cluster) as client:
+        wait([client.submit(_noop, i, pure=False) for i in range(20)])      # warm
+        t0 = time.perf_counter()
+        wait([client.submit(_noop, i, pure=False) for i in range(n)])
+        return (time.perf_counter() - t0) / n
+
+
+def run(args: argparse.Namespace) -> int:
+    from carav_stream.studies.study import load_study
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "bench.toml"
+        path.write_text(STUDY.format(trials=args.trials))
+        study = load_study(path)
+    cycles = args.trials * len(study.jobs)
+    runs: dict[int, list[float]] = {1: [], 2: []}
+    startup: dict[int, list[float]] = {1: [], 2: []}
+    for _ in range(args.repeats):           # worker counts interleaved: the ratio compares like with like
+        for workers in (1, 2):
+            seconds, started = _timed_run(study, workers)
+            runs[workers].append(cycles / seconds)
+            startup[workers].append(started)
+            print(f"{workers} worker(s): {cycles / seconds:8.1f} cycles/s  ({seconds:.1f} s, cluster start "
+                  f"{started:.1f} s)", flush=True)
+    ratios = [b / a for a, b in zip(runs[1], runs[2])]
+    per_task = statistics.median(_overhead(args.tasks) for _ in range(args.repeats))
+    record = {"study": "table1, 0 dB, every sample, random attack at 11 RARMS + attack-free", "points": len(study.jobs),
+              "tasks": len(study.jobs), "trials": args.trials, "cycles": cycles, "repeats": args.repeats,
+              "cores": os.cpu_count(),
+              "cycles_per_s": {str(w): statistics.median(r) for w, r in runs.items()},
+              "runs_cycles_per_s": {str(w): r for w, r in runs.items()},
+              "cluster_start_s": {str(w): statistics.median(s) for w, s in startup.items()},
+              "speedup_2_over_1": statistics.median(ratios), "runs_speedup": ratios,
+              "overhead_s_per_task": per_task, "overhead_tasks": args.tasks}
+    print(f"2 workers over 1: x{record['speedup_2_over_1']:.2f} (median of {args.repeats}; target >= {TARGET:g}); "
+          f"scheduler overhead {per_task * 1e3:.2f} ms per task")
+    if args.json:
+        bench_records.write(args.json, args, [record])
+    return 0
+
+
+if __name__ == "__main__":
+    from carav_stream.cli import run_as_command
+    raise SystemExit(run_as_command("carav_stream.bench.study_bench"))
