@@ -168,16 +168,7 @@ def load_study(path: Path) -> Study:
 
     pairs: list[tuple[str, float]] = []
     attack_params: dict[str, dict] = {}
-    attacks = data.get("attacks")
-    if not isinstance(attacks, list) or not attacks:
-        p.append(f"{name}: attacks: at least one [[attacks]] table is required")
-        attacks = []
-    for i, a in enumerate(attacks):
-        where = f"{name}: attacks[{i}]"
-        if not isinstance(a, dict):
-            p.append(f"{where}: expected a table, got {a!r}")
-            continue
-        _unknown(p, f"{where}.", a, ATTACK_KEYS)
+    for where, a in _tables(p, name, data, "attacks", ATTACK_KEYS):
         kind = a.get("kind")
         if kind not in KINDS or kind == "none":
             p.append(f"{where}.kind: expected one of {', '.join(k for k in KINDS if k != 'none')}, got {kind!r}")
@@ -199,17 +190,8 @@ def load_study(path: Path) -> Study:
                 pairs.append((kind, float(r)))
 
     groups: list[Group] = []
-    scenes = data.get("scenes")
-    if not isinstance(scenes, list) or not scenes:
-        p.append(f"{name}: scenes: at least one [[scenes]] table is required")
-        scenes = []
     labels: set[str] = set()
-    for i, sc in enumerate(scenes):
-        where = f"{name}: scenes[{i}]"
-        if not isinstance(sc, dict):
-            p.append(f"{where}: expected a table, got {sc!r}")
-            continue
-        _unknown(p, f"{where}.", sc, SCENE_KEYS)
+    for where, sc in _tables(p, name, data, "scenes", SCENE_KEYS):
         spec = _scene_spec(p, where, sc, path.resolve().parent, preset_names())
         if spec is None:
             continue
@@ -233,6 +215,23 @@ def load_study(path: Path) -> Study:
         raise CommandError(f"{path} is not valid:\n" + "\n".join(f"  {x}" for x in p), Exit.INVALID)
     return Study(path, str(data.get("description", "")), seed, trials, eta, str(eta_text), reference, task_cycles,
                  method, target_pf, design_rarms, groups, pairs)
+
+
+def _tables(p: list[str], name: str, data: dict, key: str, allowed: set[str]) -> list[tuple[str, dict]]:
+    """The [[key]] tables of a study file, each with where it is (`s.toml: scenes[1]`), its unknown keys reported."""
+    tables = data.get(key)
+    if not isinstance(tables, list) or not tables:
+        p.append(f"{name}: {key}: at least one [[{key}]] table is required")
+        return []
+    out = []
+    for i, table in enumerate(tables):
+        where = f"{name}: {key}[{i}]"
+        if not isinstance(table, dict):
+            p.append(f"{where}: expected a table, got {table!r}")
+            continue
+        _unknown(p, f"{where}.", table, allowed)
+        out.append((where, table))
+    return out
 
 
 def _scene_spec(p: list[str], where: str, sc: dict, folder: Path, presets: list[str]) -> dict | None:

@@ -1,5 +1,6 @@
 """carav study without a cluster: the study file checked whole, and its points' batches, drawn by the task function,
 give `carav sweep`'s curves bit for bit (the Dask runs are tested in tests/integration/test_study_dask.py)."""
+import json
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,17 @@ def write(tmp_path: Path, text: str) -> Path:
     path = tmp_path / "s.toml"
     path.write_text(text)
     return path
+
+
+def drawn_in_process(study, points) -> dict:
+    """Every task of the study run here, in any order, as a Dask worker would run it."""
+    draws = {}
+    for pt in points:
+        spec = json.dumps(study.groups[pt.group].spec, sort_keys=True)
+        parts = [run_batches(spec, "carav", pt.attack, pt.rarms, pt.used, study.seed, b) for b in pt.tasks()[::-1]]
+        parts = parts[::-1]
+        draws[(pt.group, pt.job)] = (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+    return draws
 
 
 def test_every_problem_of_a_study_file_is_reported_at_once_and_located(tmp_path):
@@ -65,11 +77,7 @@ def test_the_study_draws_are_those_of_carav_sweep_with_the_same_seed(tmp_path):
     assert [(p.used, p.independent) for p in points] == [("energy", True)] * 7
     quantised = plan(load_study(write(tmp_path, GOOD.replace("ideal_adc = true", ""))))
     assert [(p.used, p.independent) for p in quantised] == [("samples", False)] * 7
-    draws = {}
-    for pt in points:
-        spec = __import__("json").dumps(study.groups[pt.group].spec, sort_keys=True)
-        parts = [run_batches(spec, "carav", pt.attack, pt.rarms, pt.used, study.seed, b) for b in pt.tasks()]
-        draws[(pt.group, pt.job)] = (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+    draws = drawn_in_process(study, points)
     (group,), rows = results(study, draws)
     reference = sweep(source_from_spec(study.groups[0].spec), attacks=["random", "smart"], rarms=[0.5, 1.2, 3.0],
                       n_trials=300, eta=eta_grid("0.5:3:0.05"), seed=11)
@@ -85,11 +93,7 @@ def test_grouping_batches_into_tasks_changes_no_number(tmp_path):
     study = load_study(write(tmp_path, text))
     points = plan(study)
     assert [[len(t) for t in p.tasks()] for p in points] == [[2, 1]] * 3          # batches of 20000, 20000, 10000
-    draws = {}
-    for pt in points:
-        spec = __import__("json").dumps(study.groups[pt.group].spec, sort_keys=True)
-        parts = [run_batches(spec, "carav", pt.attack, pt.rarms, pt.used, study.seed, b) for b in pt.tasks()]
-        draws[(pt.group, pt.job)] = (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+    draws = drawn_in_process(study, points)
     (group,), _ = results(study, draws)
     reference = sweep(source_from_spec(study.groups[0].spec), attacks=["random", "smart"], rarms=[1.2],
                       n_trials=50000, eta=eta_grid("0.5:3:0.05"), seed=11)
