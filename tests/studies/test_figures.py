@@ -101,3 +101,14 @@ def test_the_checker_sees_overlapping_tick_labels():
     with pytest.raises(AssertionError, match="overlapping tick labels"):
         check(fig)
     plt.close(fig)
+
+
+def test_the_ghost_misses_figure(drawn, tmp_path):
+    from carav_stream.studies.beyond_paper import _plot_ghost_pm
+    rows = [{"rarms": r, "trials": 100, "alarms": a, "spectral_detections": s, "integrated_detections": i,
+             "coherent_detections": c, "reported_by_radar": rep}
+            for r, a, s, i, c, rep in ((0.01, 0, 0, 0, 0, 0), (0.05, 0, 2, 40, 60, 30), (0.2, 0, 90, 100, 100, 100),
+                                       (1.0, 3, 100, 100, 100, 100))]
+    _plot_ghost_pm(rows, tmp_path)
+    check(drawn[0])
+    assert "RARMS 0.2" in " ".join(line.get_label() for line in drawn[0].axes[0].get_lines())
