@@ -19,6 +19,7 @@ Params  path (str, required): base name of the recording (BASE.sigmf-meta, ...);
         for the metadata); graph (str): the recorded graph as JSON, for the metadata
 Graph   recorder = { type = "sigmf_sink", path = "rec/recording" }
 """
+import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -59,6 +60,7 @@ class SigmfSink(Block):
     def start(self) -> None:
         self.base = Path(self.path)
         self.data = open(f"{self.base}.sigmf-data", "wb")
+        self.hash = hashlib.sha512()
         self.datatype: str | None = None
         self.order: list[int] = []             # recorded cycles, in the order their samples were written
         self.cycle: dict[int, dict] = {}       # cycle -> its annotation fields
@@ -99,8 +101,10 @@ class SigmfSink(Block):
             raise ValueError(f"frame seq {frames.seq}: {x.dtype} {x.shape} does not continue the recording of "
                              f"{self.datatype or datatype} cycles of shape {shape}")
         self.datatype = datatype
-        x.astype(x.dtype.newbyteorder("<"), copy=False).tofile(self.data)
-        self.bytes += x.nbytes
+        raw = np.ascontiguousarray(x.astype(x.dtype.newbyteorder("<"), copy=False))
+        self.data.write(raw.data)
+        self.hash.update(raw.data)             # hashed as written: no second pass over the file at the end
+        self.bytes += raw.nbytes
         per = per_cycle(frames)
         for i, c in enumerate(cycle_indices(frames)):
             self.order.append(c)
@@ -134,7 +138,7 @@ class SigmfSink(Block):
             shutil.copyfile(self.scene, copy)
             extra["scene_file"] = copy.name
         write_meta(self.base, self.datatype or datatype_of(np.zeros(0, np.int16), scene.iq), scene, annotations,
-                   extra)
+                   extra, sha512=self.hash.hexdigest())
 
     def summary(self) -> dict:
         n = len(self.order)

@@ -79,8 +79,9 @@ def scene_globals(scene: Scene) -> dict[str, Any]:
 
 
 def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[str, Any]],
-               extra: dict[str, Any]) -> Path:
-    """Write and validate BASE.sigmf-meta for the data file BASE.sigmf-data (hashed by the sigmf package)."""
+               extra: dict[str, Any], sha512: str | None = None) -> Path:
+    """Write and validate BASE.sigmf-meta for the data file BASE.sigmf-data: its sha512 as given (computed while the
+    data was written), else by the sigmf package reading the file."""
     import sigmf
     from sigmf.sigmffile import SigMFFile
 
@@ -91,7 +92,9 @@ def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[s
             **scene_globals(scene), **{f"{NS}:{k}": plain(v) for k, v in extra.items()}}
     meta = {"global": glob, "captures": [{"core:sample_start": 0, "core:frequency": scene.fc_hz}],
             "annotations": annotations}
-    rec = SigMFFile(metadata=meta, data_file=str(base) + ".sigmf-data")   # computes core:sha512
+    if sha512 is not None:
+        glob["core:sha512"] = sha512
+    rec = SigMFFile(metadata=meta, data_file=str(base) + ".sigmf-data", skip_checksum=sha512 is not None)
     rec.tofile(str(base), overwrite=True)                                    # validates against the schema
     return Path(str(base) + ".sigmf-meta")
 
