@@ -6,6 +6,12 @@ measured on its own), so the ratio is the scaling of the work itself. The study:
 every sample simulated (the path that needs a cluster), 12 points of --trials cycles (the attack-free one, the
 random attack at 11 RARMS): 12 tasks of a few seconds each. Scaling efficiency = cycles/s with 2 workers over 1.
 The scheduler's overhead: --tasks empty tasks on one worker, wall time per task.
+
+Rare events: --rare-cycles attack-free cycles of Table I in the paper's model (the exact sufficient-statistic
+path) on 2 local workers, counted at the threshold whose closed-form PF per cycle is 1e-6 (D0 part exact, stats.
+cfar_eta_closed_form; D1 part from stats.pf_pm_closed_form), drawn as `carav study` draws a point (seed 1, job 0,
+its batches grouped into tasks of 2e6 cycles), each task returning its count: the brute-force PF with its 95 %
+Clopper-Pearson interval beside the closed form.
 """
 from __future__ import annotations
 
@@ -15,6 +21,8 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 from carav_stream.bench import records as bench_records
 from carav_stream.cli.options import count, output_file
@@ -40,6 +48,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=count(1), default=3, help="runs per worker count (median reported)")
     parser.add_argument("--trials", type=count(1), default=2000, help="cycles per point")
     parser.add_argument("--tasks", type=count(1), default=500, help="empty tasks for the overhead measurement")
+    parser.add_argument("--rare-cycles", type=count(0), default=100_000_000,
+                        help="attack-free cycles of the brute-force PF check at 1e-6 (0: skip)")
 
 
 def _noop(i: int) -> int:
@@ -63,6 +73,43 @@ def _timed_run(study, workers: int) -> tuple[float, float]:
                                  pure=False) for p in plan(study) for batches in p.tasks()]
         wait(futures)
         return time.perf_counter() - t1, started
+
+
+def count_alarms(spec_json: str, used: str, seed: int, batches: list, eta: float) -> int:
+    """A task of the rare-event check: alarms (Q >= eta) among its batches, only the count leaves the worker."""
+    from carav_stream.studies.study import run_batches
+    q, _ = run_batches(spec_json, "carav", "none", 0.0, used, seed, batches)
+    return int(np.count_nonzero(q >= eta))
+
+
+def _rare(cycles: int) -> dict:
+    import json
+
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    from carav_stream.detect.stats import cfar_eta_closed_form, clopper_pearson, pf_pm_closed_form
+    from carav_stream.montecarlo.engine import batch_plan
+    from carav_stream.studies.sweep_command import source_from_spec
+    spec = {"model": "paper", "preset": "table1"}
+    source = source_from_spec(spec)
+    cf = source.closed_form("none")
+    eta = cfar_eta_closed_form(1e-6, n_chirps=cf["n_chirps"], dof=cf["dof"])
+    pf = float(pf_pm_closed_form(eta, **cf)["p_alarm"])
+    used, sizes = batch_plan(source, "none", cycles, method="energy")
+    batches = [(size, [0, b]) for b, size in enumerate(sizes)]
+    per = max(1, 2_000_000 // sizes[0])
+    t0 = time.perf_counter()
+    alarms = 0
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      host="127.0.0.1") as cluster, Client(cluster) as client:
+        futures = [client.submit(count_alarms, json.dumps(spec, sort_keys=True), used, 1, batches[i: i + per], eta,
+                                 pure=False) for i in range(0, len(batches), per)]
+        for fut in as_completed(futures):
+            alarms += fut.result()
+    lo, hi = clopper_pearson(alarms, cycles, 0.95)
+    return {"rare_cycles": cycles, "rare_eta": eta, "rare_pf_closed_form": pf, "rare_alarms": alarms,
+            "rare_pf": alarms / cycles, "rare_pf_lo": float(lo), "rare_pf_hi": float(hi),
+            "rare_agrees": bool(lo <= pf <= hi), "rare_seconds": time.perf_counter() - t0}
 
 
 def _overhead(n: int) -> float:
@@ -103,6 +150,12 @@ def run(args: argparse.Namespace) -> int:
               "overhead_s_per_task": per_task, "overhead_tasks": args.tasks}
     print(f"2 workers over 1: x{record['speedup_2_over_1']:.2f} (median of {args.repeats}; target >= {TARGET:g}); "
           f"scheduler overhead {per_task * 1e3:.2f} ms per task")
+    if args.rare_cycles:
+        record.update(_rare(args.rare_cycles))
+        print(f"rare events: {record['rare_alarms']} alarms in {args.rare_cycles} cycles at eta "
+              f"{record['rare_eta']:.4f}: PF {record['rare_pf']:.3g} [{record['rare_pf_lo']:.3g}, "
+              f"{record['rare_pf_hi']:.3g}] against the closed form {record['rare_pf_closed_form']:.3g} "
+              f"({record['rare_seconds']:.0f} s)")
     if args.json:
         bench_records.write(args.json, args, [record])
     return 0
