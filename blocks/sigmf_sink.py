@@ -29,7 +29,7 @@ import numpy as np
 from carav_stream.capture.activation_log import log_path, write_log
 from carav_stream.capture.sigmf_io import NS, datatype_of, plain, write_meta
 from carav_stream.radar.scene_loader import preset_names
-from carav_stream.radar.streams import SCENE, SEED, scene_of
+from carav_stream.radar.streams import NO_SEED, SCENE, SEED, scene_of
 from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle
 
 VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by")   # k_max and rbar stay out: they speak of rho
@@ -85,8 +85,11 @@ class SigmfSink(Block):
             frame, names = ((verdict, VERDICT_FIELDS) if verdict is not None else (estimates, ESTIMATE_FIELDS)
                             if estimates is not None else (alarms, ("reason",)))
             per, index = per_cycle(frame), cycle_indices(frame)
-            gate = (["clean"] * len(index) if estimates is not None and not frame.header.get("refused") else
-                    per.get("reason") or ["refused"] * len(index) if alarms is not None else None)
+            gate = None                        # the gate's decision: clean (it reached ranging) or its reason
+            if estimates is not None and not frame.header.get("refused"):
+                gate = ["clean"] * len(index)
+            elif alarms is not None:
+                gate = per.get("reason") or ["refused"] * len(index)
             for i, c in enumerate(index):
                 fields = self._fields(c)
                 fields.update({k: per[k][i] for k in names if k in per})
@@ -128,12 +131,13 @@ class SigmfSink(Block):
                        dtype=bool).reshape(len(known), scene.n_chirps)
         write_log(log_path(self.base), known, rho)
         self.without_rho = len(self.order) - len(known)
+        preset = self.scene in preset_names()
         extra = {"cycles": len(self.order), "batch": self.batch, "activation_log": log_path(self.base).name,
-                 "scene": scene.name if self.scene in preset_names() else Path(self.scene).name,
+                 "scene": scene.name if preset else Path(self.scene).name,
                  "graph": json.loads(self.graph) if self.graph else {}}
-        if self.seed != -1:
+        if self.seed != NO_SEED:
             extra["seed"] = self.seed
-        if self.scene not in preset_names():   # a scene file travels with the recording
+        if not preset:                         # a scene file travels with the recording
             copy = Path(f"{self.base}.scene.toml")
             shutil.copyfile(self.scene, copy)
             extra["scene_file"] = copy.name

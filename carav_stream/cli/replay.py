@@ -1,10 +1,10 @@
 """`carav replay DIR`: a recording made by `carav record` through detection, gate and ranging again.
 
 By default through the packaged graphs/replay.toml, with the recording's scene and batch and the recorded
-detector's and estimator's settings (eta, sigma_n, method, n_targets), so that the verdicts, Q and estimates are
-those of the live run, bit for bit; `--graph FILE` replays through another graph (its sigmf_source node gets the
-recording; the scene and batch are set as well). `--set` comes last and overrides all of it. The run summary is
-printed (and written with --json) as by `carav run`.
+detector's and estimator's settings (eta, sigma_n, method, n_targets, detection, pfa, max_targets), so that the
+verdicts, Q and estimates are those of the live run, bit for bit; `--graph FILE` replays through another graph
+(its sigmf_source node gets the recording; the scene and batch are set as well). `--set` comes last and overrides
+all of it. The run summary is printed (and written with --json) as by `carav run`.
 """
 from __future__ import annotations
 
@@ -18,7 +18,8 @@ from carav_stream.cli import run as run_command
 from carav_stream.cli.common import CommandError, Exit
 from carav_stream.runtime.loader import read_graph_file
 
-RECORDED = {"rms_detector": ("eta", "sigma_n"), "range_estimator": ("method", "n_targets")}
+RECORDED = {"rms_detector": ("eta", "sigma_n"),
+            "range_estimator": ("method", "n_targets", "detection", "pfa", "max_targets", "sigma_n")}
 
 
 def configure(p: argparse.ArgumentParser) -> None:
