@@ -5,9 +5,11 @@ cycles, per_cycle lists): cycles, alarms (by reason and by the detector that rai
 (per-cycle attack_active, set by the attacker), detected attacks, false alarms (the detector's own alarms,
 C(eta) >= 1, on cycles with no attack), missed attacks, fail-closed refusals apart (cycles stopped without a
 verdict of the detector: invalid frames, no activation sequence, no verdict, a crashed detector; they are neither
-detections nor false alarms, and the rates are over the cycles the detector judged), the radar's own cycle rate
-(for the real-time factor), and the range and velocity errors of the estimates against the scene's first
-target (mean, rmse, max), split into attacked and clean cycles. The velocity error is the estimate minus the
+detections nor false alarms, and the rates are over the cycles the detector judged), the radar's own cycle
+duration and rate (the scene's t_cycle and 1 / t_cycle: `carav run` reports cycles x t_cycle as the radar time
+simulated and its ratio to the wall time as the real-time factor), and the range and velocity errors of the
+estimates against the scene's first target (n, mean, rmse, abs_max = the largest |error|, also under its older
+key max), split into attacked and clean cycles. The velocity error is the estimate minus the
 true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_c) (AWR1642's Table II car) is
 seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
 unambiguous interval (how well the alias was measured) is reported beside it.
@@ -53,9 +55,10 @@ class ErrorStats:
 
     def figures(self) -> dict:
         if not self.n:
-            return {"n": 0, "mean": None, "rmse": None, "max": None}
+            return {"n": 0, "mean": None, "rmse": None, "max": None, "abs_max": None}
+        # abs_max names the largest |error|; max is the same figure under its older key (kept for readers of it)
         return {"n": self.n, "mean": self.total / self.n, "rmse": math.sqrt(self.squares / self.n),
-                "max": self.largest}
+                "max": self.largest, "abs_max": self.largest}
 
 
 class RunSummary(Block):
@@ -70,7 +73,7 @@ class RunSummary(Block):
         self.true_range_m = target.range_m if target else None
         self.true_velocity_mps = scene.range_rate_mps(target) if target else None
         geometry = Geometry.from_scene(scene)
-        self.radar_rate = scene.cycles_per_s
+        self.radar_rate, self.radar_cycle_s = scene.cycles_per_s, scene.t_cycle_s
         self.v_max = geometry.max_velocity_mps
         self.truth = ([t.range_m for t in scene.targets], [scene.range_rate_mps(t) for t in scene.targets])
         fastest = max((abs(v) for v in self.truth[1]), default=0.0)
@@ -129,9 +132,11 @@ class RunSummary(Block):
         if self.every_s and time.monotonic() >= self.next_print:
             self.next_print = time.monotonic() + self.every_s
             r = self.run_figures()
-            print(f"[summary] {r['cycles']} cycles  alarms {r['alarms']}  attacked {r['attacked_cycles']}  "
-                  f"detected {r['detected']}  false alarms {r['false_alarms']}  range rmse "
-                  f"{r['range_error_m']['rmse']}", file=sys.stderr, flush=True)
+            rmse = r["range_error_m"]["rmse"]
+            print(f"[summary] {r['cycles']} cycles judged: attacked {r['attacked_cycles']}, detected "
+                  f"{r['detected']}, false alarms {r['false_alarms']}, refused without a verdict "
+                  f"{r['refused']['cycles']}; range RMSE {'n/a' if rmse is None else f'{rmse * 1e3:.3g} mm'}",
+                  file=sys.stderr, flush=True)
 
     def _score(self, ranges: list, velocities: list, kind: str) -> None:
         pairs = [(r, v) for r, v in zip(ranges, velocities) if r is not None and v is not None]
@@ -168,7 +173,7 @@ class RunSummary(Block):
             "false_alarm_rate": self.false_alarms / judged_clean if judged_clean else None,
             "refused": {"cycles": sum(refusals.values()), "by_reason": refusals,
                         "attacked_cycles": self.refused_attacked},
-            "radar_cycles_per_s": self.radar_rate,
+            "radar_cycles_per_s": self.radar_rate, "radar_cycle_duration_s": self.radar_cycle_s,
             "refused_by_estimator": self.refused, "unreadable_cycles": self.unreadable,
             "range_error_m": all_range.figures(),
             "range_error_attacked_missed_m": self.range_err["attacked"].figures(),

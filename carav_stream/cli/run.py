@@ -54,7 +54,7 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     for w in graph.warnings:
         print(f"carav {command}: warning: {w}", file=sys.stderr)
     sup = Supervisor(graph, host=args.host, progress=args.progress)
-    summary = sup.run()
+    summary = with_radar_time(sup.run())
     print_summary(summary)
     if args.json:
         args.json.write_text(json.dumps(summary, indent=2, default=str))
@@ -74,7 +74,7 @@ def _num(x: Any, digits: int = 3) -> str:
     if isinstance(x, bool) or isinstance(x, int):
         return str(x)
     if isinstance(x, float):
-        return f"{x:.{digits}g}"
+        return f"{x:.0f}" if abs(x) >= 10 ** digits else f"{x:.{digits}g}"   # 2132, not 2.13e+03
     return str(x)
 
 
@@ -85,6 +85,29 @@ def _qty(x: float | None, unit: str) -> str:
     return f"{x * 1e3:.3g} m{unit}" if 0 < abs(x) < 0.1 else f"{x:.3g} {unit}"
 
 
+def _duration(x: float | None) -> str:
+    """A time in s, ms or us, 3 significant digits."""
+    if x is None:
+        return "n/a"
+    for scale, unit in ((1.0, "s"), (1e-3, "ms"), (1e-6, "us")):
+        if abs(x) >= scale:
+            return f"{x / scale:.3g} {unit}"
+    return f"{x * 1e9:.3g} ns" if x else "0 s"
+
+
+def with_radar_time(s: dict[str, Any]) -> dict[str, Any]:
+    """The summary with the radar time simulated and the real-time factor, when the graph has a run_summary:
+    radar_time_s = cycles x the scene's cycle duration (t_cycle, radar_cycle_duration_s), real_time_factor =
+    radar_time_s / wall_s (1 = as fast as the radar itself; above 1, faster)."""
+    t_cycle = s.get("radar_cycle_duration_s")
+    if t_cycle is None and s.get("radar_cycles_per_s"):
+        t_cycle = 1.0 / s["radar_cycles_per_s"]
+    if t_cycle is None:
+        return s
+    radar_time = s["cycles"] * t_cycle
+    return {**s, "radar_time_s": radar_time, "real_time_factor": radar_time / s["wall_s"] if s["wall_s"] else None}
+
+
 def _pct(x: float | None) -> str:
     return "n/a" if x is None else f"{100 * x:.3g} %"
 
@@ -93,7 +116,7 @@ def _errors(name: str, e: dict, unit: str) -> str:
     if not e or not e.get("n"):
         return f"  {name}: n/a (no estimate)"
     return (f"  {name}: RMSE {_qty(e['rmse'], unit)}, mean {_qty(e['mean'], unit)}, absolute maximum "
-            f"{_qty(e['max'], unit)} over {e['n']} cycles")
+            f"{_qty(e.get('abs_max', e.get('max')), unit)} over {e['n']} cycles")
 
 
 def _plain(value: Any) -> str:
@@ -106,6 +129,7 @@ def _plain(value: Any) -> str:
 
 RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked_cycles", "detected", "missed",
               "false_alarms", "detection_rate", "false_alarm_rate", "refused", "radar_cycles_per_s",
+              "radar_cycle_duration_s", "radar_time_s", "real_time_factor",
               "range_error_m", "range_error_attacked_missed_m", "velocity_error_mps", "velocity_ambiguous",
               "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
               "refused_by_estimator", "unreadable_cycles"}
@@ -121,8 +145,9 @@ def _radar_lines(s: dict[str, Any]) -> list[str]:
     refused = s.get("refused") or {"cycles": 0, "by_reason": {}, "attacked_cycles": 0}
     judged_clean = s["cycles_judged"] - s["attacked_cycles"] - (refused["cycles"] - refused["attacked_cycles"])
     by = ", ".join(f"{k} {v}" for k, v in sorted(s["raised_by"].items()) if k in ("D0", "D1")) or "none"
-    lines.append(f"  attacked cycles {s['attacked_cycles']}: detected {s['detected']}, missed {s['missed']} "
-                 f"(detection rate {_pct(s['detection_rate'])})")
+    judged_attacked = s["attacked_cycles"] - refused["attacked_cycles"]
+    lines.append(f"  attacked cycles {s['attacked_cycles']}, {judged_attacked} judged by the detector: detected "
+                 f"{s['detected']}, missed {s['missed']} (detection rate {_pct(s['detection_rate'])})")
     lines.append(f"  false alarms {s['false_alarms']} on {judged_clean} clean cycles judged (false-alarm rate "
                  f"{_pct(s['false_alarm_rate'])}); the detector's alarms raised by {by}")
     reasons = ", ".join(f"{k} {v}" for k, v in sorted(refused["by_reason"].items()))
@@ -158,9 +183,12 @@ def _radar_lines(s: dict[str, Any]) -> list[str]:
 
 def print_summary(s: dict[str, Any]) -> None:
     print(f"graph {s['graph']}  run {s['run']}")
-    rate, radar = s["throughput_cycles_per_s"], s.get("radar_cycles_per_s")
-    real_time = f", {_num(rate / radar)} x the radar's real time ({_num(radar, 4)} cycles/s)" if radar else ""
-    print(f"  {s['cycles']} cycles in {_num(s['wall_s'])} s: {_num(rate, 4)} cycles/s{real_time}")
+    print(f"  {s['cycles']} cycles in {_duration(s['wall_s'])} of wall time: {_num(s['throughput_cycles_per_s'])} "
+          "cycles/s")
+    if s.get("radar_time_s") is not None:
+        print(f"  real-time factor {_num(s['real_time_factor'])} (radar time / wall time): radar time "
+              f"{_duration(s['radar_time_s'])} = {s['cycles']} cycles x the scene's cycle duration "
+              f"{_duration(s['radar_cycle_duration_s'])} (radar {_num(s['radar_cycles_per_s'])} cycles/s)")
     print(f"  frames lost {s['lost']}, rejected {s['rejected']}, unpaired {s['unpaired']}; node restarts "
           f"{s['restarts']}")
     for line in _radar_lines(s):

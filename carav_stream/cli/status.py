@@ -21,7 +21,9 @@ def run(args: argparse.Namespace) -> int:
     if not statuses:
         print("no running graphs")
     for s in statuses:
-        print(f"{s['run']}  {s['graph']}  pid {s['pid']}  {s['cycles']} cycles in {s['elapsed_s']:.1f} s")
+        rate = s["cycles"] / s["elapsed_s"] if s["elapsed_s"] else 0.0
+        print(f"{s['run']}  {s['graph']}  pid {s['pid']}  {s['cycles']} cycles in {s['elapsed_s']:.1f} s "
+              f"({rate:.1f} cycles/s)")
         for n, st in s["nodes"].items():
             c = st["counters"]
             print(f"  {n:<15} {c.get('block', '?'):<18} {'up' if st['alive'] else 'DOWN':<5} "

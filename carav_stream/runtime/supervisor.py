@@ -475,8 +475,8 @@ class Supervisor:
         n = self.cycles_done()
         total = f"/{self.cycles}" if self.cycles else ""
         rejected = sum(sum(st.counters.get("rejected", {}).values()) for st in self.nodes.values())
-        print(f"\r[carav] {n}{total} cycles  {n / elapsed:8.1f} cycles/s  rejected {rejected}  "
-              f"restarts {sum(st.restarts for st in self.nodes.values())}   ", end="", file=sys.stderr, flush=True)
+        print(f"\r[carav] {n}{total} cycles  {n / elapsed:8.1f} cycles/s  frames rejected {rejected}  "
+              f"node restarts {sum(st.restarts for st in self.nodes.values())}   ", end="", file=sys.stderr, flush=True)
 
     # -- summary -------------------------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:

@@ -19,10 +19,10 @@ def test_streamed_error_figures_equal_numpy_on_the_whole_list(errors, split):
     for i, e in enumerate(errors):
         (a if i < split else b).add(e)
     got, e = a.merged(b).figures(), np.asarray(errors)
-    assert got["n"] == e.size and got["max"] == np.max(np.abs(e))
+    assert got["n"] == e.size and got["abs_max"] == got["max"] == np.max(np.abs(e))
     assert got["mean"] == pytest.approx(e.mean(), rel=1e-9, abs=1e-9)
     assert got["rmse"] == pytest.approx(math.sqrt(np.mean(e ** 2)), rel=1e-9, abs=1e-12)
-    assert ErrorStats().figures() == {"n": 0, "mean": None, "rmse": None, "max": None}
+    assert ErrorStats().figures() == {"n": 0, "mean": None, "rmse": None, "max": None, "abs_max": None}
 
 
 def test_the_summary_counts_alarms_detections_and_errors_against_the_scene_truth():

@@ -135,6 +135,35 @@ def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector
     assert not set(estimates) & set(alarms) and sorted([*estimates, *alarms]) == list(range(s["cycles"]))
 
 
+def test_a_crashed_detector_reads_as_refusals_never_as_detections_or_false_alarms(carav):
+    """The detector raises on frame seq 3 and stays down: cycles 0-23 carry its own verdicts, cycles 24-63 are
+    refused for want of one. The attack is on for cycles 8-31, so the refusals hold 8 attacked and 32 clean cycles:
+    counted as verdicts they would read as 24 of 24 attacks detected and 32 false alarms in 40 clean cycles."""
+    n, batch = 64, 8
+    params = {"rarms": 3.0, "start_cycle": 8, "n_active_cycles": 24}
+    run = radar(carav, n, "radar_taps_detector_crashes.toml", seed=26, batch=batch, model="smart", **params)
+    assert run.wait(120) == 1, run.stderr()                                  # a node failed: the run fails
+    assert "RuntimeError: deliberate detector crash at seq 3" in run.stderr()
+    lib = run_algorithm1(scene_of("table1"), n, seed=26, attack="smart", attack_params=params)
+    judged = 3 * batch                                                       # the detector's verdicts: seq 0-2
+    assert sorted(by_cycle(read_jsonl(carav.workdir / "verdicts.jsonl"))) == list(range(judged))
+    attacked = lib.attack_active
+    assert attacked.tolist() == [8 <= c < 32 for c in range(n)]
+    s = run.summary()
+    assert s["cycles"] == n and s["cycles_judged"] == n and s["failures"]
+    assert s["attacked_cycles"] == 24
+    assert s["detected"] == int((lib.alarm & attacked)[:judged].sum())
+    assert s["missed"] == int((~lib.alarm & attacked)[:judged].sum())
+    assert s["false_alarms"] == int((lib.alarm & ~attacked)[:judged].sum())
+    assert s["detection_rate"] == s["detected"] / 16 and s["false_alarm_rate"] == s["false_alarms"] / 8
+    assert s["refused"] == {"cycles": n - judged, "by_reason": {"no_verdict": n - judged}, "attacked_cycles": 8}
+    out = run.stdout()
+    assert "attacked cycles 24, 16 judged by the detector: detected" in out
+    assert f"false alarms {s['false_alarms']} on 8 clean cycles judged" in out
+    assert "refused without a verdict (fail closed): 40 cycles (no_verdict 40; 8 of them attacked)" in out
+    assert "None" not in out
+
+
 @pytest.mark.parametrize("victim", ["source", "channel", "attacker", "adc", "gate", "ranging", "summary"])
 def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without_stalling(carav, victim):
     """SIGKILL one node mid-run: after its restart every later cycle is judged once, in order (no sink rejects a
