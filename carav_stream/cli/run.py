@@ -134,7 +134,8 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
               "refused_by_estimator", "unreadable_cycles"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
-                "failures", "swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node", "estimated_counts"}
+                "failures", "swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node", "estimated_counts",
+                "skipped_by_taps"}
 
 
 def _radar_lines(s: dict[str, Any]) -> list[str]:
@@ -191,6 +192,8 @@ def print_summary(s: dict[str, Any]) -> None:
               f"{_duration(s['radar_cycle_duration_s'])} (radar {_num(s['radar_cycles_per_s'])} cycles/s)")
     print(f"  frames lost {s['lost']}, rejected {s['rejected']}, unpaired {s['unpaired']}; node restarts "
           f"{s['restarts']}")
+    for edge, n in (s.get("skipped_by_taps") or {}).items():
+        print(f"  frames skipped for a busy observer (a tap, not lost): {n} on {edge}")
     for line in _radar_lines(s):
         print(line)
     for k, v in s.items():

@@ -26,13 +26,18 @@ __all__ = ["REQUIRED", "Block", "BlockError", "In", "Out", "Param"]
 
 @dataclass(frozen=True)
 class In:
-    """An input port. `kind` is a free label checked for compatibility ("any" accepts every kind)."""
+    """An input port. `kind` is a free label checked for compatibility ("any" accepts every kind).
+
+    A `tap` input never slows its producers: when its queue is full the producer skips the frame for it (counted
+    per edge as skipped, never as lost) instead of waiting. For observers (a live display), not for processing
+    that must see every frame."""
 
     name: str
     kind: str = "any"
     doc: str = ""
     dtypes: tuple[str, ...] = ()   # accepted payload dtypes; () = any, ("none",) = header-only frames
     required: bool = True
+    tap: bool = False
 
 
 @dataclass(frozen=True)

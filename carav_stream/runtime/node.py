@@ -124,7 +124,7 @@ class NodeRunner:
     def counters(self) -> dict[str, Any]:
         return {"in": dict(self.c_in), "out": dict(self.c_out), "sent": dict(self.outputs.c_sent),
                 "rejected": dict(self.c_rejected), "unpaired": dict(self.c_unpaired),
-                "undeliverable": dict(self.outputs.c_undeliverable),
+                "undeliverable": dict(self.outputs.c_undeliverable), "skipped": dict(self.outputs.c_skipped),
                 "processed": self.processed, "consumed": self.consumed, "cycles": self.cycles, "busy_s": self.busy_s,
                 "cpu_s": time.process_time(),           # the whole node process, ZeroMQ I/O thread included
                 "block": self.block_type, "generation": self.generation}

@@ -6,6 +6,11 @@ for good is cut: what cannot be delivered on it is counted as undeliverable. Whe
 edge connects afresh at once (what the old connection held is lost with it, and counted) and first sends a
 header-only resume marker {resume: true, seq: X}: nothing before X comes on that stream.
 
+A tap edge (its consumer's port is a tap, block.In.tap) never blocks: a frame its queue has no room for, or
+sent while its consumer is being restarted, is skipped for it and counted as skipped on that edge, never as lost
+(the end of stream's count is of the frames sent, so the consumer finds nothing missing). The end of stream
+itself is delivered like on any edge.
+
 The sockets come from `connect(endpoint)` and messages leave through `send(sock, parts)`: ZeroMQ in a node, any
 stand-ins in a test.
 """
@@ -28,6 +33,7 @@ class Outputs:
                  idle: Callable[[], None], send: Callable[[Any, list], None] = transport.send_message,
                  tick_s: float = transport.TICK_S) -> None:
         self.endpoints = {e.edge: e.connect for port_edges in edges.values() for e in port_edges}
+        self.taps = {e.edge for port_edges in edges.values() for e in port_edges if e.tap}
         self._connect, self.idle, self._send, self.tick_s = connect, idle, send, tick_s
         self.sockets: dict[str, list[tuple[str, Any]]] = {
             port: [(e.edge, connect(e.connect)) for e in port_edges] for port, port_edges in edges.items()}
@@ -37,13 +43,14 @@ class Outputs:
         self.sent_seq: dict[str, int] = {}        # per edge: seq of the last frame ZeroMQ took
         self.c_sent = collections.Counter()       # per edge
         self.c_undeliverable = collections.Counter()
+        self.c_skipped = collections.Counter()    # per tap edge: frames skipped because its queue was full
         self.eos_sent = False
 
     def send(self, port: str, parts: list[Any], seq: int) -> None:
         """Send one encoded frame on every edge of `port`, blocking under back-pressure."""
         edges = self.sockets.get(port, ())
-        if len(edges) == 1 and not (self.cut or self.reconnect):   # the usual case: one consumer, room in its
-            edge, sock = edges[0]                                   # queue, and ZeroMQ takes the message at once
+        if len(edges) == 1 and not (self.cut or self.reconnect or self.taps):   # the usual case: one consumer,
+            edge, sock = edges[0]                          # room in its queue, and ZeroMQ takes the message at once
             try:
                 self._send(sock, parts)
                 self.c_sent[edge] += 1
@@ -51,12 +58,27 @@ class Outputs:
                 return
             except zmq.Again:
                 pass
-        for i, (edge, _) in enumerate(edges):
-            if self.deliver(port, i, parts):
+        for i, (edge, sock) in enumerate(edges):
+            if edge in self.taps and edge not in self.cut:
+                if edge not in self.reconnect and self.offer(sock, parts):
+                    self.c_sent[edge] += 1
+                    self.sent_seq[edge] = seq
+                else:
+                    self.c_skipped[edge] += 1
+            elif self.deliver(port, i, parts):
                 self.c_sent[edge] += 1
                 self.sent_seq[edge] = seq
             else:
                 self.c_undeliverable[edge] += 1
+
+    def offer(self, sock: Any, parts: list[Any]) -> bool:
+        """One attempt to queue a message on a tap edge without waiting: False if its queue is full. ZeroMQ
+        queues a multipart message whole or not at all, and judges room on its first part."""
+        try:
+            self._send(sock, parts, zmq.NOBLOCK)
+        except zmq.Again:
+            return False
+        return True
 
     def deliver(self, port: str, i: int, parts: list[Any]) -> bool:
         """Send on edge i of `port`, blocking under back-pressure; on the fresh connection if its consumer was

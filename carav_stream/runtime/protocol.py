@@ -81,10 +81,12 @@ def _no_ext(code: int, data: bytes) -> Any:
 
 @dataclass(frozen=True)
 class OutEdge:
-    """One edge leaving an output port: its name ("a.out -> b.inp") and the endpoint to connect to."""
+    """One edge leaving an output port: its name ("a.out -> b.inp"), the endpoint to connect to, and whether its
+    consumer's port is a tap (block.In.tap: frames it has no room for are skipped, not waited for)."""
 
     edge: str
     connect: str
+    tap: bool = False
 
 
 @dataclass(frozen=True)

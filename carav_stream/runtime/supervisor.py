@@ -64,7 +64,8 @@ def remove_stale_runs(root: Path | None = None) -> list[str]:
 NODE_ENV = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
             "MALLOC_TOP_PAD_": str(64 << 20), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
             "MKL_NUM_THREADS": "1"}
-PER_PORT_COUNTERS = ("in", "out", "sent", "rejected", "unpaired", "undeliverable")   # dicts: port or edge -> n
+# dicts: port or edge -> n
+PER_PORT_COUNTERS = ("in", "out", "sent", "rejected", "unpaired", "undeliverable", "skipped")
 
 
 @dataclass
@@ -145,7 +146,8 @@ class Supervisor:
             node = g.nodes[name]
             outputs: dict[str, list[OutEdge]] = {}
             for e in g.edges_from(name):
-                outputs.setdefault(e.src_port, []).append(OutEdge(str(e), endpoints[(e.dst, e.dst_port)][1]))
+                tap = any(p.name == e.dst_port and p.tap for p in g.block_class(e.dst).inputs)
+                outputs.setdefault(e.src_port, []).append(OutEdge(str(e), endpoints[(e.dst, e.dst_port)][1], tap))
             spec = NodeSpec(
                 name=name, type=node.type, params=node.params, control=control,
                 inputs={e.dst_port: endpoints[(e.dst, e.dst_port)][0] for e in g.edges_into(name)},
@@ -266,9 +268,26 @@ class Supervisor:
                               "alive": bool(st.proc and st.proc.poll() is None),
                               "restarts": st.restarts, "counters": st.counters,
                               "rate_per_s": st.counters.get("processed", 0) / elapsed if elapsed else 0.0,
-                              "cycles_per_s": st.counters.get("cycles", 0) / elapsed if elapsed else 0.0}
+                              "cycles_per_s": st.counters.get("cycles", 0) / elapsed if elapsed else 0.0,
+                              "block": st.spec.type, "params": st.spec.params}
                           for n, st in self.nodes.items()},
-                "swaps": self.swaps}
+                "edges": self.edge_queues(), "swaps": self.swaps}
+
+    def edge_queues(self) -> dict[str, dict[str, Any]]:
+        """Per edge between local nodes, from the last heartbeats (up to HEARTBEAT_S old): frames in flight (sent
+        by the producer, not yet taken by the consumer), the queue capacity (ZeroMQ's send and receive high-water
+        marks; the socket buffers of the kernel can hold a little more), and skipped frames of a tap edge."""
+        capacity = 2 * int(self.graph.run["queue_frames"])
+        out = {}
+        for e in self.graph.edges:
+            src, dst = self.nodes.get(e.src), self.nodes.get(e.dst)
+            if src is None or dst is None:
+                continue
+            sent = src.total("sent").get(str(e), 0)
+            taken = dst.total("in").get(e.dst_port, 0) + dst.total("rejected").get(e.dst_port, 0)
+            out[str(e)] = {"in_flight": max(0, sent - taken), "capacity": capacity,
+                           "skipped": src.total("skipped").get(str(e), 0)}
+        return out
 
     def cycles_done(self) -> int:
         """Cycles the local sources generated (a frame may carry several, header `cycles`); on a host without
@@ -513,6 +532,8 @@ class Supervisor:
             "estimated_counts": sorted(n for n, st in self.nodes.items() if st.unreported),
             "rejected": sum(sum(p["rejected"].values()) for p in per_node.values()),
             "unpaired": sum(sum(p["unpaired"].values()) for p in per_node.values()),
+            # frames a tap edge skipped because its observer was busy (block.In.tap): by design, not lost
+            "skipped_by_taps": {e: n for p in per_node.values() for e, n in p["skipped"].items() if n},
             "restarts": sum(st.restarts for st in self.nodes.values()),
             "failures": self.failures, "swaps": self.swaps, "stopped_by": self.stop_requested,
             "wall_s": wall, "throughput_cycles_per_s": cycles / wall if wall else 0.0, "per_node": per_node,

@@ -83,13 +83,13 @@ def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | Non
     return sock
 
 
-def send_message(sock: zmq.Socket, parts: list[Any]) -> None:
+def send_message(sock: zmq.Socket, parts: list[Any], flags: int = 0) -> None:
     """Send a multipart message without copying buffers (zmq.Frames, bytes, buffer objects); waits at most
-    the socket's send timeout, then raises zmq.Again. ZeroMQ queues a multipart message whole or not at all,
-    so a timed-out attempt sent nothing."""
+    the socket's send timeout (not at all with flags zmq.NOBLOCK), then raises zmq.Again. ZeroMQ queues a
+    multipart message whole or not at all, so a timed-out attempt sent nothing."""
     last = len(parts) - 1
     for i, part in enumerate(parts):
-        _send(sock, part, _SNDMORE if i < last else 0, copy=False)
+        _send(sock, part, (_SNDMORE if i < last else 0) | flags, copy=False)
 
 
 def recv_message(sock: zmq.Socket, flags: int = 0) -> list[zmq.Frame]:

@@ -90,6 +90,33 @@ log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
     assert gaps and max(gaps) < 60, gaps
 
 
+def test_a_slow_tap_never_slows_the_chain_and_what_it_skips_is_counted_skipped_not_lost(carav):
+    """The same slow consumer as above, but on a tap input beside a fast chain: the producer does not wait for
+    it; the tap sees an increasing subset of the frames and every other frame is counted skipped on its edge."""
+    n = 400
+    body = """
+connections = ["src.out -> t.inp", "t.out -> log.inp", "src.out -> view.inp"]
+[run]
+cycles = %d
+queue_frames = 2
+[blocks]
+src = { type = "counter_source", rows = 64, n_values = 1100 }
+t = { type = "tagger" }
+log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
+view = { type = "slow_tap", delay_s = 0.02, path = "seen.txt" }
+""" % n  # noqa: UP031
+    run = carav.run(carav.graph(body))
+    assert run.wait(60) == 0, run.stderr()
+    s = run.summary()
+    seen = [int(x) for x in (carav.workdir / "seen.txt").read_text().split()]
+    assert len(read_jsonl(carav.workdir / "out.jsonl")) == n and s["lost"] == 0 and s["rejected"] == 0
+    assert seen == sorted(set(seen)) and len(seen) < n / 2          # at 20 ms a frame it could not keep up
+    edge = "src.out -> view.inp"
+    assert s["skipped_by_taps"] == {edge: n - len(seen)}
+    assert s["per_node"]["src"]["sent"][edge] == len(seen) == s["per_node"]["view"]["in"]["inp"]
+    assert f"frames skipped for a busy observer (a tap, not lost): {n - len(seen)} on {edge}" in run.stdout()
+
+
 def test_live_swaps_lose_duplicate_and_reorder_nothing(carav):
     body = """
 connections = ["src.out -> t.inp", "t.out -> log.inp"]

@@ -22,20 +22,45 @@ class Sock:
         self.closed = True
 
 
-def outputs(full: dict[str, int] | None = None, idle=lambda: None) -> tuple[Outputs, list[Sock]]:
+def outputs(full: dict[str, int] | None = None, idle=lambda: None, edges=EDGES) -> tuple[Outputs, list[Sock]]:
     made: list[Sock] = []
 
     def connect(endpoint):
         made.append(Sock(endpoint, (full or {}).get(endpoint, 0)))
         return made[-1]
 
-    def send(sock, parts):
+    def send(sock, parts, flags=0):
         if sock.full:
             sock.full -= 1
             raise zmq.Again()
         sock.sent.append(parts)
 
-    return Outputs(EDGES, connect, idle, send, tick_s=0.0), made
+    return Outputs(edges, connect, idle, send, tick_s=0.0), made
+
+
+TAPPED = {"out": (OutEdge("p.out -> a.inp", "A"), OutEdge("p.out -> view.inp", "V", tap=True))}
+
+
+def test_a_full_tap_skips_the_frame_at_once_and_counts_it_skipped_never_lost():
+    idles = []
+    out, socks = outputs({"V": 2}, idle=lambda: idles.append(1), edges=TAPPED)
+    for seq in range(4):
+        out.send("out", [f"h{seq}"], seq)
+    assert idles == []                                               # never waited
+    assert socks[0].sent == [["h0"], ["h1"], ["h2"], ["h3"]]         # the processing edge got every frame
+    assert socks[1].sent == [["h2"], ["h3"]]                         # the tap: what it had room for, in order
+    assert out.c_skipped == {"p.out -> view.inp": 2} and out.c_undeliverable == {}
+    assert out.c_sent == {"p.out -> a.inp": 4, "p.out -> view.inp": 2}
+
+
+def test_a_tap_alone_on_its_port_and_a_tap_being_reconnected_skip_too():
+    out, socks = outputs({"V": 1}, edges={"out": (OutEdge("p.out -> view.inp", "V", tap=True),)})
+    out.send("out", ["h0"], 0)
+    out.reconnect.add("p.out -> view.inp")
+    out.send("out", ["h1"], 1)                                       # its consumer is restarting: skipped at once
+    out.reconnect.clear()
+    out.send("out", ["h2"], 2)
+    assert socks[0].sent == [["h2"]] and out.c_skipped == {"p.out -> view.inp": 2}
 
 
 def test_a_frame_goes_to_every_edge_of_its_port_in_order_and_is_counted_per_edge():
