@@ -29,7 +29,8 @@ def run(args: argparse.Namespace) -> int:
         if args.type:
             print("\n".join("    " + line for line in bt.doc.splitlines()[1:]))
         for p in cls.inputs:
-            print(f"  in   {p.name:<12} kind={p.kind:<10} dtypes={','.join(p.dtypes) or 'any':<18} {p.doc}")
+            tap = "tap (skips frames rather than slow its producer) " if p.tap else ""
+            print(f"  in   {p.name:<12} kind={p.kind:<10} dtypes={','.join(p.dtypes) or 'any':<18} {tap}{p.doc}")
         for p in cls.outputs:
             print(f"  out  {p.name:<12} kind={p.kind:<10} dtypes={','.join(p.dtypes) or 'any':<18} {p.doc}")
         for p in cls.params:

@@ -8,9 +8,7 @@ from enum import IntEnum
 from pathlib import Path
 from typing import Any
 
-import zmq
-
-from carav_stream.runtime.protocol import pack, unpack
+from carav_stream.runtime.admin import request
 
 
 class Exit(IntEnum):
@@ -68,14 +66,7 @@ def pick_run(which: str | None) -> dict[str, Any]:
 
 def ask(run: dict[str, Any], kind: str, timeout_s: float = 40.0, **fields: Any) -> dict[str, Any]:
     """One admin request (protocol.Admin) to a running graph's supervisor, and its answer."""
-    ctx = zmq.Context.instance()
-    sock = ctx.socket(zmq.REQ)
-    sock.linger = 0
     try:
-        sock.connect(run["admin"])
-        sock.send(pack(kind, **fields))
-        if not sock.poll(timeout_s * 1000):
-            raise CommandError(f"run {run['run']} did not answer within {timeout_s:.0f} s", Exit.FAILED)
-        return unpack(sock.recv())
-    finally:
-        sock.close()
+        return request(run, kind, timeout_s, **fields)
+    except TimeoutError as exc:
+        raise CommandError(str(exc), Exit.FAILED) from None

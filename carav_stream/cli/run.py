@@ -3,12 +3,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
 
 from carav_stream.cli.common import CommandError, Exit, fail
-from carav_stream.cli.options import output_file
+from carav_stream.cli.options import count, output_file
 from carav_stream.runtime.graph import Graph, GraphError
 from carav_stream.runtime.loader import load_graph
 
@@ -16,6 +17,11 @@ from carav_stream.runtime.loader import load_graph
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("graph", type=Path)
     run_options(p)
+    p.add_argument("--view", action="store_true", help="watch the run in a browser: a live_view node on taps of "
+                   "the gate and the estimator serves a page (a tap never slows the chain)")
+    p.add_argument("--port", type=count(0), default=5006, help="the --view page's TCP port (default 5006; 0 = any "
+                   "free port)")
+    p.add_argument("--view-host", default="127.0.0.1", help="the --view page's address (default loopback only)")
 
 
 def run_options(p: argparse.ArgumentParser) -> None:
@@ -33,7 +39,19 @@ def run_options(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    return execute(load(args.graph, args), args)
+    graph = load(args.graph, args)
+    if not args.view:
+        return execute(graph, args)
+    from carav_stream.cli.view import view_graph
+    from carav_stream.view.server import free_port
+    port = args.port or free_port(args.view_host)
+    path = view_graph(graph, args.view_host, port)
+    try:
+        viewed = load(path, args, shown_as=args.graph)
+        print(f"carav run: live view at http://{args.view_host}:{port}/", file=sys.stderr, flush=True)
+        return execute(viewed, args)
+    finally:
+        shutil.rmtree(path.parent, ignore_errors=True)
 
 
 def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:

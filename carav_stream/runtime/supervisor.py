@@ -26,6 +26,7 @@ from typing import Any
 import zmq
 
 from carav_stream.runtime import transport
+from carav_stream.runtime.admin import RUN_ID_ENV
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
 from carav_stream.runtime.protocol import LEASE_FRAMES, Admin, Control, NodeSpec, OutEdge, Report, pack, unpack
 from carav_stream.runtime.validate import swap_problems
@@ -166,7 +167,7 @@ class Supervisor:
         logf = open(self.run_dir / f"{st.name}.log", "ab")
         st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.runtime.node", str(spec_path)],
                                    stdin=subprocess.DEVNULL, stdout=logf, stderr=logf,
-                                   env={**NODE_ENV, **os.environ})
+                                   env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id})
         logf.close()
         st.ready = st.done = st.failed = False
         st.last_seen = time.monotonic()

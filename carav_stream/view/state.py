@@ -1,0 +1,174 @@
+"""What the live view shows, gathered from the frames its taps receive: no plotting, no sockets, thread-safe.
+
+The live_view block's process thread adds frames (`ViewState.add`); the page's update callback, on the web
+server's thread, takes what is new since its last look (`since`) and the latest range-Doppler map. Points per
+cycle: Q with the detector's decision (clean, D0, D1, an opt-in detector, or a fail-closed refusal with its
+reason), whether the attacker was on, and the estimates (every listed target). Only the most recent `history`
+cycles are kept; a page that looks less often than that loses the oldest points from its plot, never from the
+run (the run summary counts everything).
+
+Display accounting: a clean frame the view received but did not draw a map of (a newer one came before the page
+looked) is counted in `frames_not_drawn`; frames the tap edge skipped while the view was busy are counted by the
+runtime (`skipped_by_taps`). Neither is lost.
+"""
+from __future__ import annotations
+
+import collections
+import math
+import threading
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from carav_stream.detect.cfar import rd_power
+from carav_stream.estimate.geometry import Geometry
+from carav_stream.runtime.cycles import cycle_indices, per_cycle
+from carav_stream.runtime.frames import Frame
+
+CATEGORIES = ("clean", "D0", "D1", "opt-in", "refused")   # how a cycle's Q point is drawn
+
+
+def category(reason: str | None, raised_by: str | None) -> str:
+    """A cycle's class on the Q plot: clean (passed), the detector that raised the alarm (D0, D1, any other
+    name is an opt-in detector), or refused without a verdict of the detector (fail closed)."""
+    if reason is None:
+        return "clean"
+    if reason != "attack":
+        return "refused"
+    return raised_by if raised_by in ("D0", "D1") else "opt-in"
+
+
+@dataclass(frozen=True)
+class CyclePoint:
+    cycle: int
+    q: float | None            # None: no Q (a refusal without a verdict)
+    category: str
+    detail: str                # the detector or the refusal's reason; "" for clean
+    attacked: bool
+
+
+@dataclass(frozen=True)
+class EstimatePoint:
+    cycle: int
+    range_m: tuple[float, ...]
+    velocity_mps: tuple[float, ...]
+
+
+def rd_map_db(x: np.ndarray, rho: np.ndarray, geometry: Geometry, sigma_n: float
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The range-Doppler map of one cycle in dB over the noise (0 dB = the mean of a noise cell), Doppler centred:
+    (map (n_chirps, n_range_bins) float32, range of each bin [m], velocity of each Doppler row [m/s]).
+
+    x (n_chirps, n_samples) samples of one cycle, rho (n_chirps,) its activation; the map is detect.cfar.rd_power's
+    (active chirps only). Range bin j is beat frequency j fs / N (I/Q) or (j + 1) fs / N (I-only, DC dropped), read
+    as a range without Doppler (a target moving at v shows 2 v / lambda x range_per_hz further: the map is what the
+    receiver sees, before range-Doppler coupling is removed); Doppler row k is the chirp-to-chirp progression
+    k / n_chirps cycles, centred on 0."""
+    power = rd_power(x[None], rho[None], sigma_n, single=True)[0]
+    n_chirps, n_samples = x.shape
+    first = 0 if geometry.iq else 1
+    ranges = geometry.range_from_beat((np.arange(power.shape[1]) + first) * geometry.fs_hz / n_samples)
+    nu = np.fft.fftshift(np.fft.fftfreq(n_chirps))
+    db = 10.0 * np.log10(np.maximum(np.fft.fftshift(power, axes=0), 1e-6))
+    return db.astype(np.float32), ranges, geometry.velocity_from_slow_freq(nu)
+
+
+class ViewState:
+    """The view's data, shared between the block (writer) and the page sessions (readers)."""
+
+    def __init__(self, history: int = 2000) -> None:
+        self.lock = threading.Lock()
+        self.points: collections.deque[tuple[int, CyclePoint]] = collections.deque(maxlen=history)
+        self.estimates: collections.deque[tuple[int, EstimatePoint]] = collections.deque(maxlen=history)
+        self.n_points = self.n_estimates = 0          # running numbers: a reader asks for what came after its last
+        self.latest: tuple[int, np.ndarray, np.ndarray] | None = None   # (cycle, samples, rho) of the last clean one
+        self.latest_version = 0                       # clean frames received (a new map is due when it changes)
+        self.drawn_version = 0
+        self.frames_in: collections.Counter[str] = collections.Counter()
+        self.unreadable = 0                           # frames whose per-cycle fields could not be read
+        self.frames_not_drawn = 0
+        self.maps_drawn = 0
+        self.eta: float | None = None
+        self.last_cycle = -1
+        self.status: dict[str, Any] | None = None     # the supervisor's last status (set by the page's poller)
+        self.status_error: str | None = None
+        self.swap_log: list[str] = []                 # the page's swaps and their answers, newest last
+
+    def add(self, port: str, frame: Frame) -> None:
+        """Take one frame from tap `port` (alarms, estimates or clean). Cheap: the map is drawn by a reader."""
+        with self.lock:
+            self.frames_in[port] += 1
+            try:
+                per, cycles = per_cycle(frame), cycle_indices(frame)
+            except ValueError:
+                self.unreadable += 1
+                return
+            if isinstance(frame.header.get("eta"), int | float):
+                self.eta = float(frame.header["eta"])
+            self.last_cycle = max([self.last_cycle, *cycles])
+            n = len(cycles)
+            attacked = [bool(a) for a in per.get("attack_active") or [False] * n]
+            if port == "alarms":
+                reasons = per.get("reason") or ["attack"] * n
+                by = per.get("raised_by") or [None] * n
+                q = per.get("q") or [None] * n
+                for i, c in enumerate(cycles):
+                    cat = category(reasons[i], by[i])
+                    detail = (by[i] or "") if cat != "refused" else str(reasons[i])
+                    self._point(CyclePoint(c, _finite(q[i]), cat, detail, attacked[i]))
+            elif port == "estimates" and not frame.header.get("refused"):
+                q = per.get("q") or [None] * n
+                ranges, velocities = per.get("range_m") or [[]] * n, per.get("velocity_mps") or [[]] * n
+                for i, c in enumerate(cycles):
+                    self._point(CyclePoint(c, _finite(q[i]), "clean", "", attacked[i]))
+                    self.n_estimates += 1
+                    self.estimates.append((self.n_estimates, EstimatePoint(
+                        c, _numbers(ranges[i]), _numbers(velocities[i]))))
+            elif port == "clean" and frame.payload is not None and "rho" in frame.arrays and n:
+                if self.latest_version > self.drawn_version:
+                    self.frames_not_drawn += 1        # the one before it was never drawn
+                self.latest = (cycles[-1], frame.payload[-1], frame.arrays["rho"][-1])
+                self.latest_version += 1
+
+    def _point(self, p: CyclePoint) -> None:
+        self.n_points += 1
+        self.points.append((self.n_points, p))
+
+    def since(self, points_after: int, estimates_after: int) -> tuple[list[CyclePoint], int, list[EstimatePoint], int]:
+        """The points and estimates added after the given running numbers, and the numbers to ask with next."""
+        with self.lock:
+            pts = [p for k, p in self.points if k > points_after]
+            est = [e for k, e in self.estimates if k > estimates_after]
+            return pts, self.n_points, est, self.n_estimates
+
+    def recent(self, n: int) -> list[CyclePoint]:
+        """The last n cycle points received."""
+        with self.lock:
+            return [p for _, p in list(self.points)[-n:]]
+
+    def latest_clean(self, newer_than: int) -> tuple[int, int, np.ndarray, np.ndarray] | None:
+        """(version, cycle, samples, rho) of the last clean cycle if it is newer than version `newer_than` (what the
+        asking page drew last), else None. Each page asks for itself; `drawn(version)` counts a map drawn."""
+        with self.lock:
+            if self.latest is None or self.latest_version <= newer_than:
+                return None
+            return (self.latest_version, *self.latest)
+
+    def drawn(self, version: int) -> None:
+        with self.lock:
+            self.maps_drawn += 1
+            self.drawn_version = max(self.drawn_version, version)
+
+    def counts(self) -> dict[str, Any]:
+        with self.lock:
+            return {"frames_in": dict(self.frames_in), "unreadable": self.unreadable, "maps_drawn": self.maps_drawn,
+                    "frames_not_drawn": self.frames_not_drawn, "last_cycle": self.last_cycle}
+
+
+def _finite(x: Any) -> float | None:
+    return float(x) if isinstance(x, int | float) and math.isfinite(x) else None
+
+
+def _numbers(values: Any) -> tuple[float, ...]:
+    return tuple(float(v) for v in values or () if isinstance(v, int | float) and math.isfinite(v))

@@ -1,0 +1,117 @@
+"""`carav run --view` in a real headless browser (Debian's Chromium driven by Selenium): the page loads, its plots
+update while the graph runs, and a swap made from the page reaches the attacker node, shows in `carav status` and
+in the run summary, and the alarms follow it. CI installs the browser (.ci/run); a local run without one skips
+this test and says why."""
+import json
+import os
+import shutil
+import urllib.request
+
+import pytest
+
+from carav_stream.view.server import free_port
+from tests.integration.conftest import ROOT, wait_until
+
+pytestmark = pytest.mark.integration
+BATCH = 32   # table1_smart's cycles per frame (radar_chain.toml)
+
+# Deep search through the shadow roots Bokeh 3 renders its widgets in.
+DEEP_FIND = """
+function find(root, css) {
+  const hit = root.querySelector(css); if (hit) return hit;
+  for (const el of root.querySelectorAll('*')) {
+    if (el.shadowRoot) { const h = find(el.shadowRoot, css); if (h) return h; }
+  }
+  return null;
+}
+return find(document, arguments[0]);
+"""
+MODEL = """const doc = window.Bokeh && Bokeh.documents.length ? Bokeh.documents[0] : null;
+const m = doc ? doc.get_model_by_name(arguments[0]) : null; return m ? JSON.parse(JSON.stringify(m.%s)) : null;"""
+
+
+def browser():
+    """A headless Chromium, or a skip (a fail under CI, which must run this test) naming what is missing."""
+    missing = [name for name in ("chromium", "chromedriver") if shutil.which(name) is None]
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        missing.append("the selenium package")
+    if missing:
+        why = f"no headless browser: {', '.join(missing)} not installed (apt-get install chromium chromium-driver)"
+        if os.environ.get("CI"):
+            pytest.fail(f"CI must run the browser test; {why}")
+        pytest.skip(why)
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = shutil.which("chromium")
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--window-size=1400,1600"):
+        opts.add_argument(arg)
+    return webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=opts)
+
+
+def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_attacker(carav):
+    from selenium.webdriver.support.ui import Select
+    port = free_port("127.0.0.1")
+    run = carav.run(ROOT / "graphs" / "table1_smart.toml", "--view", "--port", str(port), "--cycles", "0")
+    url = f"http://127.0.0.1:{port}/"
+
+    def page_up():
+        try:
+            return urllib.request.urlopen(url, timeout=2).status == 200
+        except OSError:
+            assert run.proc.poll() is None, run.stderr()
+            return False
+    wait_until(page_up, 60, "the live view page", interval_s=0.2)
+    assert f"live view at {url}" in run.stderr()
+    driver = browser()
+    try:
+        driver.get(url)
+        data = lambda name, col: driver.execute_script(MODEL % f"data[{json.dumps(col)}]", name) or []  # noqa: E731
+        text = lambda name: driver.execute_script(MODEL % "text", name) or ""  # noqa: E731
+        # the smart attacker (RARMS 3 from cycle 100) raises D0 alarms; cycles 0-99 are clean, estimated, mapped
+        wait_until(lambda: len(data("q_D0", "cycle")) > 50 and len(data("estimates", "range_m")) > 10, 60,
+                   "alarm and estimate points on the page")
+        assert all(abs(r - 43.0) < 1.0 for r in data("estimates", "range_m"))        # the car at 43 m
+        wait_until(lambda: "peak" in text("rd_text"), 30, "the range-Doppler map")
+        assert "RARMS <b>3.0</b>" in text("attacker") and "model <b>smart</b>" in text("attacker")
+        first = max(data("q_D0", "cycle"))
+        wait_until(lambda: max(data("q_D0", "cycle")) > first + 10 * BATCH, 30, "the Q plot moving on")
+
+        # swap from the page: the model select, the RARMS field, the button, as a user would
+        Select(driver.execute_script(DEEP_FIND, "select")).select_by_value("none")
+        driver.execute_script(DEEP_FIND, "button.bk-btn").click()
+        wait_until(lambda: "swapped attacker" in text("swap_log"), 60, "the page's swap answer")
+        assert "{'model': 'none'}" in text("swap_log"), text("swap_log")
+        status = json.loads(carav.cli("status", "--json").stdout)[0]
+        swaps = [s for s in status["swaps"] if s["node"] == "attacker"]
+        assert len(swaps) == 1 and status["nodes"]["attacker"]["params"]["model"] == "none"
+        after = swaps[0]["first_seq"] * BATCH
+        # the alarms follow: clean cycles after the swap, no alarm from a cycle the silent attacker produced
+        wait_until(lambda: max(data("q_clean", "cycle"), default=0) > after + 10 * BATCH, 60,
+                   "clean cycles after the swap")
+        assert max(data("q_D0", "cycle")) < after + BATCH
+        wait_until(lambda: "model <b>none</b>" in text("attacker"), 10, "the attacker panel following the swap")
+    except BaseException:
+        driver.save_screenshot(str(carav.workdir / "live_view.png"))
+        raise
+    finally:
+        driver.quit()
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(60) == 0, run.stderr()
+    s = run.summary()
+    assert s["lost"] == 0 and [w["node"] for w in s["swaps"]] == ["attacker"]
+    assert "swap: node attacker runs block attacker (version 1) from frame seq" in run.stdout()
+    view = s["per_node"]["view"]
+    assert view["block"] == "live_view" and view["in"]["alarms"] > 0 and view["in"]["clean"] > 0
+    assert view["history"][0]["summary"]["view"]["maps_drawn"] >= 1
+
+
+def test_a_graph_without_a_gate_has_nothing_to_watch(carav):
+    body = 'connections = ["src.out -> log.inp"]\n[blocks]\nsrc = { type = "counter_source" }\n' \
+           'log = { type = "jsonl_sink", path = "out.jsonl" }\n'
+    r = carav.cli("run", str(carav.graph(body)), "--view", "--port", "0")
+    assert r.returncode == 3 and "--view watches the gate's verdicts; the graph has no gate" in r.stderr
+    assert not any(carav.run_root.rglob("*.spec"))                                     # nothing started
