@@ -269,6 +269,43 @@ def study_table(doc: dict) -> list[str]:
     return lines
 
 
+def view_rows(doc: dict) -> list[Row]:
+    r = doc["records"][0]
+    case = f"{r['preset']} {r['fidelity']}, batch {r['batch']}, {r['cycles']} cycles"
+    rows = [(f"graph with the live view node, no page open, over the graph alone ({case})",
+             f"{r['view']['ratio_to_graph']:.2f} x ({r['view']['cycles_per_s']:.0f} / "
+             f"{r['graph']['cycles_per_s']:.0f} cycles/s)", f">= {r['target']:g} x", _met(r['view']['ratio_to_graph']
+                                                                                         >= r["target"]))]
+    if "view_browser" in r:
+        b = r["view_browser"]
+        rows.append((f"the same with a headless Chromium showing the page on the same cores ({case})",
+                     f"{b['ratio_to_graph']:.2f} x ({b['cycles_per_s']:.0f} cycles/s); frames skipped by the taps "
+                     f"{', '.join(map(str, b['skipped_by_taps']))}", "(reported: the browser's own CPU)", "-"))
+    else:
+        rows.append(("the same with a headless browser", r["browser"], "(reported)", "-"))
+    return rows
+
+
+def view_table(doc: dict) -> list[str]:
+    r = doc["records"][0]
+    lines = ["| mode | cycles/s (median) | runs | over the graph alone, run by run | skipped by taps | frames to the "
+             "view |", "|---|---:|---|---|---|---|"]
+    for mode in ("graph", "view", "view_browser"):
+        if mode not in r:
+            continue
+        m = r[mode]
+        ratios = ", ".join(f"{x:.2f}" for x in m.get("runs_ratio", [])) or "-"
+        lines.append(f"| {mode} | {m['cycles_per_s']:.0f} | {', '.join(f'{x:.0f}' for x in m['runs_cycles_per_s'])} "
+                     f"| {ratios} | {', '.join(map(str, m['skipped_by_taps']))} | "
+                     f"{', '.join(map(str, m['view_frames']))} |")
+    if "view_browser" in r:
+        lines += ["", "Q points the page held at the end of each browser run: "
+                  + ", ".join(str(x) for x in r["view_browser"]["page_points"]) + "."]
+    else:
+        lines += ["", f"Browser runs: {r['browser']}."]
+    return lines
+
+
 BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], list[str]]]] = {
     "transport": ("Transport: runtime against raw pyzmq", transport_rows, transport_table),
     "synth": ("Signal chain per simulated cycle", synth_rows, synth_table),
@@ -277,6 +314,7 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], l
     "pipeline": ("Pipeline: the multi-process radar graph", pipeline_rows, pipeline_table),
     "soak": ("Soak: the demo graph for minutes with live swaps", soak_rows, soak_table),
     "study": ("Studies on Dask: scaling over local workers", study_rows, study_table),
+    "view": ("Live view: what watching costs the chain", view_rows, view_table),
 }
 
 INTRO = """# Benchmarks

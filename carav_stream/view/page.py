@@ -130,7 +130,7 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
         row(column(rd_fig, rd_div), column(attacker_div, row(model_in, rarms_in), swap_button, swap_div, nodes)),
         edges))
 
-    seen = {"points": 0, "estimates": 0, "map": 0}   # what this page has drawn
+    seen: dict[str, Any] = {"points": 0, "estimates": 0, "map": 0, "status": None}   # what this page has drawn
 
     def update() -> None:
         pts, seen["points"], est, seen["estimates"] = state.since(seen["points"], seen["estimates"])
@@ -161,19 +161,22 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
             state.drawn(seen["map"])
         with state.lock:
             status, status_error, swaps = state.status, state.status_error, list(state.swap_log[-5:])
-        if status is not None:
+        if status is not None and status is not seen["status"]:   # a new one comes once a second: tables
+            seen["status"] = status                                # redrawn only then (the browser's work)
             recent = [p.attacked for p in state.recent(200)]
             on = (f"attack on in {sum(recent)} of the last {len(recent)} cycles shown" if recent
                   else "no cycle shown yet")
             _show_status(status, cfg.attacker, node_src, edge_src, attacker_div, on)
-        if swaps:
+        if swaps and swap_div.text != "<br>".join(swaps):
             swap_div.text = "<br>".join(swaps)
         k = state.counts()
         skipped = sum(e.get("skipped", 0) for e in (status or {}).get("edges", {}).values())
-        info.text = (f"latest cycle {k['last_cycle']} &middot; cycles run {(status or {}).get('cycles', 'n/a')} "
+        info_text = (f"latest cycle {k['last_cycle']} &middot; cycles run {(status or {}).get('cycles', 'n/a')} "
                      f"&middot; range-Doppler maps drawn {k['maps_drawn']}, clean frames not drawn "
                      f"{k['frames_not_drawn']} &middot; frames the taps skipped for display {skipped} (not lost)"
                      + (f" &middot; status: {status_error}" if status_error else ""))
+        if info.text != info_text:
+            info.text = info_text
 
     doc.add_periodic_callback(update, max(50, int(1000 / cfg.update_hz)))
 

@@ -4,52 +4,27 @@ in the run summary, and the alarms follow it. CI installs the browser (.ci/run);
 this test and says why."""
 import json
 import os
-import shutil
 import urllib.request
 
 import pytest
 
+from carav_stream.view.browser import DEEP_FIND, headless_chromium, missing, model
 from carav_stream.view.server import free_port
 from tests.integration.conftest import ROOT, wait_until
 
 pytestmark = pytest.mark.integration
 BATCH = 32   # table1_smart's cycles per frame (radar_chain.toml)
 
-# Deep search through the shadow roots Bokeh 3 renders its widgets in.
-DEEP_FIND = """
-function find(root, css) {
-  const hit = root.querySelector(css); if (hit) return hit;
-  for (const el of root.querySelectorAll('*')) {
-    if (el.shadowRoot) { const h = find(el.shadowRoot, css); if (h) return h; }
-  }
-  return null;
-}
-return find(document, arguments[0]);
-"""
-MODEL = """const doc = window.Bokeh && Bokeh.documents.length ? Bokeh.documents[0] : null;
-const m = doc ? doc.get_model_by_name(arguments[0]) : null; return m ? JSON.parse(JSON.stringify(m.%s)) : null;"""
-
 
 def browser():
     """A headless Chromium, or a skip (a fail under CI, which must run this test) naming what is missing."""
-    missing = [name for name in ("chromium", "chromedriver") if shutil.which(name) is None]
-    try:
-        from selenium import webdriver
-        from selenium.webdriver.chrome.service import Service
-    except ImportError:
-        missing.append("the selenium package")
-    if missing:
-        why = f"no headless browser: {', '.join(missing)} not installed (apt-get install chromium chromium-driver)"
+    lacking = missing()
+    if lacking:
+        why = f"no headless browser: {', '.join(lacking)} not installed (apt-get install chromium chromium-driver)"
         if os.environ.get("CI"):
             pytest.fail(f"CI must run the browser test; {why}")
         pytest.skip(why)
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = shutil.which("chromium")
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--no-first-run",
-                "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                "--window-size=1400,1600"):
-        opts.add_argument(arg)
-    return webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=opts)
+    return headless_chromium()
 
 
 def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_attacker(carav):
@@ -69,8 +44,8 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
     driver = browser()
     try:
         driver.get(url)
-        data = lambda name, col: driver.execute_script(MODEL % f"data[{json.dumps(col)}]", name) or []  # noqa: E731
-        text = lambda name: driver.execute_script(MODEL % "text", name) or ""  # noqa: E731
+        data = lambda name, col: model(driver, name, f"data[{json.dumps(col)}]") or []  # noqa: E731
+        text = lambda name: model(driver, name, "text") or ""  # noqa: E731
         # the smart attacker (RARMS 3 from cycle 100) raises D0 alarms; cycles 0-99 are clean, estimated, mapped
         wait_until(lambda: len(data("q_D0", "cycle")) > 50 and len(data("estimates", "range_m")) > 10, 60,
                    "alarm and estimate points on the page")
