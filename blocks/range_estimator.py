@@ -10,13 +10,19 @@ radar's target list (carav_stream/target_list.py): CFAR on the range-Doppler map
 design false-alarm rate `pfa` per cell, every detection refined by `method` (ml, music, root_music: jointly; the
 FFT methods keep the cells), up to max_targets, a variable number per cycle.
 
+Range migration: with max_speed_mps > 0 every target (strongest maxima or CFAR list) is refined along its range
+walk within the cycle instead (carav_stream/estimate/migration.py): the velocity alias within +-max_speed_mps
+whose walk integrates most power is kept, so velocities are unaliased and ranges are those at the cycle's first
+chirp; a CFAR list then also leaves out what a stronger target's walk explains. For scenes whose targets cross
+range cells within a cycle (awr1642: 3.6 cells at 83 m/s); `method` is then not used.
+
 Ports   in  frames      clean_frame: ADC frames (int16 codes or float32 | complex64 samples) of the clean
                         cycles + array rho
         out estimates   header method, detection, per_cycle range_m, velocity_mps (lists, one value per target;
                         "strongest": n_targets values, None where no target was found; CFAR: the listed
                         targets only, and snr_db, amplitude beside them) beside the frame's own per-cycle fields
 Params  method, n_targets, detection ("strongest"), pfa (1e-6 per cell), max_targets (8), sigma_n (0: the
-        scene's noise RMS, the CFAR map's normalisation), scene
+        scene's noise RMS, the CFAR map's normalisation), max_speed_mps (0: no migration compensation), scene
 Graph   ranging = { type = "range_estimator", method = "root_music" }
         ranging = { type = "range_estimator", detection = "ca_cfar", pfa = 1e-6 }
 """
@@ -47,6 +53,8 @@ class RangeEstimator(Block):
                     strict=True),
               Param("max_targets", int, 8, "longest CFAR list per cycle", low=1, high=64),
               Param("sigma_n", float, 0.0, "noise RMS per sample for the CFAR map; 0 = from the scene", low=0.0),
+              Param("max_speed_mps", float, 0.0, "largest range rate to compensate range migration for; 0 = none",
+                    unit="m/s", low=0.0),
               SCENE)
 
     def check_params(self) -> None:
@@ -67,11 +75,13 @@ class RangeEstimator(Block):
             raise ValueError(f"frame seq {frames.seq}: {n} cycles, frames {x.shape} and rho {rho.shape} disagree")
         rho = np.asarray(rho, dtype=bool)
         if self.detection == "strongest":
-            est = estimate(x, rho, self.geometry, method=self.method, n_targets=self.n_targets)
+            est = estimate(x, rho, self.geometry, method=self.method, n_targets=self.n_targets,
+                           max_speed_mps=self.max_speed_mps)
             return frames.derive(None, method=self.method, detection=self.detection, per_cycle=pick(
                 frames, range(n), range_m=_plain(est.range_m), velocity_mps=_plain(est.velocity_mps)))
         tl = target_list(x, rho, self.geometry, self.sigma_n or self.scene_obj.sigma_n, detection=self.detection,
-                         pfa=self.pfa, method=self.method, max_targets=self.max_targets)
+                         pfa=self.pfa, method=self.method, max_targets=self.max_targets,
+                         max_speed_mps=self.max_speed_mps)
         found = [slice(0, int(k)) for k in tl.n_found]
         lists = {name: [_plain(values[i:i + 1, s])[0] for i, s in enumerate(found)]
                  for name, values in (("range_m", tl.range_m), ("velocity_mps", tl.velocity_mps),

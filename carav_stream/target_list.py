@@ -41,8 +41,14 @@ class TargetList:
 
 
 def target_list(frames, rho, geometry: Geometry, sigma_n: float, *, detection: str = "ca_cfar", pfa: float = 1e-6,
-                method: str = DEFAULT_METHOD, max_targets: int = 8, n_newton: int = 1) -> TargetList:
-    """CFAR target list of every cycle, refined by `method` (see the module docstring)."""
+                method: str = DEFAULT_METHOD, max_targets: int = 8, n_newton: int = 1,
+                max_speed_mps: float = 0.0) -> TargetList:
+    """CFAR target list of every cycle, refined by `method` (see the module docstring).
+
+    max_speed_mps > 0: range migration compensated (estimate/migration.py): each listed cell is refined along the
+    range walk of the velocity alias within +-max_speed_mps that integrates most power, so velocities come
+    unaliased, and what a stronger target explains (the same target from another cell of its walk, or a slow-time
+    sidelobe along the walk) is left out (_merged)."""
     if detection not in KINDS:
         raise ValueError(f"detection: expected one of {sorted(KINDS)}, got {detection!r}")
     x, r = np.asarray(frames), np.asarray(rho, dtype=bool)
@@ -53,10 +59,38 @@ def target_list(frames, rho, geometry: Geometry, sigma_n: float, *, detection: s
     fft_bin = det.range_bin[:, :width] + (0 if geometry.iq else 1)        # I-only maps start at FFT bin 1
     f0 = np.where(ok, fft_bin / x.shape[-1], np.nan)
     nu0 = np.where(ok, det.doppler_bin[:, :width] / r.shape[1], np.nan)
-    est = refine_at(x, r, geometry, f0, nu0, method=method, n_newton=n_newton)
+    est = refine_at(x, r, geometry, f0, nu0, method=method, n_newton=n_newton, max_speed_mps=max_speed_mps)
     found = np.arange(width)[None, :] < est.n_found[:, None]
-    return TargetList(est.range_m, est.velocity_mps, np.where(found, det.snr_db[:, :width], np.nan), est.amplitude,
-                      est.n_found)
+    tl = TargetList(est.range_m, est.velocity_mps, np.where(found, det.snr_db[:, :width], np.nan), est.amplitude,
+                    est.n_found)
+    return _merged(tl, geometry, r, det.range_bin[:, :width]) if max_speed_mps > 0 else tl
+
+
+def _merged(tl: TargetList, geometry: Geometry, rho: np.ndarray, cells: np.ndarray) -> TargetList:
+    """The list without what a stronger target of the same cycle explains, strongest first as listed: a target
+    within 1.5 range cells and 1.5 Doppler bins of it (the same target, listed from two cells of its walk), or
+    one whose map cell (`cells`, range bins (C, K)) lies within one bin plus the stronger one's walk over the
+    cycle and is weaker than its worst slow-time sidelobe (cfar.worst_sidelobe_ratio x SIDELOBE_MARGIN: the CFAR's
+    own sidelobe test, which on the map looks only at the range bins next to the peak, while a migrating target's
+    sidelobes lie along its walk; a real target that close and that much weaker is left out with them)."""
+    n_chirps = rho.shape[1]
+    res, v_gate = geometry.range_resolution_m, 1.5 * 2 * geometry.max_velocity_mps / n_chirps
+    psl_db = 10 * np.log10(cfar.worst_sidelobe_ratio(rho) * cfar.SIDELOBE_MARGIN)[:, None]
+    keep = np.isfinite(tl.range_m)
+    for j in range(1, keep.shape[1]):
+        dr = np.abs(tl.range_m[:, :j] - tl.range_m[:, j:j + 1])
+        walk_bins = np.abs(tl.velocity_mps[:, :j]) * n_chirps * geometry.t_chirp_s / res
+        same = (dr <= 1.5 * res) & (np.abs(tl.velocity_mps[:, :j] - tl.velocity_mps[:, j:j + 1]) <= v_gate)
+        sidelobe = ((np.abs(cells[:, :j] - cells[:, j:j + 1]) <= 1 + walk_bins)
+                    & (tl.snr_db[:, j:j + 1] < tl.snr_db[:, :j] + psl_db))
+        keep[:, j] &= ~((same | sidelobe) & keep[:, :j]).any(axis=1)
+    order = np.argsort(~keep, axis=1, kind="stable")                     # kept targets first, in listed order
+    n = keep.sum(axis=1)
+    pad = np.arange(keep.shape[1])[None, :] >= n[:, None]
+
+    def pick(a):
+        return np.where(pad, np.nan, np.take_along_axis(a, order, axis=1))
+    return TargetList(pick(tl.range_m), pick(tl.velocity_mps), pick(tl.snr_db), pick(tl.amplitude), n.astype(np.int64))
 
 
 def gates(geometry: Geometry, n_chirps: int, speed_mps: float = 0.0) -> tuple[float, float]:

@@ -292,7 +292,7 @@ def _one_target(x, chirps: _Chirps, method, zeropad, n_newton, music_length, iq)
 
 def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n_targets: int | None = 1,
              max_targets: int = 4, criterion: str = "mdl", zeropad: int = 8, music_length: int | None = None,
-             n_newton: int = 1, couple: bool = True) -> Estimates:
+             n_newton: int = 1, couple: bool = True, max_speed_mps: float = 0.0) -> Estimates:
     """Range and velocity of up to n_targets targets per cycle from the active chirps.
 
     frames        (n_cycles, n_chirps, n_samples) complex64 (geometry.iq) or float32 ADC samples
@@ -305,8 +305,16 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
     music_length  MUSIC subvector length L (default min(N // 4, 32))
     n_newton      Newton steps per refinement (ml, and the Doppler stage of music / root_music)
     couple        remove the range-Doppler coupling from range_m (beat_hz is always the raw beat)
+    max_speed_mps > 0: range migration compensated: the fft_peak cells of the strongest maxima, each refined along
+                  its range walk (refine_at), velocities unaliased within +-max_speed_mps (method ignored)
     Returns Estimates; raises ValueError/TypeError naming the bad argument.
     """
+    if max_speed_mps > 0:
+        cells = estimate(frames, rho, geometry, method="fft_peak", n_targets=n_targets, max_targets=max_targets,
+                         criterion=criterion, couple=False)
+        return refine_at(frames, rho, geometry, cells.beat_hz / geometry.fs_hz,
+                         geometry.slow_freq_from_velocity(cells.velocity_mps), couple=couple,
+                         max_speed_mps=max_speed_mps)
     frames, rho = _check_inputs(frames, rho, geometry, method)
     if n_targets is not None and (int(n_targets) != n_targets or n_targets < 1):
         raise ValueError(f"estimate: n_targets must be a positive integer or None, got {n_targets!r}")
@@ -367,14 +375,19 @@ def _estimates(f, nu, amp, found, scale, chirps: _Chirps, geometry: Geometry, me
 
 
 def refine_at(frames, rho, geometry: Geometry, f0, nu0, *, method: str = DEFAULT_METHOD, n_newton: int = 1,
-              music_length: int | None = None, couple: bool = True) -> Estimates:
+              music_length: int | None = None, couple: bool = True, max_speed_mps: float = 0.0) -> Estimates:
     """Targets found elsewhere (a CFAR list, say) refined by `method` from where they were found.
 
     f0, nu0   float (n_cycles, K): beat [cycles/sample] and slow-time frequency [cycles/chirp] of each target
               (its cell), NaN after the last target of a cycle (targets first, padding after)
     ml, music and root_music refine every target of a cycle jointly (the others cancelled, as in `estimate`);
     fft_peak keeps the cells. Amplitudes are measured at the final frequencies.
+    max_speed_mps > 0: every target is refined alone along its range walk instead (estimate/migration.py): the
+    velocity alias within +-max_speed_mps whose walk integrates most power is kept, so velocities are unaliased
+    and ranges refer to the cycle's first chirp, coupling removed with the unaliased velocity (method ignored).
     """
+    if max_speed_mps > 0:
+        return _refine_walking(frames, rho, geometry, f0, nu0, max_speed_mps, couple)
     frames, rho = _check_inputs(frames, rho, geometry, method)
     f0, nu0 = np.asarray(f0, dtype=float), np.asarray(nu0, dtype=float)
     if f0.ndim != 2 or f0.shape != nu0.shape or f0.shape[0] != frames.shape[0]:
@@ -402,6 +415,30 @@ def refine_at(frames, rho, geometry: Geometry, f0, nu0, *, method: str = DEFAULT
                              for j in range(k)], axis=1)
         f[rows, :k], nu[rows, :k], amp[rows, :k] = fs, nus, amps
     return _estimates(f, nu, amp, present & valid[:, None], scale, chirps, geometry, method, couple)
+
+
+def _refine_walking(frames, rho, geometry: Geometry, f0, nu0, max_speed_mps: float, couple: bool) -> Estimates:
+    from carav_stream.estimate.migration import refine_walking
+    frames, rho = _check_inputs(frames, rho, geometry, "ml")
+    f0, nu0 = np.asarray(f0, dtype=float), np.asarray(nu0, dtype=float)
+    present = np.isfinite(f0) & np.isfinite(nu0)
+    chirps = _Chirps.of(rho)
+    x, scale, valid = _normalise(frames, chirps)
+    f, v, amp = (np.full(f0.shape, np.nan) for _ in range(3))
+    for j in range(f0.shape[1]):
+        rows = np.flatnonzero(present[:, j] & valid)
+        if rows.size:
+            f[rows, j], v[rows, j], amp[rows, j] = refine_walking(
+                x[rows], chirps.index[rows], chirps.mask[rows], f0[rows, j], nu0[rows, j], geometry, max_speed_mps)
+    found = present & valid[:, None]
+    velocity = np.where(chirps.count[:, None] < 2, np.nan, v)
+    beat_hz = (f % 1.0) * geometry.fs_hz
+    range_m = geometry.range_from_beat(beat_hz, np.nan_to_num(velocity) if couple else 0.0)
+    nan = np.nan
+    return Estimates(range_m=np.where(found, range_m, nan), velocity_mps=np.where(found, velocity, nan),
+                     beat_hz=np.where(found, beat_hz, nan),
+                     amplitude=np.where(found, amp * (scale[:, None] * (1.0 if geometry.iq else 2.0)), nan),
+                     n_found=found.sum(axis=1).astype(np.int64), method="ml_walking")
 
 
 def _interpolate(x, chirps: _Chirps, f, nu, iq):
