@@ -146,12 +146,17 @@ def detector_table(doc: dict) -> list[str]:
 
 
 def estimators_rows(doc: dict) -> list[Row]:
-    from carav_stream.bench.estimation import TARGET_RATIO, TARGET_TIME_FACTOR, scores
+    from carav_stream.bench.estimation import LISTS, TARGET_RATIO, TARGET_TIME_FACTOR, scores
     recs = doc["records"]
     presets = sorted({r["preset"] for r in recs})
     target = f"<= {TARGET_RATIO:g} x CRLB at <= {TARGET_TIME_FACTOR:g} x fft_peak time"
     rows = []
     for m, (ratio, tf) in sorted(scores(recs, presets).items(), key=lambda kv: kv[1][1]):
+        if m in LISTS:
+            rows.append((f"`{m}` target list (CFAR stage + ml), strongest listed target, worst RMSE / CRLB from 10 to "
+                         f"30 dB ({', '.join(presets)}), median time over fft_peak", f"{_g(ratio)} x CRLB at "
+                         f"{tf:.2f} x", "(reported: the stage a target list adds)", "-"))
+            continue
         rows.append((f"`{m}`, worst RMSE / CRLB from 10 to 30 dB ({', '.join(presets)}), median time over fft_peak",
                      f"{_g(ratio)} x CRLB at {tf:.2f} x", target,
                      _met(ratio <= TARGET_RATIO and tf <= TARGET_TIME_FACTOR)))
