@@ -12,6 +12,8 @@
    target at 10, 20 and 30 dB after integration over the active chirps (CRLB from estimate/crlb.py): range and
    velocity RMSE over the bound, and the targets listed per cycle. Then two targets 12 range bins apart, one
    20 dB louder (the weak one at 20 dB): the share of cycles in which the weak one is listed, CA against OS.
+   Then the resolution limit: two equal targets (20 dB each) 0.5 to 3 range bins apart at the same velocity: the
+   share of cycles listing both, and listing the pair as one target.
 4. Range migration. The awr1642 car (closing at 83 m/s: 3.6 range cells within a cycle, Doppler aliased) through
    the simulator's signal chain, and the same car 30, 40 and 45 dB weaker (RCS): the OS-CFAR list with and without
    the range-walk compensation (max_speed_mps 100, estimate/migration.py): probability of detection, false targets
@@ -128,6 +130,38 @@ def _refined_list(rng, c: int) -> None:
     for kind in ("ca_cfar", "os_cfar"):
         listed = np.abs(target_list(x, rho, g, sigma, detection=kind).range_m - ranges[:, :1]) < g.range_resolution_m
         print(f"  {kind}: {listed.any(axis=1).mean():.3f}")
+    _resolution(rng, c)
+
+
+def _resolution(rng, c: int) -> None:
+    """Two equal targets (20 dB each after integration, the same velocity) a given number of range bins apart:
+    the share of cycles whose OS-CFAR list holds both (each within 0.4 spacing, at most half a cell, of its
+    truth), and
+    the share that lists the pair as one (a target within half a cell of the pair's span, not both resolved)."""
+    from carav_stream.bench.estimation import load_preset
+    from carav_stream.estimate.tones import synth_beat
+    from carav_stream.radar.activation import balanced_rows
+    from carav_stream.target_list import target_list
+
+    g, m, _, _ = load_preset("table1")
+    res = g.range_resolution_m
+    snr_s = 20.0 - 10 * np.log10(m // 2)
+    sigma = 10 ** (-snr_s / 20) / np.sqrt(2.0)
+    print(f"table1, two equal targets at 20 dB, same velocity, OS-CFAR + ml, {c} cycles per spacing")
+    print(f"{'spacing (bins)':>15}{'both listed':>13}{'as one':>13}")
+    for bins in (0.5, 1.0, 1.5, 2.0, 3.0):
+        rho = balanced_rows(rng, c, m)
+        r0 = 0.3 * g.max_range_m + rng.uniform(-0.5, 0.5, (c, 1)) * res
+        ranges = np.hstack([r0, r0 + bins * res])
+        speeds = np.full((c, 2), 0.2 * g.max_velocity_mps)
+        x = synth_beat(g, rho, ranges, speeds, snr_sample_db=snr_s, rng=rng)
+        tl = target_list(x, rho, g, sigma, detection="os_cfar")
+        tol = min(0.5, 0.4 * bins) * res                 # a target midway between the two matches neither
+        near = np.abs(tl.range_m[:, :, None] - ranges[:, None, :]) < tol               # (C, K, 2)
+        both = near.any(axis=1).all(axis=1)              # tol < spacing / 2: two different listed targets
+        mid = ranges.mean(axis=1, keepdims=True)
+        as_one = (np.abs(tl.range_m - mid) < (0.5 * bins + 0.5) * res).any(axis=1) & ~both
+        print(f"{bins:>15g}{both.mean():>13.2f}{as_one.mean():>13.2f}")
 
 
 def _migration(seed: int, c: int) -> None:
