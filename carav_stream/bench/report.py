@@ -67,6 +67,40 @@ def transport_table(doc: dict) -> list[str]:
     return lines
 
 
+def zerocopy_rows(doc: dict) -> list[Row]:
+    rows = []
+    for r in doc["records"]:
+        z = r["zmq"]
+        for mode, what in (("shm", "multiprocessing.shared_memory ring + ZeroMQ notifications"),
+                           ("iox", "iceoryx2 publish-subscribe")):
+            if mode not in r:
+                rows.append((f"{what}, {r['frame']} frame", r["iox"], "(reported)", "-"))
+                continue
+            m = r[mode]
+            rows.append((f"{what} over pyzmq, one hop of a {r['frame']} frame ({r['bytes']} B)",
+                         f"{m['ratio_to_zmq']:.2f} x frames/s ({m['frames_per_s']:.0f} / {z['frames_per_s']:.0f}); "
+                         f"CPU per frame {m['cpu_us_per_frame']:.0f} / {z['cpu_us_per_frame']:.0f} us "
+                         f"({m['cpu_ratio_to_zmq']:.2f} x)"
+                         + (f"; frames sent again {sum(m['resent'])}" if mode == "iox" else ""),
+                         "(reported: chooses the data plane)", "-"))
+    return rows
+
+
+def zerocopy_table(doc: dict) -> list[str]:
+    lines = ["| frame | mode | frames/s (median) | runs | CPU us/frame (median) | over zmq: frames/s, CPU |",
+             "|---|---|---:|---|---:|---|"]
+    for r in doc["records"]:
+        for mode in ("zmq", "shm", "iox"):
+            if mode not in r:
+                continue
+            m = r[mode]
+            over = f"{m['ratio_to_zmq']:.2f}, {m['cpu_ratio_to_zmq']:.2f}" if mode != "zmq" else "-"
+            lines.append(f"| {r['frame']} ({r['bytes']} B) | {mode} | {m['frames_per_s']:.0f} | "
+                         f"{', '.join(f'{x:.0f}' for x in m['runs_frames_per_s'])} | {m['cpu_us_per_frame']:.0f} | "
+                         f"{over} |")
+    return lines
+
+
 def _synth_case(r: dict) -> str:
     return f"{r['preset']} {r['fidelity']} {r['attacker']} {'I/Q' if r['iq'] else 'I'}"
 
@@ -313,6 +347,7 @@ def view_table(doc: dict) -> list[str]:
 
 BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], list[str]]]] = {
     "transport": ("Transport: runtime against raw pyzmq", transport_rows, transport_table),
+    "zerocopy": ("Zero copy: one same-host hop by three data planes", zerocopy_rows, zerocopy_table),
     "synth": ("Signal chain per simulated cycle", synth_rows, synth_table),
     "detector": ("Detector: numerical stability, cost, Monte Carlo speed", detector_rows, detector_table),
     "estimators": ("Estimators: error against run time", estimators_rows, estimators_table),
