@@ -30,7 +30,7 @@ from carav_stream.runtime.protocol import OutEdge
 
 class Outputs:
     def __init__(self, edges: dict[str, tuple[OutEdge, ...]], connect: Callable[[str], Any],
-                 idle: Callable[[], None], send: Callable[[Any, list], None] = transport.send_message,
+                 idle: Callable[[], None], send: Callable[..., None] = transport.send_message,
                  tick_s: float = transport.TICK_S) -> None:
         self.endpoints = {e.edge: e.connect for port_edges in edges.values() for e in port_edges}
         self.taps = {e.edge for port_edges in edges.values() for e in port_edges if e.tap}
