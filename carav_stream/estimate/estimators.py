@@ -515,7 +515,8 @@ def _refine(x, chirps: _Chirps, f, nu, amp, method, n_newton, music_length, iq):
         y = _integrate_fast(x, chirps, nu[:, 0])
         if not iq:
             c = np.pi * f[:, 0] * (n_samp - 1)  # move the centred DTFT's time origin to sample 0
-            alpha[:, 0] = spectral.dtft_derivatives(y, f[:, 0])[0] * (np.cos(c) - 1j * np.sin(c)) / (n_samp * n_act)
+            alpha[:, 0] = spectral.dtft_derivatives(y, f[:, 0], order=0)[0] * (np.cos(c) - 1j * np.sin(c)) / (
+                n_samp * n_act)
             y = y - interference_y(0)
         if method == "ml":
             f[:, 0] = spectral.newton_refine(y, f[:, 0], n_iter=n_newton)
