@@ -72,15 +72,15 @@ def dtft_derivatives(y, f, times=None, order: int = 2):
         n = n - n.mean()
         ph = -2.0 * np.pi * f[..., None] * n
         e = np.cos(ph) + 1j * np.sin(ph)
+    # sums along the last axis, no BLAS product: a cycle's result must not depend on the batch it came in (a
+    # matrix product's rounding does, and the graph must equal the in-process chain bit for bit), and a threaded
+    # zgemm stalls on a busy machine
     ye = y * e
     if order == 0:
         return (ye.sum(axis=-1),)
     w = -2j * np.pi * n
-    # one pass over ye for the sum and its weighted sums: a product with the (N, order + 1) matrix of weights
-    # (single-threaded BLAS in the graph's nodes; here a few hundred multiply-adds per cycle)
-    weights = np.stack([np.ones(n_len), w, w * w][:order + 1], axis=1)
-    out = ye @ weights
-    return tuple(out[..., k] for k in range(order + 1))
+    yw = ye * w
+    return (ye.sum(axis=-1), yw.sum(axis=-1), (yw * w).sum(axis=-1))[:order + 1]
 
 
 def newton_refine(y, f0, *, n_iter: int = 1, max_step: float | None = None, times=None):
