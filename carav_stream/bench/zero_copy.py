@@ -94,12 +94,16 @@ def _zmq_consumer(ep: str, nbytes: int, n: int, slots: int, out) -> None:
 
 
 # -- multiprocessing.shared_memory ring + ZeroMQ notifications --------------------------------------------------
-def _shm_producer(name: str, ep_note: str, ep_free: str, nbytes: int, n: int, slots: int, out) -> None:
+def _attach(name: str, nbytes: int, slots: int):
+    """The segment `name` and a float32 view of each of its slots."""
     from multiprocessing import shared_memory
-
-    import zmq
     shm = shared_memory.SharedMemory(name=name)
-    views = [np.ndarray(nbytes // 4, np.float32, shm.buf, offset=k * nbytes) for k in range(slots)]
+    return shm, [np.ndarray(nbytes // 4, np.float32, shm.buf, offset=k * nbytes) for k in range(slots)]
+
+
+def _shm_producer(name: str, ep_note: str, ep_free: str, nbytes: int, n: int, slots: int, out) -> None:
+    import zmq
+    shm, views = _attach(name, nbytes, slots)
     ctx = zmq.Context()
     note, free = ctx.socket(zmq.PUSH), ctx.socket(zmq.PULL)
     note.connect(ep_note)
@@ -121,11 +125,8 @@ def _shm_producer(name: str, ep_note: str, ep_free: str, nbytes: int, n: int, sl
 
 
 def _shm_consumer(name: str, ep_note: str, ep_free: str, nbytes: int, n: int, slots: int, out) -> None:
-    from multiprocessing import shared_memory
-
     import zmq
-    shm = shared_memory.SharedMemory(name=name)
-    views = [np.ndarray(nbytes // 4, np.float32, shm.buf, offset=k * nbytes) for k in range(slots)]
+    shm, views = _attach(name, nbytes, slots)
     ctx = zmq.Context()
     note, free = ctx.socket(zmq.PULL), ctx.socket(zmq.PUSH)
     note.bind(ep_note)
