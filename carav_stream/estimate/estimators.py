@@ -429,7 +429,8 @@ def _refine_walking(frames, rho, geometry: Geometry, f0, nu0, max_speed_mps: flo
         rows = np.flatnonzero(present[:, j] & valid)
         if rows.size:
             f[rows, j], v[rows, j], amp[rows, j] = refine_walking(
-                x[rows], chirps.index[rows], chirps.mask[rows], f0[rows, j], nu0[rows, j], geometry, max_speed_mps)
+                x[rows], chirps.index[rows], chirps.mask[rows], chirps.n_chirps, f0[rows, j], nu0[rows, j], geometry,
+                max_speed_mps)
     found = present & valid[:, None]
     velocity = np.where(chirps.count[:, None] < 2, np.nan, v)
     beat_hz = (f % 1.0) * geometry.fs_hz

@@ -7,7 +7,8 @@ A target at range rate V moves V T_c between chirps, so its beat walks by
 and chirp m holds the tone exp(j 2 pi ((f0 + w m) n + nu m)), f0 the beat of the cycle's first chirp and nu the
 chirp-to-chirp phase progression 2 V T_c / lambda, which the Doppler FFT sees only modulo 1 (|V| beyond
 lambda / (4 T_c) aliases). The walk, however, grows with the true V. For each alias V_k = (nu_w + k) lambda /
-(2 T_c) within +-max_speed, the chirps are summed coherently along that walk,
+(2 T_c) within +-max_speed (nu_w the cell's slow-time frequency, less the tilt w (N - 1) / 2 that the walk
+gives the uncompensated map), the chirps are summed coherently along that walk,
 
     Y_k(f) = sum_m exp(-j 2 pi nu m) X_m(f + w(V_k) m)        X_m the spectrum of chirp m (active chirps only)
 
@@ -49,21 +50,22 @@ def alias_folds(max_speed_mps: float, geometry: Geometry) -> np.ndarray:
     return np.arange(-k, k + 1)
 
 
-def refine_walking(x, index, mask, f0, nu0, geometry: Geometry, max_speed_mps: float, *, n_newton: int = 2):
+def refine_walking(x, index, mask, n_chirps: int, f0, nu0, geometry: Geometry, max_speed_mps: float, *,
+                   n_newton: int = 2):
     """One target per cycle along its range walk: (f at the first chirp [cycles/sample], velocity [m/s],
     amplitude per sample, normalised units), each (C,).
 
     x       complex64 or float32 (C, A, N): the active chirps of each cycle (rows past its count are zero)
-    index   int (C, A): chirp number of each row; mask bool (C, A): the row holds an active chirp
+    index   int (C, A): chirp number of each row (padding rows: silent chirps); mask bool (C, A): the row holds an
+            active chirp; n_chirps the chirps of a cycle, active and silent
     f0, nu0 float (C,): the target's cell: beat [cycles/sample] and slow-time frequency [cycles/chirp]
     """
     if x.shape[0] > CHUNK_CYCLES:      # the search's padded spectra stay a few tens of MB
-        parts = [refine_walking(x[i:i + CHUNK_CYCLES], index[i:i + CHUNK_CYCLES], mask[i:i + CHUNK_CYCLES],
+        parts = [refine_walking(x[i:i + CHUNK_CYCLES], index[i:i + CHUNK_CYCLES], mask[i:i + CHUNK_CYCLES], n_chirps,
                                 np.asarray(f0)[i:i + CHUNK_CYCLES], np.asarray(nu0)[i:i + CHUNK_CYCLES], geometry,
                                 max_speed_mps, n_newton=n_newton) for i in range(0, x.shape[0], CHUNK_CYCLES)]
         return tuple(np.concatenate(a) for a in zip(*parts))
     n_cycles, _, n_samp = x.shape
-    n_chirps = int(index.max(initial=0)) + 1
     m = np.where(mask, index, 0).astype(float)
     count = np.maximum(mask.sum(axis=1), 1)
     m_mean = (m * mask).sum(axis=1) / count
@@ -111,7 +113,7 @@ def refine_walking(x, index, mask, f0, nu0, geometry: Geometry, max_speed_mps: f
     f = spectral.newton_refine(y, f, n_iter=n_newton, max_step=1.0 / (PAD * n_samp))
     z = np.einsum("can,can->ca", x, comp * spectral.phasor(f, n_samp)[:, None, :])       # chirp spectra at f + w m
     z_full = np.zeros((n_cycles, n_chirps), dtype=complex)
-    z_full[rows[:, None], np.where(mask, index, 0)] += np.where(mask, z, 0)
+    z_full[rows[:, None], index] = np.where(mask, z, 0)     # padding rows name silent chirps: no index twice
     nu = spectral.newton_refine(z_full, nu_start, n_iter=n_newton, times=np.arange(z_full.shape[1], dtype=float))
     v = v + geometry.velocity_from_slow_freq(nu - nu_k[rows, k_best])
     amp = np.abs((z_full * spectral.phasor(nu, z_full.shape[1])).sum(axis=1)) / (n_samp * count)

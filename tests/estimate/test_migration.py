@@ -112,3 +112,20 @@ def test_strongest_detection_and_the_cfar_list_agree_and_the_list_has_no_walk_du
             assert hits / 32 >= pd_at_least and false / 32 <= false_at_most
         else:       # without: the walk's cells and sidelobes listed as targets (DETECTION.md: about 4 a cycle)
             assert false / 32 > 2
+
+
+def test_a_cycle_is_refined_the_same_alone_and_in_a_batch_of_cycles_with_more_active_chirps():
+    """Cycles of one call may have different numbers of active chirps (padding rows in the compacted data): each
+    cycle's result must not depend on its neighbours; chirp 0 active in the short cycle."""
+    scene = scene_of("awr1642")
+    g = Geometry.from_scene(scene)
+    x, rho = cycles(scene, 2, 9)
+    rho[0, :] = False
+    rho[0, :40] = True                                    # 40 active chirps, chirp 0 among them; cycle 1 has 64
+    x = simulate_cycles(scene, rho, np.random.default_rng(4)).frames
+    f0, nu0 = cells(x, rho, scene, g)
+    both = refine_at(x, rho, g, f0, nu0, max_speed_mps=100.0)
+    alone = refine_at(x[:1], rho[:1], g, f0[:1], nu0[:1], max_speed_mps=100.0)
+    assert both.range_m[0, 0] == pytest.approx(alone.range_m[0, 0], abs=1e-9)
+    assert both.velocity_mps[0, 0] == pytest.approx(alone.velocity_mps[0, 0], abs=1e-9)
+    assert abs(both.velocity_mps[0, 0] - scene.range_rate_mps(scene.targets[0])) < 0.1
