@@ -58,7 +58,7 @@ def scenes(base, rng) -> dict:
             "beyond the range": dataclasses.replace(base, targets=(moved(1.1 * r_max),))}
 
 
-def _measure(scene, base, fidelity: str, n: int, rng, eta_design: float, max_speed: float) -> dict:
+def _measure(scene, fidelity: str, n: int, rng, eta_design: float, max_speed: float) -> dict:
     from carav_stream.detect import opt_in
     from carav_stream.detect.detector import detect
     from carav_stream.estimate.geometry import Geometry
@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
         eta_design = rms_threshold(scene_law(base), 1e-6)
         rng = np.random.default_rng([args.seed, len(preset), len(fidelity)])
         for name, scene in scenes(base, rng).items():
-            m = _measure(scene, base, fidelity, n, rng, eta_design, max_speed)
+            m = _measure(scene, fidelity, n, rng, eta_design, max_speed)
             pd = "n/a" if m["car_pd"] is None else f"{m['car_pd']:.2f}"
             rmse = "n/a" if m["car_range_rmse_m"] is None else f"{m['car_range_rmse_m'] * 1e3:.1f} mm"
             print(f"{preset + ' / ' + fidelity:<19}{name:<19}{m['c_1_5']:>7.3f}{m['c_design']:>8.3f}"

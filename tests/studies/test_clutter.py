@@ -30,10 +30,10 @@ def test_the_car_alone_is_quiet_and_listed_and_a_strong_far_echo_spills_only_at_
     base = load_scene("table1")
     eta = rms_threshold(scene_law(base), 1e-6)
     v = scenes(base, np.random.default_rng(1))
-    alone = _measure(v["car"], base, fidelity, 12, np.random.default_rng(2), eta, 0.0)
+    alone = _measure(v["car"], fidelity, 12, np.random.default_rng(2), eta, 0.0)
     assert alone["c_design"] == alone["integrated"] == alone["coherent"] == 0.0
     assert alone["car_pd"] == 1.0 and alone["car_range_rmse_m"] < 0.01
-    edge = _measure(v["at the range edge"], base, fidelity, 12, np.random.default_rng(3), eta, 0.0)
+    edge = _measure(v["at the range edge"], fidelity, 12, np.random.default_rng(3), eta, 0.0)
     if fidelity == "waveform":      # half of every active chirp's echo lands in the next (silent) slot
         assert edge["integrated"] >= 0.9
     else:                           # the beat model's echoes end with their slot
