@@ -10,7 +10,7 @@ from typing import Any
 
 from carav_stream.cli.common import CommandError, Exit, fail
 from carav_stream.cli.options import count, output_file
-from carav_stream.runtime.graph import Graph, GraphError
+from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
 from carav_stream.runtime.loader import load_graph
 
 
@@ -32,6 +32,9 @@ def run_options(p: argparse.ArgumentParser) -> None:
                    help="override a node's parameter, a graph-wide one with PARAM=VALUE, a [run] setting with "
                    "run.KEY=VALUE")
     p.add_argument("--json", type=output_file, metavar="FILE", help="write the summary as JSON")
+    p.add_argument("--transport", choices=TRANSPORTS, help="data plane of same-host edges: zmq (arrays in "
+                   "ZeroMQ messages) or shm (arrays in shared memory, headers over ZeroMQ); default: the graph's "
+                   "run.transport, else zmq")
     p.add_argument("--host", help="run only the nodes placed on this host (graphs with [hosts])")
     p.add_argument("--blocks", action="append", default=[], metavar="DIR", help="extra folder of block files")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
@@ -57,8 +60,9 @@ def run(args: argparse.Namespace) -> int:
 def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:
     """The graph file with `overrides`, then the command line's --set and --cycles; CommandError if invalid."""
     cycles = [] if args.cycles is None else [f"run.cycles={args.cycles}"]   # checked like the file's value
+    plane = [] if args.transport is None else [f"run.transport={args.transport}"]
     try:
-        return load_graph(path, [*overrides, *args.set, *cycles], args.blocks)
+        return load_graph(path, [*overrides, *args.set, *cycles, *plane], args.blocks)
     except GraphError as exc:
         raise CommandError(f"{shown_as or path} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems),
                            Exit.INVALID) from None
@@ -153,7 +157,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "refused_by_estimator", "unreadable_cycles"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node", "estimated_counts",
-                "skipped_by_taps"}
+                "skipped_by_taps", "transport", "shared_memory"}
 
 
 def _radar_lines(s: dict[str, Any]) -> list[str]:
@@ -212,6 +216,8 @@ def print_summary(s: dict[str, Any]) -> None:
           f"{s['restarts']}")
     for edge, n in (s.get("skipped_by_taps") or {}).items():
         print(f"  frames skipped for a busy observer (a tap, not lost): {n} on {edge}")
+    if s.get("transport") == "shm":
+        print(f"  {_shared_memory_words(s['shared_memory'])}")
     for line in _radar_lines(s):
         print(line)
     for k, v in s.items():
@@ -227,6 +233,18 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"  {swap_words(sw)}")
     for f in s["failures"]:
         print(f"  FAILURE: {f}")
+
+
+def _shared_memory_words(ports: dict[str, dict[str, int]]) -> str:
+    """The shared-memory data plane in one line: memory held and where the frames went."""
+    total = sum(p["segment_bytes"] for p in ports.values())
+    slots = sum(p["frames_in_slots"] for p in ports.values())
+    inline = sum(p["frames_inline"] for p in ports.values())
+    full = sum(p["no_free_slot"] for p in ports.values())
+    biggest = max(ports, key=lambda k: ports[k]["segment_bytes"], default=None)
+    where = f" (largest {biggest}: {ports[biggest]['segment_bytes'] / 1e6:.1f} MB)" if biggest else ""
+    return (f"shared memory: {total / 1e6:.1f} MB in {len(ports)} segments{where}; frames in slots {slots}, "
+            f"inline {inline} (small or larger than a slot; {full} for want of a free slot)")
 
 
 def swap_words(sw: dict[str, Any]) -> str:

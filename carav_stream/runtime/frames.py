@@ -22,6 +22,8 @@ Reserved header keys (the runtime stamps them; blocks set their own fields besid
     resume         bool   first message of a producer's fresh connection to a restarted consumer (header only):
                           frames before `seq` on this stream went with the old connection, the next has
                           seq >= `seq`
+    shm            list   [slot, generation]: the arrays are not in the message but in that slot of the
+                          producer's shared-memory segment (runtime/shm.py), each at a 64-byte boundary, in order
 
 Decoding validates everything before any use and never builds objects from the wire: msgpack ext types are
 refused, dtypes come from a whitelist of plain numeric types, and shape, size and header types are checked.
@@ -29,11 +31,13 @@ refused, dtypes come from a whitelist of plain numeric types, and shape, size an
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import msgpack
 import numpy as np
+
+from carav_stream.runtime.shm import offsets as slot_offsets
 
 SCHEMA_VERSION = 1
 MAX_HEADER_BYTES = 1 << 20          # 1 MiB of msgpack header
@@ -52,18 +56,18 @@ _NAME_OF = {np.dtype(n).newbyteorder(o): n for n in ALLOWED_DTYPES for o in "<>=
 _WIRE_DTYPE = {n: np.dtype(n).newbyteorder("<") for n in ALLOWED_DTYPES}
 
 RESERVED_KEYS = frozenset({"v", "stream", "seq", "cycle", "cycles", "t_created_s", "t_sent_s", "arrays",
-                           "node", "block", "block_version", "trail", "eos", "resume"})
+                           "node", "block", "block_version", "trail", "eos", "resume", "shm"})
 # Reserved keys a block may not set (it may set the cycle fields of a frame it creates)
 _RUNTIME_ONLY_KEYS = RESERVED_KEYS - {"cycle", "cycles", "t_created_s"}
 # Keys a derived frame does not inherit: the runtime stamps them anew at every hop.
-_PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block", "block_version"})
+_PER_HOP_KEYS = frozenset({"v", "stream", "arrays", "t_sent_s", "node", "block", "block_version", "shm"})
 
 # Exact types: msgpack builds only plain int, float, str, bytes, bool, None, list and dict objects, so
 # `type(value) in types` checks a received header exactly (and refuses a bool where an int is expected).
 _HEADER_TYPES: dict[str, tuple[type, ...]] = {
     "v": (int,), "stream": (str,), "seq": (int,), "cycle": (int,), "cycles": (int,), "t_created_s": (float, int),
     "t_sent_s": (float, int), "arrays": (list,), "node": (str,), "block": (str,), "block_version": (str,),
-    "trail": (list,), "eos": (bool,), "resume": (bool,),
+    "trail": (list,), "eos": (bool,), "resume": (bool,), "shm": (list,),
 }
 _REQUIRED_KEYS = frozenset({"v", "stream", "seq", "cycle", "arrays", "eos"})
 _STR = frozenset({str})
@@ -210,10 +214,12 @@ def encode(frame: Frame, packer: msgpack.Packer | None = None, /, **stamp: Any) 
     return encode_with_header({**frame.header, **stamp}, frame, packer)
 
 
-def encode_with_header(header: dict[str, Any], frame: Frame, packer: msgpack.Packer | None = None) -> list[Any]:
+def encode_with_header(header: dict[str, Any], frame: Frame, packer: msgpack.Packer | None = None,
+                       place: Callable[[list[Any]], list[int] | None] | None = None) -> list[Any]:
     """`encode` for a caller that built the message's header itself (the runtime, once per frame): `header` is
     a new dict it hands over (completed with "v", "arrays" and the defaults of "eos" and "cycle", then packed);
-    the buffers are `frame`'s arrays."""
+    the buffers are `frame`'s arrays. `place(buffers)` may store the buffers elsewhere (a shared-memory slot) and
+    return the reference that goes in the header as "shm"; then the message is the header alone."""
     header["v"] = SCHEMA_VERSION
     if "eos" not in header:
         header["eos"] = False
@@ -245,6 +251,11 @@ def encode_with_header(header: dict[str, Any], frame: Frame, packer: msgpack.Pac
         specs.append([name, dtype_name, list(array.shape)])
         buffers.append(memoryview(array).cast("B") if array.size else b"")
     header["arrays"] = specs
+    if place is not None and buffers:
+        ref = place(buffers)
+        if ref is not None:
+            header["shm"] = ref
+            buffers = []
     try:
         head = (packer or header_packer()).pack(header)
     except (TypeError, ValueError, OverflowError) as exc:
@@ -256,8 +267,11 @@ def _reject_ext(code: int, data: bytes) -> Any:
     raise FrameError(f"header contains msgpack extension type {code}; extension types are refused")
 
 
-def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame:
-    """Validate and decode a multipart message (bytes or zmq.Frame parts); arrays are read-only views."""
+def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES, slots: Any = None) -> Frame:
+    """Validate and decode a multipart message (bytes or zmq.Frame parts); arrays are read-only views.
+
+    A header with "shm" names a shared-memory slot instead of carrying buffer parts: `slots` (the input's
+    shm.SlotReader) resolves it, or the message is refused."""
     if not parts:
         raise FrameError("empty message: expected a header part")
     head = getattr(parts[0], "buffer", None)      # a zmq.Frame received with copy=False: its memoryview
@@ -276,6 +290,8 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
         raise FrameError(f"header must be a msgpack map, got {type(header).__name__}")
     _check_header(header)
     specs = header["arrays"]
+    if "shm" in header:
+        return _decode_slot(header, parts, specs, max_array_bytes, slots)
     if len(parts) - 1 != len(specs):
         raise FrameError(f"header announces {len(specs)} array(s) but the message has {len(parts) - 1} "
                          "buffer part(s)")
@@ -303,6 +319,34 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES) -> Frame
     return _received(header, wire)
 
 
+def _decode_slot(header: dict, parts: list[Any], specs: list, max_array_bytes: int, slots: Any) -> Frame:
+    """A frame whose arrays are in a shared-memory slot (header "shm"), as read-only views of it."""
+    if slots is None:
+        raise FrameError("header names a shared-memory slot, but this input has no shared-memory segment")
+    if len(parts) != 1:
+        raise FrameError(f"a frame in shared memory is the header alone; the message has {len(parts) - 1} "
+                         "buffer part(s) besides")
+    checked, sizes = [], []
+    for i, spec in enumerate(specs):
+        name, dtype, shape = _check_spec(i, spec)
+        checked.append((name, dtype, spec))
+        sizes.append(dtype.itemsize * math.prod(shape))
+    if sum(sizes) > max_array_bytes:
+        raise FrameError(f"arrays total more than the limit of {max_array_bytes} bytes")
+    starts, total = slot_offsets(sizes)
+    try:
+        block = slots.resolve(header["shm"], total)
+    except ValueError as exc:
+        raise FrameError(f"shared memory: {exc}") from None
+    wire: dict[str, list] = {}
+    for (name, dtype, spec), start, n in zip(checked, starts, sizes):
+        if name in wire:
+            raise FrameError(f"array name {name!r} appears twice")
+        buf = block[start:start + n]
+        wire[name] = [None, buf, spec, dtype, buf]
+    return _received(header, wire)
+
+
 def _as_buffer(part: Any) -> memoryview:
     """A message part that is not a zmq.Frame (decode reads those itself) as a memoryview."""
     if isinstance(part, (bytes, bytearray, memoryview)):
@@ -318,7 +362,8 @@ def _check_header(header: dict) -> None:
                  and type(get("cycles", 1)) is int and type(get("t_created_s", 0.0)) in _NUMBER
                  and type(get("t_sent_s", 0.0)) in _NUMBER and type(get("node", "")) is str
                  and type(get("block", "")) is str and type(get("block_version", "")) is str
-                 and type(get("trail", _NO_TRAIL)) is list and type(get("resume", False)) is bool)
+                 and type(get("trail", _NO_TRAIL)) is list and type(get("resume", False)) is bool
+                 and type(get("shm", _NO_TRAIL)) is list)
     except KeyError:
         typed = False
     if not typed:

@@ -13,7 +13,8 @@ from carav_stream.runtime.registry import Registry
 TOP_KEYS = {"include", "description", "connections", "blocks", "run", "restart", "hosts", "security", "block_paths"}
 NODE_KEYS = {"type", "host", "restart"}
 RUN_DEFAULTS: dict[str, Any] = {"cycles": 0, "queue_frames": 8, "heartbeat_timeout_s": 15.0,
-                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0}
+                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": "zmq"}
+TRANSPORTS = ("zmq", "shm")   # data plane of same-host edges: arrays in ZeroMQ messages, or in shared memory
 RESTART_POLICIES = ("never", "on-failure")
 LOCAL_HOST = "local"
 

@@ -28,7 +28,7 @@ from typing import Any
 
 import zmq
 
-from carav_stream.runtime import transport
+from carav_stream.runtime import shm, transport
 from carav_stream.runtime.block import Block, BlockError
 from carav_stream.runtime.control import ControlState
 from carav_stream.runtime.frames import Frame, FrameError, decode, encode_with_header, header_packer
@@ -72,9 +72,15 @@ class NodeRunner:
         sec = spec.security
         self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
                                      sec["curve_authorized"]) if sec else None
-        self.inputs = {p: transport.bind_input(self.ctx, spec.inputs[p], spec.queue_frames, self.curve)
+        self.inputs = {p: transport.bind_input(self.ctx, spec.inputs[p], spec.queue_frames, self.curve,
+                                               header_only=p in spec.shm_in)
                        for p in self.in_ports}
+        self.shm_endpoints = {e.connect for port in spec.shm_out for e in spec.outputs.get(port, ())}
         self.outputs = Outputs(spec.outputs, self.connect, self.idle)
+        # shared-memory data plane (run.transport = "shm"): this node's output segments and its producers'
+        self.writers = {port: shm.SlotWriter(seg["fd"], seg["edges"]) for port, seg in spec.shm_out.items()}
+        self.readers = {port: shm.SlotReader(fd, edge) for port, (fd, edge) in spec.shm_in.items()
+                        if port in self.inputs}
         self.pairing = Pairing(self.in_ports, max(4, 4 * spec.queue_frames), recovering=spec.recovering)
         self.ctl = ControlState(go=not self.cls.is_source(), recovering=spec.recovering, seq_lease=spec.seq_lease)
         self.lease_asked = 0
@@ -115,7 +121,7 @@ class NodeRunner:
 
     def connect(self, endpoint: str) -> zmq.Socket:
         return transport.connect_output(self.ctx, endpoint, self.spec.queue_frames, self.curve,
-                                        int(self.spec.drain_timeout_s * 1000))
+                                        int(self.spec.drain_timeout_s * 1000), endpoint in self.shm_endpoints)
 
     # -- control plane -------------------------------------------------------------------------------------
     def tell(self, kind: Report, **fields: Any) -> None:
@@ -127,7 +133,8 @@ class NodeRunner:
                 "undeliverable": dict(self.outputs.c_undeliverable), "skipped": dict(self.outputs.c_skipped),
                 "processed": self.processed, "consumed": self.consumed, "cycles": self.cycles, "busy_s": self.busy_s,
                 "cpu_s": time.process_time(),           # the whole node process, ZeroMQ I/O thread included
-                "block": self.block_type, "generation": self.generation}
+                "block": self.block_type, "generation": self.generation,
+                **({"shm": {p: w.counters() for p, w in self.writers.items()}} if self.writers else {})}
 
     def idle(self) -> None:
         """Serve control messages and heartbeats at most every CONTROL_S; called between frames and every
@@ -158,7 +165,9 @@ class NodeRunner:
     def resume_messages(self, port: str, edge: str) -> list[list[Any]]:
         """The first messages on a fresh connection to a restarted consumer: where the stream resumes, and the
         end of stream if this node had finished."""
-        msgs = [self.runtime_message(port, seq=self.outputs.resume_seq(edge, self.seq), resume=True)]
+        writer = self.writers.get(port)
+        at = {"shm_gen": writer.generation} if writer else {}   # what the consumer may give back, see shm.py
+        msgs = [self.runtime_message(port, seq=self.outputs.resume_seq(edge, self.seq), resume=True, **at)]
         if self.outputs.eos_sent:
             msgs.append(self.eos_message(port, edge))
         return msgs
@@ -208,11 +217,16 @@ class NodeRunner:
     def admit(self, port: str, parts: list[Any]) -> Frame | None:
         """Decode and check one message from `port`: the data frame to hand on, or None for a message that was
         rejected (counted and reported), the end of stream or a resume marker."""
+        reader = self.readers.get(port)
         try:
-            frame = decode(parts)
+            frame = decode(parts, slots=reader)
         except FrameError as exc:
             self.reject(port, str(exc))
             return None
+        if reader is not None and frame.header.get("resume") is True:
+            gen = frame.header.get("shm_gen")
+            if type(gen) is int:
+                reader.resume(gen)
         ok, reason = self.pairing.admit(port, frame)
         if reason is not None:
             self.reject(port, reason)
@@ -253,11 +267,19 @@ class NodeRunner:
             t_created = h.get("t_created_s", time.time())
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
-        parts = encode_with_header({**h, "stream": self.streams[port], "seq": seq, "cycle": cycle,
-                                    "t_created_s": t_created, "t_sent_s": time.time(), "trail": trail, **self.stamp},
-                                   frame, self.packer)
+        header = {**h, "stream": self.streams[port], "seq": seq, "cycle": cycle, "t_created_s": t_created,
+                  "t_sent_s": time.time(), "trail": trail, **self.stamp}
         self.c_out[port] += 1
-        self.outputs.send(port, parts, seq)
+        writer = self.writers.get(port)
+        if writer is None:
+            self.outputs.send(port, encode_with_header(header, frame, self.packer), seq)
+            return
+        cut = writer.mask(self.outputs.cut) if self.outputs.cut else 0
+        parts = encode_with_header(header, frame, self.packer,
+                                   lambda buffers: writer.place(buffers, cut, transport.TICK_S, self.idle))
+        missed = self.outputs.send(port, parts, seq)
+        if missed and "shm" in header:
+            writer.unsend(header["shm"], missed)
 
     def runtime_message(self, port: str, **header: Any) -> list[Any]:
         return runtime_message(self.name, self.block_type, port, **header)
@@ -409,6 +431,8 @@ class NodeRunner:
         self.outputs.close(crashed)
         for sock in self.inputs.values():
             sock.close(linger=0)
+        for end in [*self.writers.values(), *self.readers.values()]:
+            end.close()
         self.control.close(linger=2000)
         if self.curve:
             self.curve.close()

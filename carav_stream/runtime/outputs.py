@@ -46,16 +46,18 @@ class Outputs:
         self.c_skipped = collections.Counter()    # per tap edge: frames skipped because its queue was full
         self.eos_sent = False
 
-    def send(self, port: str, parts: list[Any], seq: int) -> None:
-        """Send one encoded frame on every edge of `port`, blocking under back-pressure."""
+    def send(self, port: str, parts: list[Any], seq: int) -> list[str]:
+        """Send one encoded frame on every edge of `port`, blocking under back-pressure; the edges that did not
+        get it (skipped taps, cut edges)."""
         edges = self.sockets.get(port, ())
+        missed: list[str] = []
         if len(edges) == 1 and not (self.cut or self.reconnect or self.taps):   # the usual case: one consumer,
             edge, sock = edges[0]                          # room in its queue, and ZeroMQ takes the message at once
             try:
                 self._send(sock, parts)
                 self.c_sent[edge] += 1
                 self.sent_seq[edge] = seq
-                return
+                return missed
             except zmq.Again:
                 pass
         for i, (edge, sock) in enumerate(edges):
@@ -65,11 +67,14 @@ class Outputs:
                     self.sent_seq[edge] = seq
                 else:
                     self.c_skipped[edge] += 1
+                    missed.append(edge)
             elif self.deliver(port, i, parts):
                 self.c_sent[edge] += 1
                 self.sent_seq[edge] = seq
             else:
                 self.c_undeliverable[edge] += 1
+                missed.append(edge)
+        return missed
 
     def offer(self, sock: Any, parts: list[Any]) -> bool:
         """One attempt to queue a message on a tap edge without waiting: False if its queue is full. ZeroMQ

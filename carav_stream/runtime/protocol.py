@@ -110,6 +110,8 @@ class NodeSpec:
     seq_lease: int = 0                                 # sources: seqs below this may be generated (more on request)
     start_cycles: int = 0                              # ... and its cycle count here
     recovering: bool = False                           # restarted, or fed by a restarted node
+    shm_out: dict[str, dict[str, Any]] = field(default_factory=dict)   # output port -> {fd, edges}: its segment
+    shm_in: dict[str, list[int]] = field(default_factory=dict)         # input port -> [fd, edge index]
 
     def to_wire(self) -> bytes:
         d = asdict(self)

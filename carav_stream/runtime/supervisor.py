@@ -25,7 +25,7 @@ from typing import Any
 
 import zmq
 
-from carav_stream.runtime import transport
+from carav_stream.runtime import shm, transport
 from carav_stream.runtime.admin import RUN_ID_ENV
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
 from carav_stream.runtime.protocol import LEASE_FRAMES, Admin, Control, NodeSpec, OutEdge, Report, pack, unpack
@@ -120,6 +120,7 @@ class Supervisor:
         self.stop_deadline = 0.0
         self.pending_go: set[str] = set()
         self.t_go = self.t_end = 0.0
+        self.segments: list[int] = []       # file descriptors of the shared-memory segments (transport "shm")
 
     # -- planning ------------------------------------------------------------------------------------------
     def local_nodes(self) -> list[str]:
@@ -143,6 +144,7 @@ class Supervisor:
                 cross_ports[dst_host.name] += 1
                 endpoints[(e.dst, e.dst_port)] = (f"tcp://{dst_host.bind}:{port}", f"tcp://{dst_host.address}:{port}")
         control = transport.ipc_endpoint(self.run_dir, "control")
+        shm_out, shm_in = self.plan_segments()
         for name in self.local_nodes():
             node = g.nodes[name]
             outputs: dict[str, list[OutEdge]] = {}
@@ -150,6 +152,8 @@ class Supervisor:
                 tap = any(p.name == e.dst_port and p.tap for p in g.block_class(e.dst).inputs)
                 outputs.setdefault(e.src_port, []).append(OutEdge(str(e), endpoints[(e.dst, e.dst_port)][1], tap))
             spec = NodeSpec(
+                shm_out={port: seg for (n, port), seg in shm_out.items() if n == name},
+                shm_in={port: ref for (n, port), ref in shm_in.items() if n == name},
                 name=name, type=node.type, params=node.params, control=control,
                 inputs={e.dst_port: endpoints[(e.dst, e.dst_port)][0] for e in g.edges_into(name)},
                 outputs={port: tuple(edges) for port, edges in outputs.items()},
@@ -160,13 +164,39 @@ class Supervisor:
                 security={k: str(v) for k, v in g.security.items()})
             self.nodes[name] = NodeState(name, spec)
 
+    def plan_segments(self) -> tuple[dict[tuple[str, str], dict[str, Any]], dict[tuple[str, str], list[int]]]:
+        """With run.transport = "shm": a shared-memory segment (runtime/shm.py) for every output port of a local
+        node whose edges all stay on this host; {(node, port): {fd, edges}} for producers and
+        {(node, port): [fd, edge index]} for consumers. A port with an edge to another host stays inline."""
+        g = self.graph
+        shm_out: dict[tuple[str, str], dict[str, Any]] = {}
+        shm_in: dict[tuple[str, str], list[int]] = {}
+        if g.run["transport"] != "shm":
+            return shm_out, shm_in
+        local = set(self.local_nodes())
+        ports: dict[tuple[str, str], list] = {}
+        for e in g.edges:
+            if e.src in local:
+                ports.setdefault((e.src, e.src_port), []).append(e)
+        n_slots = min(shm.MAX_SLOTS, 6 * int(g.run["queue_frames"]) + 4)   # ZeroMQ queues, pairing, in hand
+        for (src, port), edges in ports.items():
+            if any(e.dst not in local for e in edges) or len(edges) > shm.MAX_EDGES:
+                continue
+            fd = shm.create_segment(n_slots, len(edges), f"carav-{src}.{port}")
+            self.segments.append(fd)
+            shm_out[(src, port)] = {"fd": fd, "edges": [str(e) for e in edges]}
+            for i, e in enumerate(edges):
+                shm_in[(e.dst, e.dst_port)] = [fd, i]
+        return shm_out, shm_in
+
     # -- process management --------------------------------------------------------------------------------
     def spawn(self, st: NodeState) -> None:
         spec_path = self.run_dir / f"{st.name}.spec"
         spec_path.write_bytes(st.spec.to_wire())
         logf = open(self.run_dir / f"{st.name}.log", "ab")
+        fds = [s["fd"] for s in st.spec.shm_out.values()] + [fd for fd, _ in st.spec.shm_in.values()]
         st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.runtime.node", str(spec_path)],
-                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf,
+                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf, pass_fds=fds,
                                    env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id})
         logf.close()
         st.ready = st.done = st.failed = False
@@ -288,6 +318,17 @@ class Supervisor:
             taken = dst.total("in").get(e.dst_port, 0) + dst.total("rejected").get(e.dst_port, 0)
             out[str(e)] = {"in_flight": max(0, sent - taken), "capacity": capacity,
                            "skipped": src.total("skipped").get(str(e), 0)}
+        return out
+
+    def shared_memory(self) -> dict[str, dict[str, int]]:
+        """Per output port with a segment ("node.port"), from its producer's last report: segment_bytes (slots
+        touched x slot size: the memory the segment holds), slots, stride, frames_in_slots, frames_inline (too
+        small, too large, or no slot free: no_free_slot) and held (slots not given back yet)."""
+        out = {}
+        for n, st in self.nodes.items():
+            last = st.counters or (st.dead_counters[-1] if st.dead_counters else {})
+            for port, c in last.get("shm", {}).items():
+                out[f"{n}.{port}"] = c
         return out
 
     def cycles_done(self) -> int:
@@ -417,6 +458,9 @@ class Supervisor:
                 if st.proc:
                     st.proc.wait()
             self.ctx.destroy(linger=0)
+            for fd in self.segments:        # the kernel frees a segment when its last holder closes it
+                os.close(fd)
+            self.segments.clear()
             for s, h in old.items():
                 signal.signal(s, h)
             if not os.environ.get("CARAV_KEEP_RUN_DIR"):   # debugging aid: keep node logs and specs
@@ -538,6 +582,7 @@ class Supervisor:
             "restarts": sum(st.restarts for st in self.nodes.values()),
             "failures": self.failures, "swaps": self.swaps, "stopped_by": self.stop_requested,
             "wall_s": wall, "throughput_cycles_per_s": cycles / wall if wall else 0.0, "per_node": per_node,
+            "transport": self.graph.run["transport"], "shared_memory": self.shared_memory(),
         }
         # Blocks may contribute run-level figures: a summary() key "run" is merged into the top level.
         for st in self.nodes.values():

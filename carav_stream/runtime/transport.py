@@ -59,8 +59,16 @@ class Curve:
             self._auth = None
 
 
-def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None) -> zmq.Socket:
+# Socket buffers of the kernel for edges whose messages are headers alone (arrays in shared memory): the default
+# (about 200 kB) would queue hundreds of such messages beyond the high-water marks, each holding a slot.
+HEADER_ONLY_BUFFER_BYTES = 8192
+
+
+def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None,
+               header_only: bool = False) -> zmq.Socket:
     sock = ctx.socket(zmq.PULL)
+    if header_only:
+        sock.rcvbuf = HEADER_ONLY_BUFFER_BYTES
     sock.rcvhwm = hwm
     sock.maxmsgsize = MAX_MESSAGE_BYTES
     sock.rcvtimeo = int(TICK_S * 1000)
@@ -72,8 +80,10 @@ def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = 
 
 
 def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None,
-                   linger_ms: int = 30_000) -> zmq.Socket:
+                   linger_ms: int = 30_000, header_only: bool = False) -> zmq.Socket:
     sock = ctx.socket(zmq.PUSH)
+    if header_only:
+        sock.sndbuf = HEADER_ONLY_BUFFER_BYTES
     sock.sndhwm = hwm
     sock.sndtimeo = int(TICK_S * 1000)
     sock.linger = linger_ms          # a clean exit waits for queued frames to leave

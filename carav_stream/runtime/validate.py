@@ -22,6 +22,7 @@ from carav_stream.runtime.graph import (
     RESTART_POLICIES,
     RUN_DEFAULTS,
     TOP_KEYS,
+    TRANSPORTS,
     Edge,
     Graph,
     GraphError,
@@ -36,6 +37,7 @@ from carav_stream.runtime.registry import Registry, RegistryError
 
 EDGE_RE = re.compile(r"^\s*([A-Za-z_][\w]*)\.([A-Za-z_]\w*)\s*->\s*([A-Za-z_][\w]*)\.([A-Za-z_]\w*)\s*$")
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+CHOICES = {"transport": TRANSPORTS}      # settings of [run] with a fixed set of values
 
 
 def build_graph(path: Path, source: Source, overrides: list[str], extra_block_paths: list[str | Path],
@@ -117,7 +119,7 @@ def _table(data: dict, key: str, where: str, problems: list[str], defaults: dict
         if k not in defaults:
             problems.append(f"{where}: {key}.{k}: unknown setting; expected one of {sorted(defaults)}")
             continue
-        p = Param(k, type(defaults[k]), low=0)
+        p = Param(k, type(defaults[k]), choices=CHOICES[k]) if k in CHOICES else Param(k, type(defaults[k]), low=0)
         v, problem = p.check(v)
         if problem:
             problems.append(f"{where}: {key}.{k}: {problem}")

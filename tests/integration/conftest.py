@@ -66,8 +66,12 @@ class CaravProcess:
 
 
 @pytest.fixture
-def carav(tmp_path):
-    """carav.run(graph, *args) starts a graph; carav.cli(*args) runs a short command; all torn down after."""
+def carav(tmp_path, request):
+    """carav.run(graph, *args) starts a graph; carav.cli(*args) runs a short command; all torn down after.
+
+    Parametrised indirectly with a data plane (`@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)`),
+    every graph it runs carries its arrays over that plane (run.transport); carav.transport says which."""
+    transport = getattr(request, "param", None)
     # ipc paths must stay short (Unix sockets hold 107 bytes): a short private run folder per test
     run_dir = Path(tempfile.mkdtemp(prefix="cr", dir="/tmp"))
     env = {**os.environ, "CARAV_RUN_DIR": str(run_dir), "PYTHONPATH": str(ROOT)}
@@ -79,7 +83,8 @@ def carav(tmp_path):
 
         @staticmethod
         def run(graph: Path, *args: str) -> CaravProcess:
-            p = CaravProcess(tmp_path, env, graph, list(args))
+            plane = ["--set", f"run.transport={transport}"] if transport else []
+            p = CaravProcess(tmp_path, env, graph, [*args, *plane])
             started.append(p)
             return p
 
@@ -94,6 +99,7 @@ def carav(tmp_path):
             path.write_text(f'block_paths = ["{TOYS}"]\n' + body)
             return path
 
+    Api.transport = transport or "zmq"
     yield Api
     for p in started:
         p.kill()

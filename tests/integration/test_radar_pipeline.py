@@ -10,6 +10,7 @@ import pytest
 
 from carav_stream.algorithm1 import run_algorithm1
 from carav_stream.radar.streams import scene_of
+from carav_stream.runtime.graph import TRANSPORTS
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
@@ -63,6 +64,17 @@ def assert_equals_the_library(carav, run, lib, n: int, batch: int = 16) -> dict:
     return s
 
 
+def assert_data_plane(carav, s: dict) -> None:
+    """The run's arrays went over the fixture's data plane: with shm, the ADC's frames in slots, none inline."""
+    assert s["transport"] == carav.transport
+    if carav.transport == "shm":
+        adc = s["shared_memory"]["adc.frames"]
+        assert adc["frames_in_slots"] > 0 and adc["frames_inline"] == 0 and adc["segment_bytes"] > 0, adc
+    else:
+        assert s["shared_memory"] == {}
+
+
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
     n = 120   # 7 frames of 16 cycles and a last one of 8
     run = radar(carav, n, model="smart", rarms=3.0, start_cycle=60)
@@ -72,6 +84,7 @@ def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
     s = assert_equals_the_library(carav, run, lib, n)
     assert s["attacked_cycles"] == 60
     assert s["detected"] == int(lib.alarm[60:].sum()) and s["false_alarms"] == int(lib.alarm[:60].sum())
+    assert_data_plane(carav, s)
 
 
 def assert_attacker_heard_only_the_past_emission(carav, run, n: int, batch: int) -> None:
@@ -114,6 +127,7 @@ def test_reactive_repeater_gated_at_the_receiver_equals_the_library_and_never_he
     assert_attacker_heard_only_the_past_emission(carav, run, n, batch=16)
 
 
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector_dies(carav):
     run = radar(carav, 0, "radar_taps_detector_restarts.toml", seed=22, batch=4)
     judged = carav.workdir / "judged.jsonl"
@@ -164,7 +178,9 @@ def test_a_crashed_detector_reads_as_refusals_never_as_detections_or_false_alarm
     assert "None" not in out
 
 
-@pytest.mark.parametrize("victim", ["source", "channel", "attacker", "adc", "gate", "ranging", "summary"])
+@pytest.mark.parametrize("victim,carav", [
+    *((v, "zmq") for v in ("source", "channel", "attacker", "adc", "gate", "ranging", "summary")),
+    *((v, "shm") for v in ("channel", "adc", "gate", "ranging"))], indirect=["carav"])   # producers and consumers
 def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without_stalling(carav, victim):
     """SIGKILL one node mid-run: after its restart every later cycle is judged once, in order (no sink rejects a
     duplicate or out-of-order frame), what died with it is counted, and `carav stop` drains well within its
@@ -191,7 +207,9 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
     assert all(r["verdict"] == "clean" for r in estimates.values())
 
 
-@pytest.mark.parametrize("victim", ["source", "channel", "attacker", "adc", "detector", "gate", "ranging", "summary"])
+@pytest.mark.parametrize("victim,carav", [
+    *((v, "zmq") for v in ("source", "channel", "attacker", "adc", "detector", "gate", "ranging", "summary")),
+    *((v, "shm") for v in ("adc", "gate"))], indirect=["carav"])
 def test_a_node_stopped_and_continued_costs_nothing(carav, victim):
     """SIGSTOP one node for a second (shorter than the heartbeat timeout), then SIGCONT: the graph waits for it
     (bounded queues), nothing is restarted, lost or judged twice, and every cycle is judged in order."""
@@ -214,22 +232,50 @@ def test_a_node_stopped_and_continued_costs_nothing(carav, victim):
     assert sorted(records) == list(range(s["cycles"])) and s["cycles_judged"] == s["cycles"]
 
 
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_a_killed_supervisor_takes_its_nodes_and_leaves_nothing_behind(carav):
     """SIGKILL the supervisor itself: its nodes notice (parent-death signal) and exit; the next carav command
-    removes the run folder it could not remove (endpoints, specs, logs), and no frame was judged without a
-    clean verdict meanwhile."""
+    removes the run folder it could not remove (endpoints, specs, logs), no frame was judged without a
+    clean verdict meanwhile, and nothing of the run is left in /dev/shm or in memory (its segments are
+    anonymous: freed with the last process that held them)."""
+    shm_before = set(os.listdir("/dev/shm"))
     run = radar(carav, 0, seed=27, batch=4)
     judged = carav.workdir / "judged.jsonl"
     wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
     [folder] = list(carav.run_root.glob("carav-*/*"))
+    pids = [run.proc.pid, *(int(p) for p in _node_pids(carav))]
+    if carav.transport == "shm":
+        assert _segments_held_by(pids) >= 1                       # the run's data does travel in segments
     os.kill(run.proc.pid, signal.SIGKILL)
     run.proc.wait(10)
     wait_until(lambda: not run.group_alive(), 15, "every node of the killed supervisor to exit")
+    assert set(os.listdir("/dev/shm")) <= shm_before
+    assert all(not Path(f"/proc/{pid}").exists() for pid in pids)   # ... so no process holds a segment
     assert folder.exists()                                        # nobody could clean up yet ...
     assert carav.cli("status").returncode == 0                   # ... the next command does
     assert not folder.exists() and not list(carav.run_root.glob("carav-*/*"))
     estimates = [r for r in read_jsonl(judged) if r["port"] == "inp"]
     assert estimates and all(r["verdict"] == "clean" for r in estimates)
+
+
+def _node_pids(carav) -> list[int]:
+    st = carav.cli("status", "--json", timeout_s=10)
+    assert st.returncode == 0, st.stderr
+    return [n["pid"] for s in __import__("json").loads(st.stdout) for n in s["nodes"].values() if n["pid"]]
+
+
+def _segments_held_by(pids: list[int]) -> int:
+    """Shared-memory segments (memfd) open in these processes."""
+    held = set()
+    for pid in pids:
+        for fd in Path(f"/proc/{pid}/fd").iterdir():
+            try:
+                target = os.readlink(fd)
+            except OSError:
+                continue
+            if target.startswith("/memfd:carav-"):
+                held.add(target)
+    return len(held)
 
 
 def _kill_mid_run_and_stop(carav, run, victim: str, judged) -> int:
@@ -255,6 +301,7 @@ def _pid_of(carav, run, node):
     return None
 
 
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_live_attacker_swaps_keep_every_cycle_and_change_the_verdicts(carav):
     run = radar(carav, 0, seed=23, fidelity="waveform", batch=4)
     judged = carav.workdir / "judged.jsonl"

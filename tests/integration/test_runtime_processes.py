@@ -8,6 +8,7 @@ import pytest
 import zmq
 
 from carav_stream.runtime.frames import Frame, encode
+from carav_stream.runtime.graph import TRANSPORTS
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
@@ -57,6 +58,7 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
     assert s["per_node"]["src"]["processed"] == 3 and s["per_node"]["log"]["cycles"] == 10
 
 
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_slow_consumer_slows_the_producer_and_nothing_is_dropped(carav):
     n = 300
     body = """
@@ -90,6 +92,7 @@ log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
     assert gaps and max(gaps) < 60, gaps
 
 
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_a_slow_tap_never_slows_the_chain_and_what_it_skips_is_counted_skipped_not_lost(carav):
     """The same slow consumer as above, but on a tap input beside a fast chain: the producer does not wait for
     it; the tap sees an increasing subset of the frames and every other frame is counted skipped on its edge."""
@@ -271,6 +274,56 @@ def test_bad_messages_are_rejected_counted_and_named_while_the_graph_runs_on(car
     assert s["rejected"] == 4 and s["per_node"]["t"]["rejected"] == {"inp": 4}
     lines = read_jsonl(carav.workdir / "out.jsonl")
     assert [l["seq"] for l in lines] == list(range(s["cycles"]))
+
+
+BIG_CHAIN = """
+connections = ["src.out -> t.inp", "t.out -> log.inp"]
+[blocks]
+src = { type = "counter_source", rows = 64, n_values = 1100 }
+t = { type = "tagger" }
+log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
+"""
+
+
+@pytest.mark.parametrize("carav", ["shm"], indirect=True)
+def test_bad_slot_references_are_rejected_counted_and_named_while_the_graph_runs_on(carav):
+    """Over shared memory: headers naming a slot outside the segment, more bytes than a slot holds, a generation
+    the slot does not hold, or carrying buffer parts besides are refused with the reason; the graph runs on."""
+    run = carav.run(carav.graph(BIG_CHAIN))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
+    (endpoint,) = carav.run_root.glob("carav-*/*/t.inp")
+    ctx = zmq.Context()
+    rogue = ctx.socket(zmq.PUSH)
+    rogue.linger = 2000
+    rogue.connect(f"ipc://{endpoint}")
+    head = {"v": 1, "stream": "x.y", "seq": 10**9, "cycle": 0, "eos": False}
+    data = [["data", "float64", [64, 1100]]]
+    bad = [
+        [msgpack.packb({**head, "arrays": data, "shm": [999, 1]})],                  # outside the segment
+        [msgpack.packb({**head, "arrays": [["data", "float64", [1 << 24]]], "shm": [0, 1]})],   # too large
+        [msgpack.packb({**head, "arrays": data, "shm": [0, 10**12]})],               # stale generation
+        [msgpack.packb({**head, "arrays": data, "shm": [0, 1]}), b"\x00" * 8],       # buffer parts besides
+        [msgpack.packb({**head, "arrays": data, "shm": "slot 0"})],                  # not a reference
+    ]
+    for parts in bad:
+        rogue.send_multipart(parts)
+    rogue.close()
+    ctx.term()
+    wait_until(lambda: "rejected frame #5" in run.stderr(), 20, "five rejections reported")
+    n_before = len(read_jsonl(carav.workdir / "out.jsonl"))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > n_before + 100, 20, "graph still running")
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(30) == 0
+    err = run.stderr()
+    assert "slot 999 is outside the segment's" in err and "a slot holds" in err
+    assert "stale generation 1000000000000" in err and "the header alone" in err
+    assert "header key 'shm' must be list" in err
+    s = run.summary()
+    assert s["rejected"] == 5 and s["per_node"]["t"]["rejected"] == {"inp": 5} and s["lost"] == 0
+    assert [l["seq"] for l in read_jsonl(carav.workdir / "out.jsonl")] == list(range(s["cycles"]))
+    src = s["shared_memory"]["src.out"]
+    assert src["frames_in_slots"] + src["frames_inline"] == s["cycles"], src
+    assert src["frames_in_slots"] > s["cycles"] // 2, src
 
 
 def test_invalid_graph_starts_nothing_and_names_the_problem(carav):
