@@ -32,6 +32,7 @@ from carav_stream.cli.record import record_graph
 from carav_stream.cli.replay import overrides_for
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
+from carav_stream.runtime.graph import TRANSPORTS
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.supervisor import NODE_ENV, Supervisor
 
@@ -46,11 +47,20 @@ def _modes(text: str) -> list[str]:
     return wanted
 
 
-def pipeline_overrides(preset: str, fidelity: str, n: int, method: str, batch: int) -> list[str]:
+def pipeline_overrides(preset: str, fidelity: str, n: int, method: str, batch: int,
+                       transport: str = "zmq") -> list[str]:
     """`--set` values that make graphs/radar_chain.toml the graph of one benchmark case (the smart attacker from
-    half the run on, as in the fused chain)."""
+    half the run on, as in the fused chain), its arrays over `transport`."""
     return [f"scene={preset}", f"fidelity={fidelity}", f"batch={batch}", "seed=5", "attacker.model=smart",
-            "attacker.rarms=3.0", f"attacker.start_cycle={n // 2}", f"ranging.method={method}"]
+            "attacker.rarms=3.0", f"attacker.start_cycle={n // 2}", f"ranging.method={method}",
+            f"run.transport={transport}"]
+
+
+def _transports(text: str) -> list[str]:
+    wanted = text.split(",")
+    if not wanted or set(wanted) - set(TRANSPORTS):
+        raise argparse.ArgumentTypeError(f"expected a comma list of {', '.join(TRANSPORTS)}, got {text!r}")
+    return wanted
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -61,6 +71,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         "list runs each (default: the blocks' default 16 and the table1 graphs' 32)")
     parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
     parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
+    parser.add_argument("--transport", default=",".join(TRANSPORTS), type=_transports,
+                        help="data planes of the pipeline runs: zmq (arrays in ZeroMQ messages), shm (in shared "
+                        "memory, runtime/shm.py), or both as a comma list (record and replay use the first)")
     parser.add_argument("--with", dest="with_modes", default=["record", "replay"], type=_modes, metavar="MODES",
                         help="extra modes beside pipeline and fused: record, replay (needs record), or none")
 
@@ -72,11 +85,11 @@ def _run(graph, n: int, what: str) -> dict:
     return summary
 
 
-def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int,
+def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, transport: str,
               record_to: Path | None = None) -> tuple[float, dict, dict]:
     """cycles/s, busy us per cycle by node, and the run summary; with record_to, the graph with its recorder
     (carav record) writing into that folder."""
-    overrides = pipeline_overrides(preset, fidelity, n, method, batch)
+    overrides = pipeline_overrides(preset, fidelity, n, method, batch, transport)
     graph = load_graph(graph_file("radar_chain"), overrides)
     if record_to is not None:
         graph = load_graph(record_graph(graph, record_to, overrides), overrides)
@@ -85,10 +98,11 @@ def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int,
     return summary["throughput_cycles_per_s"], busy, summary
 
 
-def _replay(folder: Path, n: int, method: str) -> tuple[float, dict]:
+def _replay(folder: Path, n: int, method: str, transport: str) -> tuple[float, dict]:
     """cycles/s and busy us per cycle of graphs/replay.toml on the recording in `folder` (carav replay)."""
     rec = open_recording(folder, verify_hash=False)
-    overrides = [*overrides_for(rec, "source", {}, recorded_settings=False), f"ranging.method={method}"]
+    overrides = [*overrides_for(rec, "source", {}, recorded_settings=False), f"ranging.method={method}",
+                 f"run.transport={transport}"]
     summary = _run(load_graph(graph_file("replay"), overrides), n, f"replay of {folder}")
     return summary["throughput_cycles_per_s"], {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
 
@@ -127,48 +141,53 @@ def run(args: argparse.Namespace) -> int:
             continue
         n = max(20, int(n * args.scale))
         rate_radar = scene_of(preset).cycles_per_s
+        first = args.transport[0]
         for batch in batches:
-            runs = {mode: [] for mode in MODES if mode in modes}
-            busy_runs, fused_cpu, bytes_per_cycle = {m: [] for m in runs}, [], None
+            # (mode, transport) -> rates; the fused chain has no data plane
+            runs = {(m, t): [] for m in MODES if m in modes
+                    for t in (args.transport if m == "pipeline" else ["none"] if m == "fused" else [first])}
+            busy_runs, fused_cpu, bytes_per_cycle = {k: [] for k in runs}, [], None
             for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
-                rate, busy, _ = _pipeline(preset, fidelity, n, args.method, batch)
-                runs["pipeline"].append(rate)
-                busy_runs["pipeline"].append(busy)
+                for transport in args.transport:
+                    rate, busy, _ = _pipeline(preset, fidelity, n, args.method, batch, transport)
+                    runs[("pipeline", transport)].append(rate)
+                    busy_runs[("pipeline", transport)].append(busy)
                 rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
-                runs["fused"].append(rate)
+                runs[("fused", "none")].append(rate)
                 fused_cpu.append(cpu_us)
-                if "record" in runs:
+                if ("record", first) in runs:
                     with tempfile.TemporaryDirectory(prefix="carav-bench-") as folder:
-                        rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, Path(folder))
-                        runs["record"].append(rate)
-                        busy_runs["record"].append(busy)
+                        rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, first, Path(folder))
+                        runs[("record", first)].append(rate)
+                        busy_runs[("record", first)].append(busy)
                         bytes_per_cycle = summary["recording"]["bytes_per_cycle"]
-                        if "replay" in runs:
-                            rate, busy = _replay(Path(folder), n, args.method)
-                            runs["replay"].append(rate)
-                            busy_runs["replay"].append(busy)
-            fused = statistics.median(runs["fused"])
-            for mode, rates in runs.items():
+                        if ("replay", first) in runs:
+                            rate, busy = _replay(Path(folder), n, args.method, first)
+                            runs[("replay", first)].append(rate)
+                            busy_runs[("replay", first)].append(busy)
+            fused = statistics.median(runs[("fused", "none")])
+            for (mode, transport), rates in runs.items():
                 rate = statistics.median(rates)
-                rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "batch": batch, "cycles": n,
-                       "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
+                rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "transport": transport, "batch": batch,
+                       "cycles": n, "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
                        "runs_cycles_per_s": rates, "real_time_factor": rate / rate_radar,
                        "radar_cycles_per_s": rate_radar, "speedup_over_fused": rate / fused}
                 note = ""
                 if mode == "fused":
                     rec["cpu_us_per_cycle"] = statistics.median(fused_cpu)
                 else:
-                    busy = {node: statistics.median(b[node] for b in busy_runs[mode]) for node in busy_runs[mode][0]}
+                    b_runs = busy_runs[(mode, transport)]
+                    busy = {node: statistics.median(b[node] for b in b_runs) for node in b_runs[0]}
                     rec["bottleneck_node"] = bottleneck = max(busy, key=busy.get)
                     rec["busy_us_per_cycle"] = busy
                     note = f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)"
                 if mode in ("record", "replay"):
                     rec["bytes_per_cycle"] = bytes_per_cycle
-                    rec["ratio_to_pipeline"] = rate / statistics.median(runs["pipeline"])
+                    rec["ratio_to_pipeline"] = rate / statistics.median(runs[("pipeline", transport)])
                     note += f"  {bytes_per_cycle} B/cycle on disk, x{rec['ratio_to_pipeline']:.2f} live graph"
                 records.append(rec)
-                print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {rate:9.1f} cycles/s  real-time "
-                      f"x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}{note}", flush=True)
+                print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {transport:<4} {rate:9.1f} cycles/s  "
+                      f"real-time x{rate / rate_radar:6.3f}  vs fused x{rate / fused:5.2f}{note}", flush=True)
     if args.json:
         bench_records.write(args.json, args, records)
     return 0

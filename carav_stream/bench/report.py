@@ -41,13 +41,15 @@ def _met(ok: bool) -> str:
 def transport_rows(doc: dict) -> list[Row]:
     rows = []
     for r in doc["records"]:
-        if r["transport"] != "runtime":
+        if r["transport"] == "raw":
             continue
         shape = "x".join(map(str, r["frame_shape"]))
-        rows.append((f"runtime / raw pyzmq frames/s, {shape} {r['dtype']} ({r['bytes_per_frame']} B), "
-                     f"{r['processes']} processes",
-                     f"{r['ratio']:.2f} ({r['runtime_frames_per_s']:.0f} / {r['raw_frames_per_s']:.0f} frames/s; "
-                     f"CPU ratio {r['cpu_ratio']:.2f})", ">= 0.8", _met(r["ratio"] >= 0.8)))
+        shm = r["transport"] == "runtime_shm"
+        rows.append((f"runtime{' over shared memory' if shm else ''} / raw pyzmq frames/s, {shape} {r['dtype']} "
+                     f"({r['bytes_per_frame']} B), {r['processes']} processes",
+                     f"{r['ratio']:.2f} ({r['frames_per_s']:.0f} / {r['raw_frames_per_s']:.0f} frames/s; "
+                     f"CPU ratio {r['cpu_ratio']:.2f})", "(reported)" if shm else ">= 0.8",
+                     "-" if shm else _met(r["ratio"] >= 0.8)))
     return rows
 
 
@@ -58,8 +60,8 @@ def transport_table(doc: dict) -> list[str]:
         paced = (f"{r['paced_latency_median_s'] * 1e3:.2f} / {r['paced_latency_p99_s'] * 1e3:.2f}"
                  if "paced_latency_median_s" in r else "-")
         runs = ", ".join(f"{x:.0f}" for x in r["frames_per_s_runs"])
-        ratio = f"{r['ratio']:.2f}" if r["transport"] == "runtime" else "-"
-        cpu_ratio = f"{r['cpu_ratio']:.2f}" if r["transport"] == "runtime" else "-"
+        ratio = f"{r['ratio']:.2f}" if r["transport"] != "raw" else "-"
+        cpu_ratio = f"{r['cpu_ratio']:.2f}" if r["transport"] != "raw" else "-"
         lines.append(f"| {'x'.join(map(str, r['frame_shape']))} | {r['transport']} | {r['frames_per_s']:.0f} "
                      f"({runs}) | {r['gb_per_s']:.2f} | {r['latency_median_s'] * 1e3:.1f} / "
                      f"{r['latency_p99_s'] * 1e3:.1f} | {paced} | {r['cpu_ms_per_frame_total']:.3f} | {ratio} "
@@ -210,6 +212,7 @@ def estimators_table(doc: dict) -> list[str]:
 
 
 FUSED_TARGET = 1.3
+SHM_TARGETS = (2.5, 1.6)     # the pipeline over shared memory: x real time, x the fused chain (issue 18)
 
 
 def pipeline_rows(doc: dict) -> list[Row]:
@@ -225,26 +228,30 @@ def pipeline_rows(doc: dict) -> list[Row]:
                          f">= 1 x ({r['radar_cycles_per_s']:.0f} cycles/s)", _met(r["real_time_factor"] >= 1)))
         if r["mode"] != "pipeline":
             continue
-        rows.append((f"pipeline (8 processes) against the radar's real time, {case}",
+        transport = r.get("transport", "zmq")
+        real_time, fused = SHM_TARGETS if transport == "shm" else (1.0, FUSED_TARGET)
+        plane = "arrays in shared memory" if transport == "shm" else "arrays in ZeroMQ messages"
+        rows.append((f"pipeline (8 processes, {plane}) against the radar's real time, {case}",
                      f"{r['cycles_per_s']:.0f} cycles/s = {r['real_time_factor']:.3g} x real time",
-                     f">= 1 x ({r['radar_cycles_per_s']:.0f} cycles/s)", _met(r["real_time_factor"] >= 1)))
-        rows.append((f"pipeline against the same chain in one process, {case}",
-                     f"{r['speedup_over_fused']:.2f} x", f">= {FUSED_TARGET} x",
-                     _met(r["speedup_over_fused"] >= FUSED_TARGET)))
+                     f">= {real_time:g} x ({r['radar_cycles_per_s']:.0f} cycles/s)",
+                     _met(r["real_time_factor"] >= real_time)))
+        rows.append((f"pipeline ({plane}) against the same chain in one process, {case}",
+                     f"{r['speedup_over_fused']:.2f} x", f">= {fused:g} x", _met(r["speedup_over_fused"] >= fused)))
     return rows
 
 
 def pipeline_table(doc: dict) -> list[str]:
-    lines = ["| preset | fidelity | batch | mode | cycles/s (runs) | x real time | x fused "
-             "| bottleneck (busy us/cycle) or CPU us/cycle |", "|---|---|---:|---|---|---:|---:|---|"]
+    lines = ["| preset | fidelity | batch | mode | transport | cycles/s (runs) | x real time | x fused "
+             "| bottleneck (busy us/cycle) or CPU us/cycle |", "|---|---|---:|---|---|---|---:|---:|---|"]
     for r in doc["records"]:
         runs = ", ".join(f"{x:.0f}" for x in r["runs_cycles_per_s"])
         extra = (f"{r['bottleneck_node']} ({r['busy_us_per_cycle'][r['bottleneck_node']]:.0f})"
                  if "bottleneck_node" in r else f"{r['cpu_us_per_cycle']:.0f} CPU")
         if "bytes_per_cycle" in r:
             extra += f"; {r['bytes_per_cycle'] / 1e3:.1f} kB/cycle on disk"
-        lines.append(f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} | {r['cycles_per_s']:.0f} "
-                     f"({runs}) | {r['real_time_factor']:.3g} | {r['speedup_over_fused']:.2f} | {extra} |")
+        lines.append(f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} "
+                     f"| {r.get('transport', 'zmq')} | {r['cycles_per_s']:.0f} ({runs}) | {r['real_time_factor']:.3g} "
+                     f"| {r['speedup_over_fused']:.2f} | {extra} |")
     return lines
 
 

@@ -6,9 +6,12 @@ high-water mark (the graph's run.queue_frames on the send and the receive side),
     table1   64 x 1100 complex64  (563 200 bytes, one Table I cycle)
     awr1642  128 x 256 complex64  (262 144 bytes, one AWR1642 cycle)
 
-runtime  a real graph run by carav_stream.runtime.supervisor.Supervisor (blocks bench_source, bench_pass, bench_sink
-         from carav_stream/bench/blocks): header encode/validate/decode, pairing, counters, heartbeats, stamps.
-raw      bare pyzmq PUSH/PULL, multipart [8-byte t_created_s, payload], copy=False on both sides.
+runtime      a real graph run by carav_stream.runtime.supervisor.Supervisor (blocks bench_source, bench_pass,
+             bench_sink from carav_stream/bench/blocks): header encode/validate/decode, pairing, counters,
+             heartbeats, stamps; arrays in the ZeroMQ messages (run.transport = "zmq")
+runtime_shm  the same graph with its arrays in shared memory (run.transport = "shm", runtime/shm.py): each
+             pass-through node copies the frame it forwards into its own output slot once (one memcpy a hop)
+raw          bare pyzmq PUSH/PULL, multipart [8-byte t_created_s, payload], copy=False on both sides.
 
 Figures come from the sink of each chain, after `warmup` frames (pipeline fill):
     frames/s      = (n - 1 - warmup) / (t_recv[n-1] - t_recv[warmup])   (steady state; equal at every hop)
@@ -16,7 +19,8 @@ Figures come from the sink of each chain, after `warmup` frames (pipeline fill):
     latency       = sink receive time - source t_created_s (same clock), median and p99, end to end over 5 hops
 Throughput runs are unpaced (queues full), so their latency is mostly queueing (about hops * 2 * HWM frames);
 a paced run (--latency-rate-hz, default 100 frames/s) gives the latency of an empty pipeline.
-Each figure is the median over --repeats runs; ratio = runtime frames/s / raw frames/s (target >= 0.8).
+Each figure is the median over --repeats runs; ratio = frames/s / raw frames/s (target for runtime >= 0.8) and CPU
+ratio = raw CPU per frame / CPU per frame, both over the whole chain.
 """
 from __future__ import annotations
 
@@ -38,6 +42,8 @@ from carav_stream.bench import records as bench_records
 from carav_stream.cli.options import count, number, output_file
 
 SHAPES = {"table1": (64, 1100), "awr1642": (128, 256)}
+TRANSPORTS = ("runtime", "runtime_shm", "raw")      # the runtime over each data plane, and bare pyzmq
+PLANE = {"runtime": "zmq", "runtime_shm": "shm"}
 N_PASS = 4                  # pass-through nodes: 6 processes, 5 hops
 HOPS = N_PASS + 1
 
@@ -46,18 +52,21 @@ HOPS = N_PASS + 1
 CHAIN_GRAPH = Path(__file__).resolve().parent / "chain.toml"
 
 
-def chain_overrides(shape: tuple[int, int], *, queue_frames: int, warmup: int, rate_hz: float = 0.0) -> list[str]:
+def chain_overrides(shape: tuple[int, int], *, queue_frames: int, warmup: int, rate_hz: float = 0.0,
+                    plane: str = "zmq") -> list[str]:
     """`--set` values that make chain.toml (src -> p1 .. p4 -> sink) the chain of one benchmark case."""
     return [f"src.n_chirps={shape[0]}", f"src.n_samples={shape[1]}", f"src.rate_hz={float(rate_hz)}",
-            f"sink.warmup_frames={warmup}", f"run.queue_frames={queue_frames}"]
+            f"sink.warmup_frames={warmup}", f"run.queue_frames={queue_frames}", f"run.transport={plane}"]
 
 
 def run_runtime(shape: tuple[int, int], n_frames: int, *, queue_frames: int, warmup: int,
-                rate_hz: float = 0.0) -> dict[str, Any]:
-    """One run of the chain through the real runtime; the sink's figures plus the supervisor's throughput."""
+                rate_hz: float = 0.0, plane: str = "zmq") -> dict[str, Any]:
+    """One run of the chain through the real runtime over data plane `plane` (run.transport); the sink's
+    figures plus the supervisor's throughput."""
     from carav_stream.runtime.loader import load_graph
     from carav_stream.runtime.supervisor import Supervisor
-    graph = load_graph(CHAIN_GRAPH, chain_overrides(shape, queue_frames=queue_frames, warmup=warmup, rate_hz=rate_hz))
+    graph = load_graph(CHAIN_GRAPH, chain_overrides(shape, queue_frames=queue_frames, warmup=warmup, rate_hz=rate_hz,
+                                                    plane=plane))
     summary = Supervisor(graph, cycles=n_frames, progress=False, log=lambda text: None).run()
     if summary["failures"] or summary["lost"]:
         raise RuntimeError(f"runtime chain failed: failures {summary['failures']}, lost {summary['lost_by_edge']}")
@@ -230,29 +239,29 @@ def _median(runs: list[dict[str, Any]], key: str) -> float:
 def measure(shape_name: str, args: argparse.Namespace) -> dict[str, Any]:
     shape = SHAPES[shape_name]
     warmup = max(1, min(args.frames // 10, 100))
-    runs: dict[str, list[dict[str, Any]]] = {"runtime": [], "raw": []}
-    paced: dict[str, list[dict[str, Any]]] = {"runtime": [], "raw": []}
+    runs: dict[str, list[dict[str, Any]]] = {t: [] for t in TRANSPORTS}
+    paced: dict[str, list[dict[str, Any]]] = {t: [] for t in TRANSPORTS}
     kw = {"queue_frames": args.queue_frames, "warmup": warmup}
-    for _ in range(args.repeats):       # interleaved, so slow drifts of the machine hit both alike
-        runs["runtime"].append(run_runtime(shape, args.frames, **kw))
-        runs["raw"].append(run_raw(shape, args.frames, **kw))
-        if args.latency_rate_hz:
-            pkw = {"queue_frames": args.queue_frames, "warmup": min(10, args.latency_frames // 10),
-                   "rate_hz": args.latency_rate_hz}
-            paced["runtime"].append(run_runtime(shape, args.latency_frames, **pkw))
-            paced["raw"].append(run_raw(shape, args.latency_frames, **pkw))
+    pkw = {"queue_frames": args.queue_frames, "warmup": min(10, args.latency_frames // 10),
+           "rate_hz": args.latency_rate_hz}
+    for _ in range(args.repeats):       # interleaved, so slow drifts of the machine hit all alike
+        for transport in TRANSPORTS:
+            once = run_raw if transport == "raw" else run_runtime
+            plane = {} if transport == "raw" else {"plane": PLANE[transport]}
+            runs[transport].append(once(shape, args.frames, **kw, **plane))
+            if args.latency_rate_hz:
+                paced[transport].append(once(shape, args.latency_frames, **pkw, **plane))
     nbytes = runs["raw"][0]["bytes_per_frame"]
-    rt_fps, raw_fps = _median(runs["runtime"], "frames_per_s"), _median(runs["raw"], "frames_per_s")
-    rt_cpu, raw_cpu = (_median(runs[t], "cpu_ms_per_frame_total") for t in ("runtime", "raw"))
+    raw_fps, raw_cpu = _median(runs["raw"], "frames_per_s"), _median(runs["raw"], "cpu_ms_per_frame_total")
     records = {}
-    for transport in ("runtime", "raw"):
+    for transport in TRANSPORTS:
         fps = _median(runs[transport], "frames_per_s")
         rec = {"frame_shape": [*shape], "frame_name": shape_name, "dtype": "complex64", "bytes_per_frame": nbytes,
                "transport": transport, "hops": HOPS, "processes": HOPS + 1, "frames": args.frames,
                "repeats": args.repeats, "queue_frames": args.queue_frames,
                "frames_per_s": fps, "gb_per_s": fps * nbytes / 1e9,
-               "runtime_frames_per_s": rt_fps, "raw_frames_per_s": raw_fps, "ratio": rt_fps / raw_fps,
-               "cpu_ratio": raw_cpu / rt_cpu,
+               "raw_frames_per_s": raw_fps, "ratio": fps / raw_fps,
+               "cpu_ratio": raw_cpu / _median(runs[transport], "cpu_ms_per_frame_total"),
                "latency_median_s": _median(runs[transport], "latency_median_s"),
                "latency_p99_s": _median(runs[transport], "latency_p99_s"),
                "frames_per_s_runs": [r["frames_per_s"] for r in runs[transport]],
@@ -262,7 +271,7 @@ def measure(shape_name: str, args: argparse.Namespace) -> dict[str, Any]:
                                             for n in runs[transport][0]["cpu_ms_per_frame_by_node"]},
                "page_faults_per_frame_total": _median(runs[transport], "page_faults_per_frame_total"),
                "voluntary_switches_per_frame_total": _median(runs[transport], "voluntary_switches_per_frame_total")}
-        if transport == "runtime":
+        if transport != "raw":
             rec["supervisor_cycles_per_s"] = _median(runs[transport], "supervisor_cycles_per_s")
         if paced[transport]:
             rec["paced_rate_hz"] = args.latency_rate_hz
@@ -284,7 +293,7 @@ def run(args: argparse.Namespace) -> int:
         except RuntimeError as exc:
             print(f"carav bench transport: {name}: {exc}", file=sys.stderr)
             return 1
-        for transport in ("runtime", "raw"):
+        for transport in TRANSPORTS:
             r = recs[transport]
             paced = (f"{r['paced_latency_median_s'] * 1e3:>14.3f}{r['paced_latency_p99_s'] * 1e3:>14.3f}"
                      if "paced_latency_median_s" in r else f"{'-':>14}{'-':>14}")
@@ -292,8 +301,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"{label:<18}{transport:<10}{r['frames_per_s']:>10.1f}{r['gb_per_s']:>10.3f}"
                   f"{r['latency_median_s'] * 1e3:>12.2f}{r['latency_p99_s'] * 1e3:>12.2f}{paced}"
                   f"{r['cpu_ms_per_frame_total']:>10.3f}"
-                  f"{r['ratio'] if transport == 'runtime' else 1.0:>7.2f}"
-                  f"{r['cpu_ratio'] if transport == 'runtime' else 1.0:>10.2f}", flush=True)
+                  f"{r['ratio']:>7.2f}{r['cpu_ratio']:>10.2f}", flush=True)
             out.append(r)
     if args.json:
         bench_records.write(args.json, args, out)

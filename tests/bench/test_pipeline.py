@@ -26,8 +26,10 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
     assert doc["command"] == "carav bench pipeline --cases awr1642:beat --repeats 1 --scale 0.04 --batch 4,8"
     assert doc["machine"]["cores"] >= 1
     records = doc["records"]
-    assert [(r["preset"], r["fidelity"], r["mode"], r["batch"]) for r in records] == [
-        ("awr1642", "beat", mode, b) for b in (4, 8) for mode in ("pipeline", "fused", "record", "replay")]
+    assert [(r["preset"], r["fidelity"], r["mode"], r["transport"], r["batch"]) for r in records] == [
+        ("awr1642", "beat", mode, transport, b) for b in (4, 8)
+        for mode, transport in (("pipeline", "zmq"), ("pipeline", "shm"), ("fused", "none"), ("record", "zmq"),
+                                ("replay", "zmq"))]
     for r in records:
         assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
     assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")

@@ -52,3 +52,21 @@ def test_a_record_file_without_command_or_machine_is_refused(tmp_path):
 def test_the_recorded_command_leaves_out_output_files():
     args = argparse.Namespace(argv=["bench", "synth", "--json", "x.json", "--cycles", "4", "--plot=p.png"])
     assert bench_records.command_line(args) == "carav bench synth --cycles 4"
+
+
+@pytest.mark.parametrize("transport, speedup, rtf, met", [
+    ("shm", 1.7, 2.6, ("yes", "yes")), ("shm", 1.5, 2.6, ("yes", "**no**")), ("shm", 1.7, 2.4, ("**no**", "yes")),
+    ("zmq", 1.5, 1.2, ("yes", "yes"))])
+def test_the_pipeline_over_shared_memory_is_judged_against_its_own_targets(tmp_path, transport, speedup, rtf, met):
+    """Issue 18's targets for the shared-memory plane (2.5 x real time, 1.6 x fused), the older ones for ZeroMQ."""
+    rec = {"preset": "table1", "fidelity": "beat", "batch": 32, "mode": "pipeline", "transport": transport,
+           "cycles_per_s": 2131.0 * rtf, "runs_cycles_per_s": [2131.0 * rtf], "real_time_factor": rtf,
+           "radar_cycles_per_s": 2131.0, "speedup_over_fused": speedup, "bottleneck_node": "channel",
+           "busy_us_per_cycle": {"channel": 250.0}}
+    (tmp_path / "docs" / "bench" / "records").mkdir(parents=True)
+    (tmp_path / "docs" / "bench" / "records" / "pipeline.json").write_text(json.dumps(
+        {**transport_doc(1.0), "command": "carav bench pipeline", "records": [rec]}))
+    summary = report.render(tmp_path)[tmp_path / "BENCHMARKS.md"]
+    targets = ("2.5", "1.6") if transport == "shm" else ("1", "1.3")
+    assert f"= {rtf:.3g} x real time | >= {targets[0]} x (2131 cycles/s) | {met[0]} |" in summary
+    assert f"| {speedup:.2f} x | >= {targets[1]} x | {met[1]} |" in summary
