@@ -24,7 +24,7 @@ Graph   adc = { type = "adc_framer" }
 """
 import numpy as np
 
-from carav_stream.radar.adc import adc_codes
+from carav_stream.radar.adc import adc_codes, adc_step
 from carav_stream.radar.attackers import gate_by_emission
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, n_cycles, per_cycle
@@ -46,7 +46,9 @@ class AdcFramer(Block):
             if a is not None:
                 x = x + a
             extra["attack_model"] = attack.header.get("attack_model", "unknown")
-        codes, clipped, nonfinite = adc_codes(self.scene_obj, x)
+        out = None if adc_step(self.scene_obj) is None else self.output_buffer(   # in its shared-memory slot
+            "frames", x.shape + (2,) if self.scene_obj.iq else x.shape, np.int16)
+        codes, clipped, nonfinite = adc_codes(self.scene_obj, x, out)
         per["clipped"] = clipped.tolist()
         per["nonfinite"] = nonfinite.tolist()   # NaN/Inf samples at the input: the detector judges the cycle invalid
         return rx.derive(codes, per_cycle=per, **extra)

@@ -42,7 +42,10 @@ class Channel(Block):
             raise ValueError(f"tx frame seq {tx.seq}: expected (cycles, {self.scene_obj.n_chirps}) chirps, "
                              f"got shape {rho.shape}")
         cycle = tx.cycle
-        rx = channel(self.scene_obj, transmit(self.scene_obj, rho, cycle, self.fidelity), self.rng, cycle)
+        sc = self.scene_obj
+        out = self.output_buffer("rx", (rho.shape[0], sc.n_chirps, sc.n_samples),   # in its shared-memory slot
+                                 np.complex64 if sc.iq else np.float32)
+        rx = channel(sc, transmit(sc, rho, cycle, self.fidelity), self.rng, cycle, out=out)
         air = np.concatenate([self.heard[None], rho[:-1]])
         self.heard = rho[-1].copy()
         return {"rx": tx.derive(rx, arrays={"on_air": rho}, fidelity=self.fidelity),

@@ -41,7 +41,7 @@ def with_nonfinite(frames: np.ndarray, rx: np.ndarray, nonfinite: np.ndarray) ->
     return frames
 
 
-def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the ADC delivers: integer codes, int16 (n_cycles, n_chirps, n_samples), or for I/Q
     (n_cycles, n_chirps, n_samples, 2) with I then Q; clipped as in :func:`adc`; and nonfinite, int64
     (n_cycles,): samples whose I or Q was NaN or Inf at the ADC input (a simulation fault, not a signal: their
@@ -49,7 +49,8 @@ def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     detector judges it invalid). The scaling is float32 arithmetic, ``rint(x * float32(1 / lsb))``: a value
     within about 1e-4 LSB of a half code (near full scale) may round to the other neighbour than exact
     arithmetic would. An ideal ADC (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx
-    instead (float32 | complex64; non-finite samples stay as they are and are counted).
+    instead (float32 | complex64; non-finite samples stay as they are and are counted). ``out``: an int16 array
+    of the codes' shape to write them into (ignored for an ideal ADC).
     """
     n_cycles = rx.shape[0]
     lsb = adc_step(scene)
@@ -79,8 +80,14 @@ def adc_codes(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
             over, bad = over.view(np.uint16), bad.view(np.uint16)
         clipped[i] = np.count_nonzero(over)
         nonfinite[i] = np.count_nonzero(bad)
-    out = codes.astype(np.int16)
-    return (out.reshape(rx.shape + (2,)) if scene.iq else out), clipped, nonfinite
+    shape = rx.shape + (2,) if scene.iq else rx.shape
+    if out is None:
+        out = codes.astype(np.int16).reshape(shape)
+    elif out.dtype != np.int16 or out.shape != shape:
+        raise ValueError(f"adc_codes: out must be int16 of shape {shape}, got {out.dtype} {out.shape}")
+    else:
+        np.copyto(out, codes.reshape(shape), casting="unsafe")
+    return out, clipped, nonfinite
 
 
 def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:

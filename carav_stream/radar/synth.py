@@ -150,19 +150,24 @@ def _add_echo(scene: Scene, rx: np.ndarray, rho: np.ndarray, fidelity: str,
 
 
 def channel(scene: Scene, tx: Transmission, rng_noise: np.random.Generator, cycle0: int = 0, *,
-            return_clean: bool = False):
+            return_clean: bool = False, out: np.ndarray | None = None):
     """Echoes of the transmitted chirps plus receiver noise: the signal at the ADC input.
 
     Draws from ``rng_noise``, per cycle in order: the Swerling factors of fluctuating targets, then
     the noise. Returns rx (float32 | complex64, (n_cycles, n_chirps, n_samples)), or (rx, clean)
-    with ``return_clean`` (clean = the noise-free echo part). Works a few cycles at a time (noise, then
-    echoes, while the chunk is still in cache).
+    with ``return_clean`` (clean = the noise-free echo part); ``out``: a C-contiguous array of rx's shape and
+    dtype to compute rx into (returned). Works a few cycles at a time (noise, then echoes, while the chunk is
+    still in cache).
     """
     if cycle0 != tx.cycle0:
         raise ValueError(f"channel: cycle0 {cycle0} does not match the transmission's cycle0 {tx.cycle0}")
     n_cycles = tx.rho.shape[0]
     dtype = np.complex64 if scene.iq else np.float32
-    rx = np.empty((n_cycles, scene.n_chirps, scene.n_samples), dtype)
+    shape = (n_cycles, scene.n_chirps, scene.n_samples)
+    if out is not None and (out.dtype != dtype or out.shape != shape or not out.flags.c_contiguous):
+        raise ValueError(f"channel: out must be a C-contiguous {np.dtype(dtype)} array of shape {shape}, got "
+                         f"{out.dtype} {out.shape}")
+    rx = np.empty(shape, dtype) if out is None else out
     clean = np.zeros_like(rx) if return_clean else None
     fluctuating = any(t.swerling for t in scene.targets)
     cycle_bytes = max(1, scene.n_chirps * scene.n_samples * np.dtype(dtype).itemsize)

@@ -18,6 +18,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+import numpy as np
+
 from carav_stream.core.params import REQUIRED, Param, problems
 from carav_stream.runtime.frames import Frame
 
@@ -67,6 +69,11 @@ class Block:
       unpaired(port, f)   a frame whose partners on the other inputs can no longer arrive; default raises
       finish()            at end of stream; may return final frames like process
       summary()           a dict of figures for the run summary (plain types)
+
+    `output_buffer(port, shape, dtype)` gives an empty array to compute an output into: over the shared-memory
+    data plane it lies in a slot of that port's segment, so the frame that returns it as its first array (the
+    payload) is sent without a copy; elsewhere it is np.empty. Return it from the same process() call, on that
+    port, or drop it.
     """
 
     inputs: ClassVar[tuple[In, ...]] = ()
@@ -81,6 +88,17 @@ class Block:
     # restarted process counts incarnations, a block swapped in counts generations. A block drawing from a
     # seeded random stream derives it from this too, so that a new instance never replays what one before drew.
     instance: tuple[int, int] = (0, 0)
+
+    # set by the runtime in a node: (port, shape, dtype) -> a writable array, or None (see output_buffer)
+    allocate: Any = None
+
+    def output_buffer(self, port: str, shape: tuple[int, ...], dtype: Any) -> np.ndarray:
+        """An uninitialised array to compute output `port`'s payload into (see the class docstring)."""
+        if self.allocate is not None:
+            array = self.allocate(port, tuple(shape), np.dtype(dtype))
+            if array is not None:
+                return array
+        return np.empty(shape, dtype)
 
     def __init__(self, **values: Any) -> None:
         problems = self.param_problems(values)

@@ -66,6 +66,10 @@ class NodeRunner:
         self.registry = Registry(list(spec.block_paths))
         self.generation = spec.generation
         self.incarnation = spec.incarnation
+        # shared-memory data plane (run.transport = "shm"): this node's output segments (its producers': readers)
+        taps = {e.edge for edges in spec.outputs.values() for e in edges if e.tap}
+        self.writers = {port: shm.SlotWriter(seg["fd"], seg["edges"], taps) for port, seg in spec.shm_out.items()}
+        self.sending: str | None = None      # the port whose frame in a slot is being delivered
         block = self.new_block(spec.type, spec.params, self.generation)
         self.in_ports: list[str] = [p.name for p in type(block).inputs if p.name in spec.inputs]
         self.use_block(block, spec.type)
@@ -77,8 +81,6 @@ class NodeRunner:
                        for p in self.in_ports}
         self.shm_endpoints = {e.connect for port in spec.shm_out for e in spec.outputs.get(port, ())}
         self.outputs = Outputs(spec.outputs, self.connect, self.idle)
-        # shared-memory data plane (run.transport = "shm"): this node's output segments and its producers'
-        self.writers = {port: shm.SlotWriter(seg["fd"], seg["edges"]) for port, seg in spec.shm_out.items()}
         self.readers = {port: shm.SlotReader(fd, edge) for port, (fd, edge) in spec.shm_in.items()
                         if port in self.inputs}
         self.pairing = Pairing(self.in_ports, max(4, 4 * spec.queue_frames), recovering=spec.recovering)
@@ -109,6 +111,8 @@ class NodeRunner:
     def use_block(self, block: Block, block_type: str) -> None:
         """Run `block` from now on; the per-frame stamps of this node and block are prepared here once."""
         self.block, self.cls, self.block_type = block, type(block), block_type
+        if self.writers:
+            block.allocate = self.allocate
         self.out_names = {p.name for p in self.cls.outputs}
         self.single_out = self.cls.outputs[0].name if len(self.cls.outputs) == 1 else None
         self.arg_names = [p.name for p in self.cls.inputs]             # process() arguments, in order
@@ -118,6 +122,14 @@ class NodeRunner:
         self.hop = f"{self.name}:{block_type}@{version}"              # this node's entry in a frame's trail
         self.stamp = {"node": self.name, "block": block_type, "block_version": version}
         self.streams = {p.name: f"{self.name}.{p.name}" for p in self.cls.outputs}
+
+    def allocate(self, port: str, shape: tuple[int, ...], dtype: Any) -> Any:
+        """Block.output_buffer over shared memory: an array in a free slot of `port`'s segment, or None."""
+        writer = self.writers.get(port)
+        if writer is None:
+            return None
+        cut = writer.mask(self.outputs.cut) if self.outputs.cut else 0
+        return writer.reserve(shape, dtype, cut, transport.TICK_S, self.idle)
 
     def connect(self, endpoint: str) -> zmq.Socket:
         return transport.connect_output(self.ctx, endpoint, self.spec.queue_frames, self.curve,
@@ -166,7 +178,9 @@ class NodeRunner:
         """The first messages on a fresh connection to a restarted consumer: where the stream resumes, and the
         end of stream if this node had finished."""
         writer = self.writers.get(port)
-        at = {"shm_gen": writer.generation} if writer else {}   # what the consumer may give back, see shm.py
+        # what the consumer may give back (shm.py): every generation issued before, except a frame this node is
+        # still delivering (it goes on the fresh connection after the marker)
+        at = {"shm_gen": writer.generation - (self.sending == port)} if writer else {}
         msgs = [self.runtime_message(port, seq=self.outputs.resume_seq(edge, self.seq), resume=True, **at)]
         if self.outputs.eos_sent:
             msgs.append(self.eos_message(port, edge))
@@ -277,7 +291,11 @@ class NodeRunner:
         cut = writer.mask(self.outputs.cut) if self.outputs.cut else 0
         parts = encode_with_header(header, frame, self.packer,
                                    lambda buffers: writer.place(buffers, cut, transport.TICK_S, self.idle))
-        missed = self.outputs.send(port, parts, seq)
+        self.sending = port if "shm" in header else None
+        try:
+            missed = self.outputs.send(port, parts, seq)
+        finally:
+            self.sending = None
         if missed and "shm" in header:
             writer.unsend(header["shm"], missed)
 

@@ -39,7 +39,7 @@ import os
 import threading
 import time
 import weakref
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import Any
 
 import numpy as np
@@ -132,40 +132,103 @@ class SlotWriter:
     """The producer's end of one output port's segment. `edges`: the port's edge names, in the segment's edge
     order."""
 
-    def __init__(self, fd: int, edges: Sequence[str]) -> None:
+    def __init__(self, fd: int, edges: Sequence[str], taps: Collection[str] = ()) -> None:
         self.seg = _Segment(fd, writable_data=True)
         if len(edges) != self.seg.n_edges:
             raise ValueError(f"segment has {self.seg.n_edges} edges, the port {len(edges)}")
         self.bit = {e: 1 << i for i, e in enumerate(edges)}
         self.all_edges = (1 << len(edges)) - 1
+        self.taps = self.mask(taps)      # edges to observers that must never slow the port (block.In.tap)
+        self.reserved: set[int] = set()   # slots handed to the block (reserve) and not yet issued or dropped
         self.touched = 0          # slots ever written by this process (the lowest first): memory in use
         self.c_slots = 0          # frames placed in a slot
         self.c_inline = 0         # frames sent inline: too small, too large or no slot free
         self.c_full = 0           # ... of which for want of a free slot
+        self.c_in_place = 0       # frames whose payload the block computed in its slot (reserve)
+        self.base = 0             # address of slot 0 in this process
 
     def place(self, buffers: Sequence[Any], ignore: int = 0, wait_s: float = 0.0,
               idle: Callable[[], None] | None = None) -> list[int] | None:
-        """Copy a frame's buffers into a free slot and issue it: the reference [slot, generation] for the
-        header, or None to send the frame inline. `ignore`: bitmask of edges whose consumer is gone for good;
+        """Copy a frame's buffers into a free slot and issue it (a payload the block computed in a slot from
+        reserve() stays where it is): the reference [slot, generation] for the header, or None to send the
+        frame inline. `ignore`: bitmask of edges whose consumer is gone for good;
         with every slot taken, wait up to `wait_s` for one (calling `idle` meanwhile) before going inline."""
         views = [memoryview(b).cast("B") for b in buffers]
         starts, total = offsets([v.nbytes for v in views])
-        if total < MIN_FRAME_BYTES:
+        written = self.reserved_slot_of(views[0]) if self.reserved and views else None
+        self.reserved.clear()                # what the block did not return is free again
+        if total < MIN_FRAME_BYTES or not self.lay_out(total) or total > self.seg.stride:
             self.c_inline += 1
+            self.detach(buffers, views)
             return None
         seg = self.seg
+        slot = written if written is not None else self.slot(ignore, wait_s, idle)
+        if slot is None:
+            self.c_inline += 1
+            self.c_full += 1
+            self.detach(buffers, views)
+            return None
+        dst = np.frombuffer(seg.data, np.uint8, total, slot * seg.stride)
+        for i, (start, v) in enumerate(zip(starts, views)):
+            if i or written is None:         # the payload computed in its slot is there already
+                dst[start:start + v.nbytes] = np.frombuffer(v, np.uint8)
+        gen = int(seg.head[5]) + 1
+        seg.head[5] = gen
+        seg.sent[slot] = self.all_edges
+        seg.issued[slot] = gen       # last: a consumer that sees this generation sees the bytes
+        self.touched = max(self.touched, slot + 1)
+        self.c_slots += 1
+        self.c_in_place += written is not None
+        return [slot, gen]
+
+    def lay_out(self, nbytes: int) -> bool:
+        """Size the slots for frames of `nbytes` on the first frame (one quantum spare for the arrays beside a
+        payload computed in place); False if this process cannot map the data (never, once laid out)."""
+        seg = self.seg
         if not seg.stride:
-            if seg.head[4]:        # laid out by an earlier incarnation of this node
-                seg.map_data()
-            else:
-                stride = -(-total // STRIDE_QUANTUM) * STRIDE_QUANTUM
+            if not seg.head[4]:        # else laid out by an earlier incarnation of this node
+                stride = (-(-nbytes // STRIDE_QUANTUM) + 1) * STRIDE_QUANTUM
                 os.ftruncate(seg.fd, seg.data0 + seg.n_slots * stride)
                 seg.head[4] = stride
-                seg.map_data()
-        if total > seg.stride:
-            self.c_inline += 1
+            seg.map_data()
+            self.base = np.frombuffer(seg.data, np.uint8).ctypes.data
+        return True
+
+    def reserve(self, shape: tuple[int, ...], dtype: np.dtype, ignore: int = 0, wait_s: float = 0.0,
+                idle: Callable[[], None] | None = None) -> np.ndarray | None:
+        """A writable array at the start of a free slot for the block to compute its payload into (then place()
+        sends it without a copy), or None (too small, larger than a slot, no slot free)."""
+        nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        if nbytes < MIN_FRAME_BYTES or not self.lay_out(nbytes) or nbytes > self.seg.stride:
             return None
+        slot = self.slot(ignore, wait_s, idle)
+        if slot is None:
+            return None
+        self.reserved.add(slot)
+        return np.frombuffer(self.seg.data, np.uint8, nbytes, slot * self.seg.stride).view(dtype).reshape(shape)
+
+    def reserved_slot_of(self, view: memoryview) -> int | None:
+        """The reserved slot whose start `view` (a frame's payload) is, if any."""
+        offset = np.frombuffer(view, np.uint8).ctypes.data - self.base if view.nbytes else -1
+        slot, rest = divmod(offset, self.seg.stride)
+        return slot if rest == 0 and slot in self.reserved else None
+
+    def detach(self, buffers: list[Any], views: list[memoryview]) -> None:
+        """A frame going inline must not reference this segment's slots: ZeroMQ sends its buffers later, when the
+        slot may be written again. Copy any such buffer (a payload computed in place that did not fit)."""
+        if not self.seg.stride:
+            return
+        lo, hi = self.base, self.base + self.seg.n_slots * self.seg.stride
+        for i, v in enumerate(views):
+            if v.nbytes and lo <= np.frombuffer(v, np.uint8).ctypes.data < hi and isinstance(buffers, list):
+                buffers[i] = bytes(v)
+
+    def slot(self, ignore: int, wait_s: float, idle: Callable[[], None] | None) -> int | None:
+        """The lowest free slot, waiting up to `wait_s` for one (calling `idle` meanwhile); none at once when
+        only taps hold the slots (a tap never slows its producer: the frame goes inline instead)."""
         slot = self.free_slot(ignore)
+        if slot is None and self.taps and self.free_slot(ignore | self.taps) is not None:
+            return None
         if slot is None and wait_s > 0:      # back-pressure: consumers give slots back as they finish frames
             deadline = time.monotonic() + wait_s
             pause = 5e-5
@@ -175,20 +238,7 @@ class SlotWriter:
                 time.sleep(pause)
                 pause = min(2 * pause, 1e-3)
                 slot = self.free_slot(ignore)
-        if slot is None:
-            self.c_inline += 1
-            self.c_full += 1
-            return None
-        dst = np.frombuffer(seg.data, np.uint8, total, slot * seg.stride)
-        for start, v in zip(starts, views):
-            dst[start:start + v.nbytes] = np.frombuffer(v, np.uint8)
-        gen = int(seg.head[5]) + 1
-        seg.head[5] = gen
-        seg.sent[slot] = self.all_edges
-        seg.issued[slot] = gen       # last: a consumer that sees this generation sees the bytes
-        self.touched = max(self.touched, slot + 1)
-        self.c_slots += 1
-        return [slot, gen]
+        return slot
 
     def free_slot(self, ignore: int) -> int | None:
         seg = self.seg
@@ -197,18 +247,17 @@ class SlotWriter:
         sent = (seg.sent[:, None] & bits) != 0
         keep = (bits & np.uint64(ignore)) == 0
         busy = np.any(waiting & sent & keep, axis=1)
+        if self.reserved:
+            busy[list(self.reserved)] = True
         free = np.flatnonzero(~busy)
         return int(free[0]) if free.size else None
 
     def unsend(self, ref: list[int], edges: Sequence[str]) -> None:
         """The frame in slot ref[0] did not go to `edges` (a tap with no room, a cut edge): they owe nothing."""
-        slot = ref[0]
-        mask = 0
-        for e in edges:
-            mask |= self.bit.get(e, 0)
-        self.seg.sent[slot] = np.uint64(int(self.seg.sent[slot]) & ~mask)
+        self.seg.sent[ref[0]] = np.uint64(int(self.seg.sent[ref[0]]) & ~self.mask(edges))
 
-    def mask(self, edges: Sequence[str]) -> int:
+    def mask(self, edges: Collection[str]) -> int:
+        """The bitmask of these edges of the port (others ignored)."""
         m = 0
         for e in edges:
             m |= self.bit.get(e, 0)
@@ -222,7 +271,8 @@ class SlotWriter:
         seg = self.seg
         held = int(np.sum(np.any((seg.released < seg.issued[:, None]) & (seg.issued[:, None] > 0), axis=1)))
         return {"segment_bytes": self.touched * seg.stride, "slots": seg.n_slots, "stride": seg.stride,
-                "frames_in_slots": self.c_slots, "frames_inline": self.c_inline, "no_free_slot": self.c_full,
+                "frames_in_slots": self.c_slots, "computed_in_place": self.c_in_place,
+                "frames_inline": self.c_inline, "no_free_slot": self.c_full,
                 "held": held}
 
     def close(self) -> None:

@@ -284,3 +284,28 @@ def test_echo_templates_are_computed_once_per_scene(small_scene):
     for i in range(3):
         simulate_cycles(s, rho, np.random.default_rng(i))
     assert physics.echo_templates.cache_info().misses == misses
+
+
+@pytest.mark.parametrize("iq", [False, True])
+def test_channel_and_adc_codes_computed_into_a_given_array_equal_their_own_bit_for_bit(small_scene, iq):
+    """The out= paths the shared-memory data plane uses (the payload computed in its slot): same values, the
+    given array filled and returned; a wrong shape or dtype is refused."""
+    from carav_stream.radar.adc import adc_codes
+    scene = small_scene(iq=iq, adc_bits=12)
+    rho = ActivationSource("seeded", seed=3).next(3, scene.n_chirps)
+    tx = synth.transmit(scene, rho, 0, "beat")
+    own = synth.channel(scene, tx, np.random.default_rng(1), 0)
+    given = np.full_like(own, np.nan)
+    got = synth.channel(scene, tx, np.random.default_rng(1), 0, out=given)
+    assert got is given
+    np.testing.assert_array_equal(got, own)
+    codes, clipped, nonfinite = adc_codes(scene, own * 1e3)
+    into = np.full(codes.shape, -7, np.int16)
+    codes2, clipped2, nonfinite2 = adc_codes(scene, own * 1e3, into)
+    assert codes2 is into and clipped.sum() > 0
+    np.testing.assert_array_equal(codes2, codes)
+    np.testing.assert_array_equal(clipped2, clipped)
+    with pytest.raises(ValueError, match="out must be"):
+        synth.channel(scene, tx, np.random.default_rng(1), 0, out=given[:, :-1])
+    with pytest.raises(ValueError, match="out must be int16"):
+        adc_codes(scene, own, into.astype(np.int32))

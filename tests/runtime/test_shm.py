@@ -195,3 +195,64 @@ def test_segments_are_anonymous_and_gone_when_closed(segment):
     with pytest.raises(ValueError, match="not a carav segment"):
         shm.SlotReader(other, 0)
     os.close(other)
+
+
+def test_a_payload_computed_in_its_slot_is_sent_without_a_copy_and_an_unused_reservation_is_freed(segment):
+    fd = segment(n_slots=3)
+    w, r = shm.SlotWriter(fd, ["e"]), shm.SlotReader(fd, 0)
+    out = w.reserve(BIG, np.dtype(np.float64))
+    assert out.flags.writeable and w.free_slot(0) == 1          # slot 0 is the block's until it returns
+    out[:] = 7.0
+    side = np.arange(5.0)
+    header = {"stream": "a.out", "seq": 0, "cycle": 0}
+    parts = encode_with_header(header, Frame.of(out).derive(keep_data=True, arrays={"side": side}), None, w.place)
+    f = decode(parts, slots=r)
+    assert f.header["shm"] == [0, 1] and w.counters()["computed_in_place"] == 1
+    np.testing.assert_array_equal(f.payload, out)
+    np.testing.assert_array_equal(f.arrays["side"], side)     # the arrays beside it copied after it
+    unused = w.reserve(BIG, np.dtype(np.float64))                # the block asks, then returns something else
+    assert w.free_slot(0) == 2
+    ref = w.place([np.ones(BIG)])
+    assert ref == [1, 2] and unused is not None and w.counters()["computed_in_place"] == 1
+    del f
+    gc.collect()
+    assert w.free_slot(0) == 0                                   # the dropped reservation did not stay taken
+
+
+def test_a_payload_computed_in_a_slot_that_goes_inline_is_copied_out_of_the_segment_first(segment):
+    fd = segment(n_slots=2)
+    w = shm.SlotWriter(fd, ["e"])
+    out = w.reserve(BIG, np.dtype(np.float64))
+    out[:] = 3.0
+    big = np.zeros((2 * BIG[0], BIG[1]))                         # beside it, more than a slot holds
+    buffers = [memoryview(out).cast("B"), memoryview(big).cast("B")]
+    assert w.place(buffers) is None and w.c_inline == 1
+    assert isinstance(buffers[0], bytes) and np.all(np.frombuffer(buffers[0]) == 3.0)   # a copy: the slot is free
+    assert isinstance(buffers[1], memoryview)                    # not in the segment: sent as it is
+    assert w.free_slot(0) == 0
+
+
+def test_output_buffer_is_plain_numpy_outside_a_node_and_a_slot_inside():
+    from carav_stream.runtime import Block
+
+    class B(Block):
+        pass
+    b = B()
+    a = b.output_buffer("out", (3, 4), np.int16)
+    assert a.shape == (3, 4) and a.dtype == np.int16 and a.flags.writeable
+    b.allocate = lambda port, shape, dtype: np.full(shape, 5, dtype) if port == "fast" else None
+    assert np.all(b.output_buffer("fast", (2,), np.int16) == 5) and b.output_buffer("slow", (2,), float).shape == (2,)
+
+
+def test_when_only_a_tap_holds_the_slots_the_frame_goes_inline_at_once_instead_of_waiting(segment):
+    fd = segment(n_slots=1, n_edges=2)
+    w = shm.SlotWriter(fd, ["chain", "view"], taps=["view"])
+    chain, view = shm.SlotReader(fd, 0), shm.SlotReader(fd, 1)
+    parts = frame_parts(np.ones(BIG), w)
+    decode(parts, slots=chain)                       # the chain gave it back at once
+    held_by_view = decode(parts, slots=view).payload
+    waited = []
+    assert w.place([np.ones(BIG)], wait_s=5.0, idle=lambda: waited.append(1)) is None and not waited
+    del held_by_view
+    gc.collect()
+    assert w.place([np.ones(BIG)]) == [0, 2]
