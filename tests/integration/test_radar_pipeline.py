@@ -362,6 +362,7 @@ def _free_port_base() -> int:
     raise RuntimeError("no free port range")
 
 
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_two_hosts_over_tcp_as_two_supervisors(carav):
     path = carav.workdir / "two.toml"     # graphs/two_hosts.toml on free ports
     path.write_text(f'include = "{GRAPHS / "two_hosts.toml"}"\n[hosts.front]\nport_base = {_free_port_base()}\n'
@@ -374,4 +375,7 @@ def test_two_hosts_over_tcp_as_two_supervisors(carav):
     assert sf["cycles"] == 200 and set(sf["per_node"]) == {"source", "channel", "attacker", "adc"}
     assert sb["cycles"] == 200 and sb["cycles_judged"] == 200 and sb["lost"] == 0
     assert sb["attacked_cycles"] == 50 and sb["detected"] == 50 and sb["false_alarms"] == 0
+    if carav.transport == "shm":   # same-host ports in shared memory; the adc's, feeding the other host, inline
+        assert sf["shared_memory"]["channel.rx"]["frames_in_slots"] > 0 and "adc.frames" not in sf["shared_memory"]
+        assert sb["shared_memory"]["gate.clean"]["frames_in_slots"] > 0
 
