@@ -138,6 +138,7 @@ class SlotWriter:
             raise ValueError(f"segment has {self.seg.n_edges} edges, the port {len(edges)}")
         self.bit = {e: 1 << i for i, e in enumerate(edges)}
         self.all_edges = (1 << len(edges)) - 1
+        self.bits = np.left_shift(np.uint64(1), np.arange(len(edges), dtype=np.uint64))
         self.taps = self.mask(taps)      # edges to observers that must never slow the port (block.In.tap)
         self.reserved: set[int] = set()   # slots handed to the block (reserve) and not yet issued or dropped
         self.touched = 0          # slots ever written by this process (the lowest first): memory in use
@@ -147,7 +148,7 @@ class SlotWriter:
         self.c_in_place = 0       # frames whose payload the block computed in its slot (reserve)
         self.base = 0             # address of slot 0 in this process
 
-    def place(self, buffers: Sequence[Any], ignore: int = 0, wait_s: float = 0.0,
+    def place(self, buffers: list[Any], ignore: int = 0, wait_s: float = 0.0,
               idle: Callable[[], None] | None = None) -> list[int] | None:
         """Copy a frame's buffers into a free slot and issue it (a payload the block computed in a slot from
         reserve() stays where it is): the reference [slot, generation] for the header, or None to send the
@@ -157,7 +158,9 @@ class SlotWriter:
         starts, total = offsets([v.nbytes for v in views])
         written = self.reserved_slot_of(views[0]) if self.reserved and views else None
         self.reserved.clear()                # what the block did not return is free again
-        if total < MIN_FRAME_BYTES or not self.lay_out(total) or total > self.seg.stride:
+        if total >= MIN_FRAME_BYTES:
+            self.lay_out(total)
+        if total < MIN_FRAME_BYTES or total > self.seg.stride:
             self.c_inline += 1
             self.detach(buffers, views)
             return None
@@ -181,9 +184,9 @@ class SlotWriter:
         self.c_in_place += written is not None
         return [slot, gen]
 
-    def lay_out(self, nbytes: int) -> bool:
+    def lay_out(self, nbytes: int) -> None:
         """Size the slots for frames of `nbytes` on the first frame (one quantum spare for the arrays beside a
-        payload computed in place); False if this process cannot map the data (never, once laid out)."""
+        payload computed in place), and map them."""
         seg = self.seg
         if not seg.stride:
             if not seg.head[4]:        # else laid out by an earlier incarnation of this node
@@ -192,14 +195,16 @@ class SlotWriter:
                 seg.head[4] = stride
             seg.map_data()
             self.base = np.frombuffer(seg.data, np.uint8).ctypes.data
-        return True
 
     def reserve(self, shape: tuple[int, ...], dtype: np.dtype, ignore: int = 0, wait_s: float = 0.0,
                 idle: Callable[[], None] | None = None) -> np.ndarray | None:
         """A writable array at the start of a free slot for the block to compute its payload into (then place()
         sends it without a copy), or None (too small, larger than a slot, no slot free)."""
         nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
-        if nbytes < MIN_FRAME_BYTES or not self.lay_out(nbytes) or nbytes > self.seg.stride:
+        if nbytes < MIN_FRAME_BYTES:
+            return None
+        self.lay_out(nbytes)
+        if nbytes > self.seg.stride:
             return None
         slot = self.slot(ignore, wait_s, idle)
         if slot is None:
@@ -220,7 +225,7 @@ class SlotWriter:
             return
         lo, hi = self.base, self.base + self.seg.n_slots * self.seg.stride
         for i, v in enumerate(views):
-            if v.nbytes and lo <= np.frombuffer(v, np.uint8).ctypes.data < hi and isinstance(buffers, list):
+            if v.nbytes and lo <= np.frombuffer(v, np.uint8).ctypes.data < hi:
                 buffers[i] = bytes(v)
 
     def slot(self, ignore: int, wait_s: float, idle: Callable[[], None] | None) -> int | None:
@@ -240,13 +245,16 @@ class SlotWriter:
                 slot = self.free_slot(ignore)
         return slot
 
-    def free_slot(self, ignore: int) -> int | None:
+    def held(self, ignore: int = 0) -> np.ndarray:
+        """bool (slots,): a frame in the slot not given back yet by an edge it went to (edges in `ignore` aside)."""
         seg = self.seg
         waiting = seg.released < seg.issued[:, None]                  # (slots, edges): not given back yet
-        bits = np.left_shift(np.uint64(1), np.arange(seg.n_edges, dtype=np.uint64))
-        sent = (seg.sent[:, None] & bits) != 0
-        keep = (bits & np.uint64(ignore)) == 0
-        busy = np.any(waiting & sent & keep, axis=1)
+        sent = (seg.sent[:, None] & self.bits) != 0
+        return np.any(waiting & sent & ((self.bits & np.uint64(ignore)) == 0), axis=1)
+
+    def free_slot(self, ignore: int) -> int | None:
+        """The lowest slot neither held nor reserved, or None."""
+        busy = self.held(ignore)
         if self.reserved:
             busy[list(self.reserved)] = True
         free = np.flatnonzero(~busy)
@@ -269,11 +277,9 @@ class SlotWriter:
 
     def counters(self) -> dict[str, int]:
         seg = self.seg
-        held = int(np.sum(np.any((seg.released < seg.issued[:, None]) & (seg.issued[:, None] > 0), axis=1)))
         return {"segment_bytes": self.touched * seg.stride, "slots": seg.n_slots, "stride": seg.stride,
                 "frames_in_slots": self.c_slots, "computed_in_place": self.c_in_place,
-                "frames_inline": self.c_inline, "no_free_slot": self.c_full,
-                "held": held}
+                "frames_inline": self.c_inline, "no_free_slot": self.c_full, "held": int(self.held().sum())}
 
     def close(self) -> None:
         self.seg.close()
