@@ -135,9 +135,7 @@ def beat_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
     if not in_band(scene, f_tail):
         return main, None
     u_tail = u_main + scene.t_chirp_s
-    gate = (u_main < 0) & (u_tail >= 0) & (u_tail < scene.t_sweep_s)
-    if gate_from_s is not None:
-        gate &= tf >= gate_from_s
+    gate = (u_main < 0) & (u_tail >= 0) & (u_tail < scene.t_sweep_s)    # gate_from_s delays chirp k's reply only
     s = scene.slope_hz_per_s
     ref = sweep_phase(scene, np.mod(tf, scene.t_chirp_s))
     phase = ref + TWO_PI * scene.fc_hz * tau - np.pi * s * np.clip(u_tail, 0, None) ** 2
@@ -229,10 +227,8 @@ def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float
     u_tail = u_main + scene.t_chirp_s
     gate_main = (u_main >= 0) & (u_main < scene.t_sweep_s)
     gate_tail = (u_main < 0) & (u_tail >= 0) & (u_tail < scene.t_sweep_s)
-    if gate_from_s is not None:
-        late = g.t_fast_s[None, :] >= gate_from_s
-        gate_main &= late
-        gate_tail &= late
+    if gate_from_s is not None:          # a late start delays chirp k's reply, not what is left of chirp k-1's
+        gate_main &= g.t_fast_s[None, :] >= gate_from_s
     # a part beating beyond the grid's Nyquist rate would fold back on the grid: the analog filter removes it
     nyquist = g.oversample * scene.fs_hz / 2.0
     f_main, f_tail = replica_beats_hz(scene, tau0_s, alpha)

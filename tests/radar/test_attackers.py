@@ -355,3 +355,32 @@ def test_reactive_gating_refuses_arrays_that_do_not_fit(small_scene):
         gate_by_emission(main, main[:4], on_air)
     with pytest.raises(ValueError, match=r"on: expected bool \(2,\)"):
         gate_by_emission(main, None, on_air, np.ones(3, bool))
+
+
+@pytest.mark.parametrize("latency_us", [0.1, 2.0, 5.0])
+def test_reactive_reply_agrees_between_fidelities_spill_included(latency_us):
+    # The repeater cannot stop before its delay after the radar stops: its reply spills that long into the next
+    # slot, in band once the delay passes the longest visible round trip (table1: half a chirp). Both fidelities
+    # render the same samples there and in the reply's own slot (away from the gating edges).
+    from carav_stream.radar import physics
+    from carav_stream.radar.scene_loader import load_scene
+    s = load_scene("table1", {"n_chirps": 8, "sigma_n": 1.0})
+    on_air = np.array([[True, False, True, True, False, False, True, False]])
+    out = {}
+    for fid in ("beat", "waveform"):
+        att = make_attacker("reactive", s, distance_m=30.0, latency_s=latency_us * 1e-6, rarms=1.0)
+        out[fid], _ = att.emit(1, 0, None, Observation(on_air, 0), fidelity=fid)
+    beat, wave = out["beat"][0], out["waveform"][0]
+    delay = att.delay_s()
+    m0 = int(round(delay * s.fs_hz))
+    keep = np.ones(s.n_samples, bool)
+    keep[:18] = keep[-18:] = False
+    keep[max(0, m0 - 18): m0 + 18] = False
+    assert np.abs(beat[:, keep] - wave[:, keep]).max() < 5e-3 * math.sqrt(2)
+    _, f_spill = physics.replica_beats_hz(s, delay, 2 * (0 - s.radar_speed_mps) / C)
+    spill = beat[4, : m0 - 1]                       # silent slot 4 after active slot 3
+    if physics.in_band(s, f_spill):
+        assert latency_us == 5.0 and np.sqrt(np.mean(spill ** 2)) == pytest.approx(1.0, rel=0.05)
+    else:
+        assert np.all(spill == 0)
+    assert np.all(beat[5] == 0) and np.all(beat[1, m0 + 1:] == 0)   # silent after silent; nothing of its own
