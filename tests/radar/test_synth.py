@@ -347,3 +347,18 @@ def test_echo_templates_are_computed_once_per_scene(small_scene):
     for i in range(3):
         simulate_cycles(s, rho, np.random.default_rng(i))
     assert physics.echo_templates.cache_info().misses == misses
+
+
+def test_if_filter_removes_an_echo_beyond_the_band_and_without_it_the_echo_folds():
+    # awr1642_literal: the 20 m target beats at 10.4 MHz, beyond the 5 MHz I-only band. Its scene has no anti-alias
+    # filter (MATLAB's example), so the beat fidelity folds the echo back; with the filter nothing of it is left.
+    folded = load_scene("awr1642_literal", {"n_chirps": 4})
+    assert not folded.if_filter
+    import dataclasses
+    filtered = dataclasses.replace(folded, if_filter=True)
+    rho = np.ones((1, 4), bool)
+    assert np.abs(clean(folded, rho)).max() > 0
+    assert np.all(clean(filtered, rho) == 0)
+    spec = np.abs(np.fft.rfft(clean(folded, rho)[0, 0, 20:]))
+    f_peak = np.argmax(spec) * folded.fs_hz / (folded.n_samples - 20)
+    assert f_peak == pytest.approx(0.38e6, abs=2 * folded.fs_hz / (folded.n_samples - 20))
