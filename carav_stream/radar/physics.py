@@ -102,6 +102,13 @@ def max_visible_delay_s(scene: Scene) -> float:
     return (if_band(scene)[1] + 0.05 * scene.fs_hz) / scene.slope_hz_per_s
 
 
+def spill_window_start(scene: Scene) -> int:
+    """First ADC sample of a slot that no echo the receiver passes reaches: after the longest visible round trip,
+    plus the waveform FIR's half length (16 samples) and one, so that no filtered edge reaches it either (the spill
+    test's window, detect.opt_in.spill_test)."""
+    return int(np.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz)) + 17
+
+
 def replica_beats_hz(scene: Scene, tau0_s: float, alpha: float) -> tuple[float, float]:
     """(main, spill) beat frequencies of a replica delayed by tau0_s at chirp 0, with the receiver's ramp sweeping:
     S tau + fc alpha in its own slot, S (tau - t_chirp) + fc alpha in the next (f_D = -fc alpha)."""

@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import math
 
 import numpy as np
 
@@ -49,11 +48,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def window_start(scene) -> int:
-    """First sample of the spill test's window: after the longest visible round trip, plus the waveform FIR's half
-    length (16 samples) and one, so that no echo the receiver passes, nor its filtered edge, reaches it."""
-    from carav_stream.radar.physics import max_visible_delay_s
+    """First sample of the spill test's window (`physics.spill_window_start`): after the longest visible round trip,
+    plus the waveform FIR's half length (16 samples) and one."""
+    from carav_stream.radar.physics import spill_window_start
 
-    return int(math.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz)) + 17
+    return spill_window_start(scene)
 
 
 def head_tail_ratio(frames, rho, n_head: int) -> np.ndarray:
