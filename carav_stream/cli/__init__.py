@@ -11,7 +11,7 @@
     carav study STUDY.toml [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--plot]   sweeps on Dask
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
-    carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter ...
+    carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency ...
     carav bench transport|zerocopy|synth|detector|estimators|pipeline|view|soak ... --json docs/bench/records/NAME.json
     carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
@@ -48,6 +48,7 @@ EXPERIMENTS = {
     "interference": ("carav_stream.studies.interference", "another car's FMCW radar: false alarms by detector"),
     "cfar": ("carav_stream.studies.cfar_experiment", "the radar's CFAR target detection against its design"),
     "clutter": ("carav_stream.studies.clutter", "several targets and clutter: false alarms, the target list"),
+    "latency": ("carav_stream.studies.latency", "spill test: PF over echo power, PM over repeater latency"),
 }
 BENCHES = {
     "transport": ("carav_stream.bench.wire", "frames/s, GB/s and latency through a chain of processes"),

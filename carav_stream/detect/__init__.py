@@ -3,5 +3,5 @@
 detector    chirp_rms, adc_chirp_rms, detect, detect_from_rms, estimate_sigma_n: D0, D1, D, Q and C(eta)
 stats       Clopper-Pearson intervals, closed-form PF/PM, CFAR threshold, importance sampling
 thresholds  minimax, CFAR and min PF + PM designs from PF/PM curves
-opt_in      opt-in detectors beyond the paper: spectral silent-chirp test, latency test, CUSUM across cycles
+opt_in      opt-in detectors beyond the paper: silent-chirp tests, spill test, CUSUM across cycles
 """

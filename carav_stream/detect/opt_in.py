@@ -13,10 +13,14 @@ coherent_silent_test   the range-Doppler map of the silent chirps alone (the rad
                        would report, this test sees with the same gain. Cells are Exp(1) under noise (see
                        detect/cfar.py); they are correlated across Doppler, so the threshold ln(cells / pf) is
                        the union bound: the false-alarm rate per cycle is at most pf (slightly below).
-latency_test           reactive repeaters answer each active chirp after a reaction latency: the first samples of
-                       the active chirps hold echo + noise only, the rest also the replica. Statistic: the power
-                       ratio of the tail to the head of the active chirps, threshold calibrated on attack-free
-                       cycles (the echo makes the law scene-dependent).
+spill_test             energy a reply still carries into a silent slot after the longest round trip the radar can see
+                       (a repeater cannot stop the instant the radar does): the samples of each silent slot that
+                       follows an active one, from ``first_sample`` on (the caller's bound: every echo the receiver
+                       passes has ended there, and the IF filter has settled), range FFT, bin powers summed over
+                       those slots. Under noise a bin's sum is Gamma(M, 1), M the slots used in the cycle, whatever
+                       the targets' echo power: the threshold is exact. What it cannot see: a reply whose delay
+                       (distance plus latency) stays within the longest visible round trip (it has ended before the
+                       window), and a spill whose beat S (delay - t_chirp) lies outside the IF band (docs/DETECTION.md).
 cusum_silent_power     CUSUM across cycles of the normalised mean silent-chirp power, against slowly ramping
                        attackers; sigma_n comes from calibration and is never re-estimated under attack.
 
@@ -34,7 +38,7 @@ from carav_stream.detect.cfar import rd_power
 from carav_stream.detect.detector import _check_frames, check_rho
 
 __all__ = ["spectral_silent_test", "spectral_threshold", "SpectralResult", "integrated_silent_test",
-           "integrated_threshold", "coherent_silent_test", "latency_statistic",
+           "integrated_threshold", "coherent_silent_test", "spill_test", "SpillResult",
            "calibrate_threshold", "cusum_silent_power", "cusum_threshold", "silent_power_z"]
 
 
@@ -144,22 +148,53 @@ def coherent_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> Sp
     return SpectralResult(stat, idx, thr, stat >= thr, power.shape[1])
 
 
-def latency_statistic(frames, rho, n_head: int) -> np.ndarray:
-    """Reactive-repeater statistic per cycle: mean power of samples n_head.. over mean power of samples ..n_head,
-    over the active chirps. float64 (n_cycles,). Large when something starts transmitting after n_head samples
-    of the active chirps only."""
+@dataclass(frozen=True)
+class SpillResult:
+    """stat float64 (n_cycles,): max over tested bins of the bin powers summed over the slots used, in units of the
+    cycle's own threshold (alarm iff stat >= 1; 0 for a cycle without a silent slot after an active one);
+    threshold float64 (n_cycles,): that threshold in noise-power units; n_slots int (n_cycles,): M, the silent slots
+    after active ones (chirps 1..); first_sample int; alarm bool (n_cycles,)."""
+
+    stat: np.ndarray
+    threshold: np.ndarray
+    n_slots: np.ndarray
+    first_sample: int
+    alarm: np.ndarray
+
+
+def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e-6) -> SpillResult:
+    """Energy still arriving in a silent slot after the longest visible round trip (a repeater's spill).
+
+    frames  float32/64 | complex64/128 (n_cycles, n_chirps, n_samples);  rho  (n_cycles, n_chirps) or (n_chirps,)
+    sigma_n noise RMS per sample (> 0);  first_sample  first sample of the window (1 .. n_samples - 4), from
+            ``physics.max_visible_delay_s`` plus the IF filter's settling (``studies/latency.py: window_start``)
+    pf      false-alarm probability per cycle, exact under white Gaussian noise for any echo within the range
+    Slot k (k >= 1) is used iff rho[k - 1] and not rho[k]; the chirp before chirp 0 belongs to another cycle.
+    """
     x = _check_frames(frames)
     if x.ndim == 2:
         x = x[None]
-    if not 0 < n_head < x.shape[-1]:
-        raise ValueError(f"n_head: must be in 1..{x.shape[-1] - 1}, got {n_head}")
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
-    act = x[active].reshape(x.shape[0], x.shape[1] // 2, x.shape[-1])
-    p = np.abs(act.astype(np.complex128 if np.iscomplexobj(act) else np.float64)) ** 2
-    head = p[..., :n_head].mean(axis=(1, 2))
-    tail = p[..., n_head:].mean(axis=(1, 2))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(head > 0, tail / head, np.inf)
+    if not sigma_n > 0:
+        raise ValueError(f"sigma_n: must be > 0 for the spill test, got {sigma_n!r}")
+    if not 0 < first_sample <= x.shape[-1] - 4:
+        raise ValueError(f"first_sample: must be in 1..{x.shape[-1] - 4}, got {first_sample}")
+    if not 0 < pf < 1:
+        raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
+    used = np.zeros(x.shape[:2], dtype=bool)
+    used[:, 1:] = active[:, :-1] & ~active[:, 1:]
+    n_w = x.shape[-1] - first_sample
+    power = _bin_powers(x[:, :, first_sample:]) / (n_w * sigma_n ** 2)        # (cycles, chirps, bins)
+    summed = np.sum(np.where(used[:, :, None], power, 0.0), axis=1)           # per cycle: batch-independent
+    n_slots = used.sum(axis=1)
+    thr = np.full(x.shape[0], np.inf)
+    for m in np.unique(n_slots[n_slots > 0]).tolist():
+        thr[n_slots == m] = integrated_threshold(pf, power.shape[-1], m)
+    peak = summed.max(axis=1)
+    peak = np.where(np.isnan(peak), np.inf, peak)
+    with np.errstate(invalid="ignore"):
+        stat = np.where(n_slots > 0, peak / thr, 0.0)
+    return SpillResult(stat, thr, n_slots, int(first_sample), stat >= 1.0)
 
 
 def calibrate_threshold(null_stats, pf: float) -> float:

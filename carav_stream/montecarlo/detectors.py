@@ -4,6 +4,8 @@
 `spectral`     the single-chirp spectral silent-chirp test (carav_stream/detect/opt_in.py)
 `integrated`   the same bins summed over the silent chirps (opt_in.integrated_silent_test)
 `coherent`     the silent chirps' own range-Doppler map (opt_in.coherent_silent_test; union-bound threshold)
+`spill`        energy still arriving in the silent slots after active ones, after the longest visible round trip
+               (opt_in.spill_test, against reactive repeaters; needs the scene for its window)
 
 The opt-in statistics are divided by their threshold for PF = 1e-6 per cycle (white Gaussian noise; exact, or a
 union bound for `coherent`), so a sweep's eta grid reads the same for every detector: an alarm is
@@ -35,12 +37,23 @@ def _coherent(frames, rho, sigma_n):
     return res.stat / res.threshold
 
 
-OPT_IN = {"spectral": _spectral, "integrated": _integrated, "coherent": _coherent}
+def _spill(frames, rho, sigma_n, scene):
+    from carav_stream.radar.physics import spill_window_start
+
+    if scene is None:
+        raise ValueError("detector 'spill' needs the scene (its window starts after the longest visible round trip)")
+    return opt_in.spill_test(frames, rho, sigma_n, spill_window_start(scene), pf=DESIGN_PF).stat
+
+
+OPT_IN = {"spectral": _spectral, "integrated": _integrated, "coherent": _coherent, "spill": _spill}
 DETECTORS = ("carav", *OPT_IN)
 
 
-def statistic(detector: str, frames, rho, sigma_n: float) -> np.ndarray:
-    """float64 (n_cycles,) statistic of an opt-in detector, in units of its PF = 1e-6 threshold."""
+def statistic(detector: str, frames, rho, sigma_n: float, scene=None) -> np.ndarray:
+    """float64 (n_cycles,) statistic of an opt-in detector, in units of its PF = 1e-6 threshold (``scene``: the
+    frames' scene, which `spill` needs)."""
     if detector not in OPT_IN:
         raise ValueError(f"detector: unknown {detector!r}, expected one of {', '.join(DETECTORS)}")
+    if detector == "spill":
+        return np.asarray(_spill(frames, rho, sigma_n, scene), dtype=np.float64)
     return np.asarray(OPT_IN[detector](frames, rho, sigma_n), dtype=np.float64)

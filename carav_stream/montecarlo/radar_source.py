@@ -120,7 +120,7 @@ class RadarSource:
         from carav_stream.montecarlo.detectors import statistic
 
         frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
-        return statistic(detector, frames, rho, self.sigma_n)
+        return statistic(detector, frames, rho, self.sigma_n, self.scene)
 
     def draw_frames(self, n_cycles, attack, rarms, rng):
         """Every sample of n_cycles cycles of the current job (its attacker, activation and cycle count)."""

@@ -315,11 +315,10 @@ class _ReplicaAttacker(Attacker):
         if getattr(self, "_cache_key", None) != key:
             amp = self.rarms * self.scene.sigma_n * (1.0 if self.scene.iq else math.sqrt(2.0))
             if fidelity == "beat":
-                main = physics.beat_samples(self.scene, tau0_s, alpha, amp, gate_from_s)
-                tail = None
+                main, tail = physics.beat_replica(self.scene, tau0_s, alpha, amp, gate_from_s)
             else:
                 main, tail = physics.waveform_replica(self.scene, tau0_s, alpha, amp)
-                tail = tail.astype(self.dtype)
+            tail = None if tail is None else tail.astype(self.dtype)
             main = main.astype(self.dtype)
             for x in (main, tail):
                 if x is not None:
@@ -368,8 +367,8 @@ class ReactiveAttacker(_ReplicaAttacker):
 
     def response(self, fidelity: str) -> tuple[np.ndarray, np.ndarray | None]:
         """What it answers in a cycle in which it is on, whatever the victim transmits (rho-independent):
-        ``main`` (n_chirps, n_samples), its reply to chirp k heard in chirp k, and at waveform fidelity
-        ``tail``, its reply to chirp k-1 still arriving in chirp k (None at beat fidelity); scene dtype,
+        ``main`` (n_chirps, n_samples), its reply to chirp k heard in chirp k, and ``tail``, its reply to chirp
+        k-1 still arriving in chirp k (None at beat fidelity when that spill beats outside the IF band); scene dtype,
         read-only, the same for every cycle. :func:`gate_by_emission` keeps the replies to chirps on air."""
         alpha = 2.0 * (self.velocity_mps - self.scene.radar_speed_mps) / C_MPS
         return self._replica(self.delay_s(), alpha, self.delay_s(), fidelity)

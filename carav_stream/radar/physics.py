@@ -11,13 +11,25 @@ the Doppler enters with a minus sign. t = k t_chirp + t' is the time since the c
 the chirp-to-chirp phase progression 2 pi fc alpha t_chirp and the range migration (range-Doppler
 coupling) for free. An I-only receiver digitises Re(y) (the I branch).
 
-``beat`` fidelity evaluates that closed form at the ADC instants. ``waveform`` fidelity builds the
+``beat`` fidelity evaluates closed forms at the ADC instants, time-faithfully: a replica delayed by tau occupies
+its chirp slot from t' = tau on (``main``) and, because the emitter cannot stop before the victim's sweep has
+reached it, spills into the first tau seconds of the next slot (``tail``), where the receiver's reference has
+started its next sweep: the spill beats at S (tau - t_chirp) - f_D, far below the band unless tau is close to a
+whole chirp. Both parts then pass the receiver's anti-alias (IF) filter, taken as ideal in this fidelity
+(``if_band``: gain 1 inside the band, 0 outside), so a spill or an echo beyond the band is removed instead of
+folding back. ``waveform`` fidelity builds the
 baseband signals themselves on a grid ``waveform_oversample`` times finer than the ADC: the reference
 chirp (which keeps sweeping on silent chirps), the emission as it left the emitter at t - tau(t) (gated
 by the emitter's own on/off schedule: the victim's previous chirp arrives first, then the current
 one), mixes them, low-pass filters with a linear-phase FIR (``if_filter``) and decimates to fs.
 Mixer products beyond +-oversample*fs/2 alias on that grid: raise ``waveform_oversample`` for
-interferers whose slope differs a lot from the victim's.
+interferers whose slope differs a lot from the victim's. A replica's main part or spill whose beat lies beyond the
+grid's Nyquist rate (the AWR1642's spill beats near -2 GHz) is dropped rather than folded: the receiver's analog
+filter removes it.
+
+The receiver's reference (LO) keeps sweeping on silent chirps: the transmitter is gated, the synthesiser and the
+receive chain are not (paper, Section IV, step 4: acquisition in every chirp slot). So a silent slot is dechirped
+exactly like an active one, and whatever arrives in it is judged against the same ramp.
 """
 from __future__ import annotations
 
@@ -65,6 +77,78 @@ def beat_samples(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
     if gate_from_s is not None:
         y[:, tf[0] < gate_from_s] = 0
     return y
+
+
+def if_band(scene: Scene) -> tuple[float, float]:
+    """[low, high) of the receiver's IF band in Hz (the -6 dB edges of the waveform fidelity's FIR): [-fs/2, fs/2]
+    for I-only (a real low-pass, so |beat| < fs/2), [-0.1 fs, 0.9 fs] for I/Q."""
+    if scene.iq:
+        return (IQ_CENTRE - 0.5) * scene.fs_hz, (IQ_CENTRE + 0.5) * scene.fs_hz
+    return -scene.fs_hz / 2.0, scene.fs_hz / 2.0
+
+
+def in_band(scene: Scene, beat_hz: float) -> bool:
+    """Whether a tone at ``beat_hz`` passes the ideal IF filter of the beat fidelity (always, for a scene without
+    one: ``if_filter = false``)."""
+    if not scene.if_filter:
+        return True
+    low, high = if_band(scene)
+    return low <= beat_hz < high
+
+
+def max_visible_delay_s(scene: Scene) -> float:
+    """The longest round trip whose echo (beat S tau) the receiver still passes, counting the waveform FIR's
+    transition band (0.05 fs past the -6 dB edge): beyond it a replica's own slot holds nothing in band."""
+    return (if_band(scene)[1] + 0.05 * scene.fs_hz) / scene.slope_hz_per_s
+
+
+def spill_window_start(scene: Scene) -> int:
+    """First ADC sample of a slot that no echo the receiver passes reaches: after the longest visible round trip,
+    plus the waveform FIR's half length (16 samples) and one, so that no filtered edge reaches it either (the spill
+    test's window, detect.opt_in.spill_test)."""
+    return int(np.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz)) + 17
+
+
+def replica_beats_hz(scene: Scene, tau0_s: float, alpha: float) -> tuple[float, float]:
+    """(main, spill) beat frequencies of a replica delayed by tau0_s at chirp 0, with the receiver's ramp sweeping:
+    S tau + fc alpha in its own slot, S (tau - t_chirp) + fc alpha in the next (f_D = -fc alpha)."""
+    f_dopp = scene.fc_hz * alpha
+    return scene.slope_hz_per_s * tau0_s + f_dopp, scene.slope_hz_per_s * (tau0_s - scene.t_chirp_s) + f_dopp
+
+
+def beat_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
+                 gate_from_s: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Time-faithful beat-fidelity samples of a delayed replica of the victim's chirp (echo or spoof).
+
+    Returns (main, tail) like :func:`waveform_replica`: ``main`` (n_chirps, n_samples) is chirp k's own
+    emission, present from fast time tau(t) on and while the emission sweeps; ``tail`` is chirp k-1's emission
+    still arriving before tau(t) (None when its beat lies outside the IF band, as for every echo within the
+    radar's range: nothing of it reaches the ADC). ``main`` is the closed form of :func:`beat_samples`, zeroed
+    before the echo arrives (and before ``gate_from_s``), and zero altogether when its beat is outside the band.
+    complex128, or float64 for an I-only scene.
+    """
+    tf = fast_time_s(scene)[None, :]
+    tau = tau0_s + alpha * (chirp_start_s(scene)[:, None] + tf)
+    u_main = tf - tau
+    f_main, f_tail = replica_beats_hz(scene, tau0_s, alpha)
+    main = beat_samples(scene, tau0_s, alpha, amplitude)
+    if in_band(scene, f_main):
+        gate = (u_main >= 0) & (u_main < scene.t_sweep_s)
+        if gate_from_s is not None:
+            gate &= tf >= gate_from_s
+        main *= gate
+    else:
+        main[...] = 0
+    if not in_band(scene, f_tail):
+        return main, None
+    u_tail = u_main + scene.t_chirp_s
+    gate = (u_main < 0) & (u_tail >= 0) & (u_tail < scene.t_sweep_s)    # gate_from_s delays chirp k's reply only
+    s = scene.slope_hz_per_s
+    ref = sweep_phase(scene, np.mod(tf, scene.t_chirp_s))
+    phase = ref + TWO_PI * scene.fc_hz * tau - np.pi * s * np.clip(u_tail, 0, None) ** 2
+    tail = amplitude * (np.exp(1j * phase) if scene.iq else np.cos(phase))
+    tail *= gate
+    return main, tail
 
 
 # ---------------------------------------------------------------------------------------------
@@ -150,10 +234,15 @@ def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float
     u_tail = u_main + scene.t_chirp_s
     gate_main = (u_main >= 0) & (u_main < scene.t_sweep_s)
     gate_tail = (u_main < 0) & (u_tail >= 0) & (u_tail < scene.t_sweep_s)
-    if gate_from_s is not None:
-        late = g.t_fast_s[None, :] >= gate_from_s
-        gate_main &= late
-        gate_tail &= late
+    if gate_from_s is not None:          # a late start delays chirp k's reply, not what is left of chirp k-1's
+        gate_main &= g.t_fast_s[None, :] >= gate_from_s
+    # a part beating beyond the grid's Nyquist rate would fold back on the grid: the analog filter removes it
+    nyquist = g.oversample * scene.fs_hz / 2.0
+    f_main, f_tail = replica_beats_hz(scene, tau0_s, alpha)
+    if abs(f_main) >= nyquist:
+        gate_main = np.zeros_like(gate_main)
+    if abs(f_tail) >= nyquist:
+        gate_tail = np.zeros_like(gate_tail)
     s = scene.slope_hz_per_s
     main = mix(scene, np.pi * s * np.clip(u_main, 0, None) ** 2, carrier, amplitude, gate_main)
     tail = mix(scene, np.pi * s * np.clip(u_tail, 0, None) ** 2, carrier, amplitude, gate_tail)
@@ -167,8 +256,10 @@ def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float
 class EchoTemplates:
     """Noise-free echo of every target for a fully active cycle, at unit RCS fluctuation.
 
-    main[t], tail[t]: complex64 (n_chirps, n_samples) (float32 I-only); ``tail`` is None in beat
-    fidelity. main_sum / tail_sum: sum over targets (used when no target fluctuates).
+    main[t], tail[t]: complex64 (n_chirps, n_samples) (float32 I-only): a target's echo of chirp k in slot k, and
+    its spill from chirp k-1 into slot k. ``tail`` is None when no target spills anything into the band (beat
+    fidelity: every target within the radar's range). main_sum / tail_sum: sum over targets (used when no target
+    fluctuates).
     """
 
     main: tuple[np.ndarray, ...]
@@ -190,16 +281,16 @@ def echo_templates(scene: Scene, fidelity: str) -> EchoTemplates:
     for t in scene.targets:
         tau0, alpha = target_delay(scene, t)
         amp = echo_amplitude(scene, t)
-        if fidelity == "beat":
-            mains.append(beat_samples(scene, tau0, alpha, amp).astype(dtype))
-        else:
-            m, tl = waveform_replica(scene, tau0, alpha, amp)
-            mains.append(m.astype(dtype))
-            tails.append(tl.astype(dtype))
+        m, tl = (beat_replica if fidelity == "beat" else waveform_replica)(scene, tau0, alpha, amp)
+        mains.append(m.astype(dtype))
+        tails.append(None if tl is None else tl.astype(dtype))
     main_sum = np.sum(mains, axis=0, dtype=dtype) if mains else np.zeros(shape, dtype)
     tail_sum = None
-    if fidelity != "beat":
+    if fidelity == "waveform" or any(tl is not None for tl in tails):
+        tails = [np.zeros(shape, dtype) if tl is None else tl for tl in tails]
         tail_sum = np.sum(tails, axis=0, dtype=dtype) if tails else np.zeros(shape, dtype)
-    for a in (*mains, *tails, main_sum) + ((tail_sum,) if tail_sum is not None else ()):
+    else:
+        tails = None
+    for a in (*mains, *(tails or ()), main_sum) + ((tail_sum,) if tail_sum is not None else ()):
         a.setflags(write=False)
-    return EchoTemplates(tuple(mains), tuple(tails) if fidelity != "beat" else None, main_sum, tail_sum)
+    return EchoTemplates(tuple(mains), None if tails is None else tuple(tails), main_sum, tail_sum)

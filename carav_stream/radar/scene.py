@@ -83,6 +83,7 @@ class Scene:
     targets: tuple[Target, ...] = ()
     attackers: tuple[AttackerSpec, ...] = ()
     waveform_oversample: int = 4
+    if_filter: bool = True
     warnings: tuple[str, ...] = ()
     description: str = ""
     source: str = field(default="", compare=False)

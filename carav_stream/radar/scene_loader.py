@@ -61,6 +61,8 @@ SCENE_PARAMS = (
     Param("radar_speed_kmh", float, None, "radar ground speed, instead of radar_speed_mps", unit="km/h",
           optional=True),
     Param("waveform_oversample", int, 4, "waveform fidelity: grid points per ADC sample", low=1),
+    Param("if_filter", bool, True, "beat fidelity: an ideal anti-alias (IF) filter removes beats outside the band "
+                                   "(false: they fold, as in MATLAB's FMCWExample; waveform fidelity always filters)"),
     Param("targets", list, [], "[[targets]] tables"),
     Param("attackers", list, [], "[[attackers]] tables: kind and the model's parameters"),
 )
@@ -211,7 +213,7 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         tx_power_w=v["tx_power_w"], tx_gain_db=v["tx_gain_db"], rx_gain_db=v["rx_gain_db"],
         noise_figure_db=v["noise_figure_db"], temperature_k=v["temperature_k"], sigma_n=1.0,
         radar_speed_mps=v["radar_speed_mps"], targets=targets, waveform_oversample=v["waveform_oversample"],
-        description=v["description"], source=source)
+        if_filter=v["if_filter"], description=v["description"], source=source)
     sigma_n = _sigma_n(base, v)
     if not (math.isfinite(sigma_n) and sigma_n > 0):   # snr_db = +-1e300 passes the type check, say
         p.fail("snr_db" if v.get("snr_db") is not None else "sigma_n",

@@ -72,7 +72,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trials", type=count(1), default=1000, help="cycles per curve (default 1000, as the paper)")
     parser.add_argument("--detector", default="carav",
                         help="detector(s) to score, comma separated: carav (C(eta), default), spectral, integrated, "
-                             "coherent "
+                             "coherent, spill "
                              "(opt-in; their statistic is in units of its PF = 1e-6 threshold, so eta = 1 is that "
                              "design; full samples, radar model)")
     parser.add_argument("--eta", default="0.5:2.5:0.01", help="threshold grid START:STOP:STEP")

@@ -11,10 +11,10 @@ from carav_stream.detect.opt_in import (
     cusum_threshold,
     integrated_silent_test,
     integrated_threshold,
-    latency_statistic,
     silent_power_z,
     spectral_silent_test,
     spectral_threshold,
+    spill_test,
 )
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.radar.activation import balanced_rows
@@ -86,14 +86,42 @@ def test_integration_catches_a_ghost_the_single_chirp_test_misses():
     assert not integrated_silent_test(rng.standard_normal((n, n_r, n_s)), rho, 1.0, pf=1e-6).alarm.any()
 
 
-def test_latency_statistic_grows_when_energy_starts_late_in_active_chirps():
-    rng = np.random.default_rng(3)
-    rho = balanced_rows(rng, 50, 8)
-    x = rng.standard_normal((50, 8, 128))
-    base = latency_statistic(x, rho, 16)
+@pytest.mark.parametrize("iq", [False, True])
+def test_spill_test_false_alarm_rate_matches_its_exact_threshold(iq):
+    rng = np.random.default_rng(5)
+    n, n_r, n_s = 4000, 8, 96
+    rho = balanced_rows(rng, n, n_r)
+    x = rng.standard_normal((n, n_r, n_s))
+    if iq:
+        x = (x + 1j * rng.standard_normal((n, n_r, n_s))) / np.sqrt(2)
+    res = spill_test(x, rho, 1.0, 40, pf=0.05)
+    lo, hi = clopper_pearson(int(res.alarm.sum()), n, 0.999)
+    assert lo <= 0.05 <= hi
+    assert np.all(res.n_slots == np.sum(rho[:, :-1] & ~rho[:, 1:], axis=1))
+    # energy before the window is not looked at; energy after it, in a silent slot after an active one, is
     late = x.copy()
-    late[..., 40:] += np.where(rho[..., None], 2.0 * rng.standard_normal((50, 8, 88)), 0)
-    assert np.median(latency_statistic(late, rho, 16)) > 3 * np.median(base)
+    late[:, :, :40] += 50.0
+    assert np.array_equal(spill_test(late, rho, 1.0, 40, pf=0.05).alarm, res.alarm)
+    tone = 2.0 * np.cos(2 * np.pi * 0.2 * np.arange(n_s - 40))       # 56 x noise in its bin per slot
+    after = rho[:, :-1] & ~rho[:, 1:]
+    late = x.copy()
+    late[:, 1:, 40:] += np.where(after[..., None], tone, 0)
+    assert spill_test(late, rho, 1.0, 40, pf=1e-6).alarm[res.n_slots > 0].all()
+
+
+def test_spill_test_batches_equal_single_cycles():
+    rng = np.random.default_rng(6)
+    rho = balanced_rows(rng, 7, 8)
+    x = rng.standard_normal((7, 8, 64)).astype(np.float32)
+    res = spill_test(x, rho, 1.0, 20)
+    for i in range(7):
+        one = spill_test(x[i: i + 1], rho[i: i + 1], 1.0, 20)
+        assert one.stat.tobytes() == res.stat[i: i + 1].tobytes()
+
+
+def test_spill_test_names_a_window_outside_the_chirp():
+    with pytest.raises(ValueError, match=r"first_sample: must be in 1..60, got 70"):
+        spill_test(np.zeros((1, 8, 64)), np.tile([True, False], 4), 1.0, 70)
 
 
 def test_calibrate_threshold_refuses_too_few_cycles():

@@ -35,7 +35,11 @@ def test_attack_rms_is_rarms_times_sigma_n(small_scene, iq, kind):
     s = small_scene(iq=iq, sigma_n=2.0)
     a, active = emit(make_attacker(kind, s, rarms=3.0), 20)
     assert active.all()
-    assert rms(a) == pytest.approx(6.0, rel=0.02)
+    on = 1.0
+    if kind == "ghost":     # RMS rarms while on: from its round trip (30 m: 30 samples) to the window's end
+        on = 1.0 - np.ceil(2 * 30.0 / C * s.fs_hz) / s.n_samples
+        assert np.all(a[:, :, :30] == 0) and np.all(np.abs(a[:, :, 31:]).max(axis=2) > 0)
+    assert rms(a) == pytest.approx(6.0 * np.sqrt(on), rel=0.02)
 
 
 def test_random_attack_is_white_and_independent_across_chirps(small_scene):
@@ -71,10 +75,11 @@ def test_ghost_plants_a_target_at_the_chosen_range_and_speed(small_scene):
     rdot = 10.0 - 100 / 3.6
     lam = C / 77e9
     # fast time: beat of a target at 25 m with that range rate (MATLAB sign convention)
-    assert phase_slope_hz(a[0, 0], s.fs_hz) == pytest.approx(2 * s.slope_hz_per_s * 25.0 / C + 2 * rdot / lam,
+    m0 = int(np.ceil(2 * 25.0 / C * s.fs_hz)) + 1          # it starts after the round trip it pretends
+    assert phase_slope_hz(a[0, 0, m0:], s.fs_hz) == pytest.approx(2 * s.slope_hz_per_s * 25.0 / C + 2 * rdot / lam,
                                                               rel=1e-4)
     # slow time: the chirp-to-chirp phase of a target with that range rate
-    step = np.angle(a[0, 1:, 10] * np.conj(a[0, :-1, 10]))
+    step = np.angle(a[0, 1:, m0] * np.conj(a[0, :-1, m0]))
     expected = (2 * np.pi * 2 * rdot / lam * s.t_chirp_s + np.pi) % (2 * np.pi) - np.pi
     assert np.allclose(step, expected, atol=1e-3)
 
@@ -294,7 +299,9 @@ def test_reactive_gating_reproduces_the_per_cycle_model_bit_for_bit(small_scene,
     # the response is exactly the replica of physics, one row per chirp, cast once to the scene's dtype
     delay, alpha, amp = att.delay_s(), 2.0 * (5.0 - s.radar_speed_mps) / C, 4.0 * (1.0 if iq else math.sqrt(2.0))
     if fidelity == "beat":
-        ref_main, ref_tail = physics.beat_samples(s, delay, alpha, amp, delay).astype(dtype), None
+        ref_main, ref_tail = physics.beat_replica(s, delay, alpha, amp, delay)
+        ref_main = ref_main.astype(dtype)
+        assert ref_tail is None               # its spill into the next slot beats far outside the IF band
     else:
         ref_main, ref_tail = (x.astype(dtype) for x in physics.waveform_replica(s, delay, alpha, amp))
     main, tail = att.response(fidelity)
@@ -348,3 +355,32 @@ def test_reactive_gating_refuses_arrays_that_do_not_fit(small_scene):
         gate_by_emission(main, main[:4], on_air)
     with pytest.raises(ValueError, match=r"on: expected bool \(2,\)"):
         gate_by_emission(main, None, on_air, np.ones(3, bool))
+
+
+@pytest.mark.parametrize("latency_us", [0.1, 2.0, 5.0])
+def test_reactive_reply_agrees_between_fidelities_spill_included(latency_us):
+    # The repeater cannot stop before its delay after the radar stops: its reply spills that long into the next
+    # slot, in band once the delay passes the longest visible round trip (table1: half a chirp). Both fidelities
+    # render the same samples there and in the reply's own slot (away from the gating edges).
+    from carav_stream.radar import physics
+    from carav_stream.radar.scene_loader import load_scene
+    s = load_scene("table1", {"n_chirps": 8, "sigma_n": 1.0})
+    on_air = np.array([[True, False, True, True, False, False, True, False]])
+    out = {}
+    for fid in ("beat", "waveform"):
+        att = make_attacker("reactive", s, distance_m=30.0, latency_s=latency_us * 1e-6, rarms=1.0)
+        out[fid], _ = att.emit(1, 0, None, Observation(on_air, 0), fidelity=fid)
+    beat, wave = out["beat"][0], out["waveform"][0]
+    delay = att.delay_s()
+    m0 = int(round(delay * s.fs_hz))
+    keep = np.ones(s.n_samples, bool)
+    keep[:18] = keep[-18:] = False
+    keep[max(0, m0 - 18): m0 + 18] = False
+    assert np.abs(beat[:, keep] - wave[:, keep]).max() < 5e-3 * math.sqrt(2)
+    _, f_spill = physics.replica_beats_hz(s, delay, 2 * (0 - s.radar_speed_mps) / C)
+    spill = beat[4, : m0 - 1]                       # silent slot 4 after active slot 3
+    if physics.in_band(s, f_spill):
+        assert latency_us == 5.0 and np.sqrt(np.mean(spill ** 2)) == pytest.approx(1.0, rel=0.05)
+    else:
+        assert np.all(spill == 0)
+    assert np.all(beat[5] == 0) and np.all(beat[1, m0 + 1:] == 0)   # silent after silent; nothing of its own

@@ -55,8 +55,10 @@ def test_dechirp_beat_is_range_beat_minus_doppler(small_scene, velocity_kmh):
     rdot = (velocity_kmh - 100.0) / 3.6                     # + = receding
     f_doppler = -2 * rdot / (C / 77e9)                      # > 0 when closing
     expected = 2 * s.slope_hz_per_s * 43.0 / C - f_doppler
-    measured = phase_slope_hz(clean(s)[0, 0], s.fs_hz)
+    m0 = int(np.ceil(2 * 43.0 / C * s.fs_hz)) + 1          # the echo arrives after its round trip
+    measured = phase_slope_hz(clean(s)[0, 0, m0:], s.fs_hz)
     assert measured == pytest.approx(expected, rel=1e-5)
+    assert np.all(clean(s)[0, 0, : m0 - 1] == 0)
 
 
 def test_chirp_to_chirp_phase_advances_by_doppler(small_scene):
@@ -81,7 +83,8 @@ def test_radar_equation_snr_is_what_the_samples_show(iq):
     s = load_scene("table1", {"iq": iq, "adc_bits": 0})
     rho = ActivationSource("seeded", seed=1).next(4, s.n_chirps)
     c = simulate_cycles(s, rho, np.random.default_rng(1), return_clean=True)
-    echo_w = np.mean(np.abs(c.clean_echo[rho]) ** 2)
+    m0 = int(np.ceil(2 * s.targets[0].range_m / C * s.fs_hz))    # the echo is there from its round trip on
+    echo_w = np.mean(np.abs(c.clean_echo[rho][:, m0:]) ** 2)
     noise = c.frames - c.clean_echo
     assert np.sqrt(np.mean(np.abs(noise) ** 2)) == pytest.approx(s.sigma_n, rel=0.01)
     assert 10 * np.log10(echo_w / s.sigma_n ** 2) == pytest.approx(2.2, abs=0.05)
@@ -158,6 +161,66 @@ def test_beat_and_waveform_fidelities_agree_within_tolerance(preset, iq):
     if m0 > settle + 2:
         # (its first samples hold the previous chirp's in-band echo, cut off by the reference's reset)
         assert np.abs(wave[:, settle: int(tau * s.fs_hz) - settle]).max() < 0.02 * amp
+
+
+def _edges_masked(n_samples, edges, settle=18):
+    """Sample mask away from the window's ends and from every gating edge (the waveform FIR smears an edge over
+    +-16 samples; the beat fidelity's ideal filter does not)."""
+    keep = np.ones(n_samples, bool)
+    keep[:settle] = keep[-settle:] = False
+    for e in edges:
+        keep[max(0, e - settle): max(0, e + settle)] = False
+    return keep
+
+
+# (preset, round trip / chirp period): table1 samples the whole chirp with fs = B, so an echo's own beat is
+# (tau / T_c) fs and its spill's -(1 - tau / T_c) fs; the cases keep both clear of the filter's transition bands
+# (+-0.05 fs around the -6 dB edges, where the waveform FIR and the beat fidelity's ideal filter differ by design)
+AGREEMENT_CASES = [("table1", 0.04, None), ("table1", 0.3, None), ("table1", 0.42, None), ("table1", 0.6, False),
+                   ("table1", 0.8, False), ("table1", 0.6, True), ("table1", 0.8, True), ("table1", 0.97, True),
+                   ("awr1642", 0.001, None), ("awr1642", 0.002, None)]
+
+
+@pytest.mark.parametrize("preset, tau_over_chirp, iq_only", AGREEMENT_CASES)
+@pytest.mark.parametrize("iq", [False, True])
+def test_beat_and_waveform_agree_on_the_slot_and_the_spill(preset, tau_over_chirp, iq_only, iq):
+    # An echo occupies its own slot from its round trip on and spills that long into the next slot, where the
+    # receiver's ramp has restarted: the spill beats at S (tau - T_c) - f_D. Both fidelities must put the same
+    # samples in every slot, silent or active: the echo's own part and its spill, each in band or removed.
+    import dataclasses
+
+    from carav_stream.radar import physics
+    if iq_only is not None and iq_only != iq:
+        pytest.skip("case for the other receiver")
+    base = load_scene(preset, {"iq": iq, "n_chirps": 8})
+    car = base.targets[0]
+    r = tau_over_chirp * base.t_chirp_s * C / 2
+    target = dataclasses.replace(car, range_m=r, rcs_m2=car.rcs_m2 * (r / car.range_m) ** 4)
+    s = dataclasses.replace(base, targets=(target,))
+    rho = np.array([[True, False, True, True, False, False, True, False]])
+    beat, wave = (clean(s, rho, fid)[0] for fid in ("beat", "waveform"))
+    amp = physics.echo_amplitude(s, target)
+    tau = 2 * r / C
+    m0 = int(np.ceil(tau * s.fs_hz))
+    keep = _edges_masked(s.n_samples, [m0])
+    assert np.abs(wave[:, keep] - beat[:, keep]).max() < 5e-3 * amp
+    # energy per slot, the edges included, within 2 % of a full slot of echo
+    e_beat, e_wave = (np.sum(np.abs(x.astype(np.complex128)) ** 2, axis=1) for x in (beat, wave))
+    assert np.all(np.abs(e_beat - e_wave) < 0.02 * amp ** 2 * s.n_samples / (1 if iq else 2))
+    f_main, f_spill = physics.replica_beats_hz(s, tau, 0.0)
+    main_in, spill_in = physics.in_band(s, f_main), physics.in_band(s, f_spill)
+    assert spill_in == (tau_over_chirp > (0.95 if iq else 0.55))        # the spill passes only beyond the range
+    assert main_in == (tau_over_chirp < (0.9 if iq else 0.5))
+    after_active = np.flatnonzero(~rho[0, 1:] & rho[0, :-1]) + 1            # silent slots after active ones
+    silent_after_silent = np.flatnonzero(~rho[0, 1:] & ~rho[0, :-1]) + 1
+    assert np.all(beat[silent_after_silent] == 0)
+    spill = beat[after_active][:, :min(m0, s.n_samples)]
+    own = beat[rho[0]][:, m0:]
+    if spill_in:
+        assert np.all(np.abs(spill[:, 1:]) > 0) and np.sqrt(np.mean(np.abs(spill) ** 2)) > 0.5 * amp
+    else:
+        assert np.all(spill == 0)
+    assert np.all(own == 0) != main_in
 
 
 def test_receiver_reference_keeps_sweeping_on_silent_chirps(small_scene):
@@ -309,3 +372,18 @@ def test_channel_and_adc_codes_computed_into_a_given_array_equal_their_own_bit_f
         synth.channel(scene, tx, np.random.default_rng(1), 0, out=given[:, :-1])
     with pytest.raises(ValueError, match="out must be int16"):
         adc_codes(scene, own, into.astype(np.int32))
+
+
+def test_if_filter_removes_an_echo_beyond_the_band_and_without_it_the_echo_folds():
+    # awr1642_literal: the 20 m target beats at 10.4 MHz, beyond the 5 MHz I-only band. Its scene has no anti-alias
+    # filter (MATLAB's example), so the beat fidelity folds the echo back; with the filter nothing of it is left.
+    folded = load_scene("awr1642_literal", {"n_chirps": 4})
+    assert not folded.if_filter
+    import dataclasses
+    filtered = dataclasses.replace(folded, if_filter=True)
+    rho = np.ones((1, 4), bool)
+    assert np.abs(clean(folded, rho)).max() > 0
+    assert np.all(clean(filtered, rho) == 0)
+    spec = np.abs(np.fft.rfft(clean(folded, rho)[0, 0, 20:]))
+    f_peak = np.argmax(spec) * folded.fs_hz / (folded.n_samples - 20)
+    assert f_peak == pytest.approx(0.38e6, abs=2 * folded.fs_hz / (folded.n_samples - 20))

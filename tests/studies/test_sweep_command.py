@@ -96,9 +96,24 @@ def test_sweep_scores_opt_in_detectors_on_the_same_cycles_with_a_detector_key_pe
     assert by["integrated"]["pf"][i1] == 0.0 and "closed_form" not in by["integrated"]
 
 
+def test_sweep_scores_the_spill_test_against_a_late_reactive_repeater(tmp_path):
+    """A repeater whose delay (30 m + 5 us) passes table1's longest visible round trip spills into the spill test's
+    window: caught in every cycle at RARMS 1, where C(1.5) misses every cycle; at 100 ns (blind zone) never."""
+    out = tmp_path / "s.json"
+    for latency_s, pm_spill in (("5e-6", 0.0), ("1e-7", 1.0)):
+        assert _run(["--attack", "reactive", "--attack-param", f"reactive.latency_s={latency_s}", "--rarms", "1",
+                     "--trials", "40", "--detector", "carav,spill", "--eta", "0.5:3:0.01", "--seed", "4", "--quiet",
+                     "--json", str(out)]) == 0
+        by = {c["detector"]: c for c in json.loads(out.read_text())["curves"]}
+        eta = json.loads(out.read_text())["eta"]
+        assert by["spill"]["pm"][eta.index(1.0)] == pm_spill and by["spill"]["pf"][eta.index(1.0)] == 0.0
+        assert by["carav"]["pm"][eta.index(1.5)] == 1.0
+
+
 def test_sweep_refuses_an_opt_in_detector_it_cannot_serve(capsys):
     assert carav(["sweep", "--model", "paper", "--detector", "spectral", "--trials", "10", "--quiet"]) == 2
     assert "--detector spectral: " in capsys.readouterr().err
     assert carav(["sweep", "--detector", "spectral", "--method", "energy", "--trials", "10", "--quiet"]) == 2
     assert carav(["sweep", "--detector", "nope", "--quiet"]) == 2
-    assert "--detector: unknown 'nope'; expected carav, spectral, integrated, coherent" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--detector: unknown 'nope'; expected carav, spectral, integrated, coherent, spill" in err
