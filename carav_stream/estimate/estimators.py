@@ -13,9 +13,9 @@ Pipeline, vectorised over cycles (C cycles, M chirps, N fast-time samples):
 3. Refinement by method:
      fft_peak      grid peak (bin centres)
      fft_zeropad   zero-padded grid (zeropad x in range, 4x in Doppler) + parabolic interpolation of |D|
-     fft_interp    parabolic vertex of |RD| along the peak's range bin on a 4x zero-padded Doppler FFT, then
+     fft_interp    parabolic vertex of |RD| along the peak's range bin on an 8x zero-padded Doppler FFT, then
                    Candan's bias-corrected three-bin interpolation in range at that Doppler
-     ml            fft_interp, then safeguarded Newton steps on the 2-D periodogram
+     ml            fft_interp (4x padding: a start), then safeguarded Newton steps on the 2-D periodogram
                    |sum_{m active} sum_n x[m,n] exp(-j 2 pi (f n + nu m))|^2. One target: joint steps in (f, nu),
                    each one pass over the samples (per-chirp DTFT moments, then sums over the active chirp
                    times; joint.py), the image of real samples removed in closed form. Several targets:
@@ -195,7 +195,7 @@ def _cells(spec, chirps: _Chirps, l, k, md: int):
     return (col * np.exp(-2j * np.pi * turns) * chirps.mask[:, :, None]).sum(axis=1)
 
 
-def _start(spec, chirps: _Chirps, k0, l0, n_samp: int, pad: int = 4):
+def _start(spec, chirps: _Chirps, k0, l0, n_samp: int, pad: int):
     """Sub-bin start (f [cycles/sample], nu [cycles/chirp], |RD| there), each (C, K), of the targets at the cells
     (l0, k0) (C, K) of the compacted range spectra spec (C, A, nb).
 
@@ -203,8 +203,9 @@ def _start(spec, chirps: _Chirps, k0, l0, n_samp: int, pad: int = 4):
     maximum for one target (robust to the high sidelobes of the sparse active set when the coarse grid scallops),
     within one coarse bin of l0 for several. f: Candan's three-bin interpolation across bins k0 - 1, k0, k0 + 1
     (clipped to the spectrum) at that padded Doppler cell (exact integer phases; n_samp the unpadded length).
-    pad 4: ml's RMSE from -5 to 30 dB is the same as with 8 on both presets; with 1 (the coarse grid) one Newton
-    step no longer reaches the bound."""
+    pad (_start_pad): 8 where nu is the answer (fft_interp: a coarser grid's parabolic vertex is biased at high
+    SNR), 4 where it is a start (ml: RMSE from -5 to 30 dB the same as with 8 on both presets; with 1, the coarse
+    grid, one Newton step no longer reaches the bound)."""
     n_cycles, _, nb = spec.shape
     n_tgt = k0.shape[1]
     n_pad = chirps.n_chirps * pad
@@ -298,7 +299,7 @@ def _one_target(x, chirps: _Chirps, method, zeropad, n_newton, music_length, iq)
         nu = nu + spectral.parabolic_delta(mag[:, 3:4], mag[:, 1:2], mag[:, 4:5]) / md
         peak = mag[:, 1:2]
     elif method != "fft_peak":
-        f, nu, peak = _start(spec, chirps, k0, l0, n_samp)
+        f, nu, peak = _start(spec, chirps, k0, l0, n_samp, _start_pad(method))
     else:
         peak = np.abs(_cells(spec, chirps, l0, k0, md))
     amp = peak / (n_samp * np.maximum(chirps.count, 1))[:, None]
@@ -423,7 +424,7 @@ def refine_at(frames, rho, geometry: Geometry, f0, nu0, *, method: str = DEFAULT
         x, _, _ = _normalise(frames[rows], sub)
         fs, nus = f[rows, :k], nu[rows, :k]
         if method != "fft_peak":
-            fs, nus = _interpolate(x, sub, fs, nus, geometry.iq)
+            fs, nus = _interpolate(x, sub, fs, nus, geometry.iq, _start_pad(method))
         if method in ("ml", "music", "root_music"):
             fs, nus, amps = _refine(x, sub, fs, nus, None, method, n_newton, music_length, geometry.iq)
         else:
@@ -459,13 +460,18 @@ def _refine_walking(frames, rho, geometry: Geometry, f0, nu0, max_speed_mps: flo
                      n_found=found.sum(axis=1).astype(np.int64), method="ml_walking")
 
 
-def _interpolate(x, chirps: _Chirps, f, nu, iq):
+def _start_pad(method: str) -> int:
+    """Zero padding of _start's Doppler FFT: 4 for a start that Newton steps refine, 8 for a final answer."""
+    return 4 if method == "ml" else 8
+
+
+def _interpolate(x, chirps: _Chirps, f, nu, iq, pad: int):
     """From cells to sub-bin frequencies, as `_one_target` does for one (`_start` on the cells of f, nu)."""
     n_samp, md = x.shape[-1], chirps.n_chirps
     spec = scipy.fft.fft(x, axis=-1) if iq else scipy.fft.rfft(x, axis=-1)
     k0 = np.clip(np.rint(f * n_samp).astype(np.int64) % n_samp, 0, spec.shape[-1] - 1)
     l0 = np.rint(nu * md).astype(np.int64) % md
-    f_out, nu_out, _ = _start(spec, chirps, k0, l0, n_samp)
+    f_out, nu_out, _ = _start(spec, chirps, k0, l0, n_samp, pad)
     return f_out, nu_out
 
 
