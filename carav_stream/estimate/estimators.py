@@ -13,16 +13,20 @@ Pipeline, vectorised over cycles (C cycles, M chirps, N fast-time samples):
 3. Refinement by method:
      fft_peak      grid peak (bin centres)
      fft_zeropad   zero-padded grid (zeropad x in range, 4x in Doppler) + parabolic interpolation of |D|
-     fft_interp    Candan's bias-corrected three-bin interpolation in range, parabolic in Doppler
-     ml            fft_interp, then alternating safeguarded Newton steps on the 2-D periodogram
-                   |sum_{m active} sum_n x[m,n] exp(-j 2 pi (f n + nu m))|^2: Doppler-compensated coherent
-                   integration over the active chirps for the beat f, and the non-uniform slow-time periodogram
-                   (sparse chirp times) for nu; several targets by RELAX-style cancellation of the others
+     fft_interp    parabolic vertex of |RD| along the peak's range bin on an 8x zero-padded Doppler FFT, then
+                   Candan's bias-corrected three-bin interpolation in range at that Doppler
+     ml            fft_interp (4x padding: a start), then safeguarded Newton steps on the 2-D periodogram
+                   |sum_{m active} sum_n x[m,n] exp(-j 2 pi (f n + nu m))|^2. One target: joint steps in (f, nu),
+                   each one pass over the samples (per-chirp DTFT moments, then sums over the active chirp
+                   times; joint.py), the image of real samples removed in closed form. Several targets:
+                   alternating steps, Doppler-compensated coherent integration over the active chirps for the
+                   beat f and the non-uniform slow-time periodogram (sparse chirp times) for nu, the others and
+                   the images removed by RELAX-style cancellation
      music         Doppler-compensated coherent integration over the active chirps, forward-backward smoothed
                    covariance (subvector length L), MUSIC pseudo-spectrum on a fine grid around the FFT peak
      root_music    as music, frequency from the roots of the root-MUSIC polynomial (model order doubles for
                    real I-only samples)
-   Doppler for ml / music / root_music: Newton on the non-uniform slow-time periodogram at the refined beat.
+   Doppler for music / root_music: Newton on the non-uniform slow-time periodogram at the refined beat.
 4. Range with range-Doppler coupling removed: R = c/(2S) (f_b - 2 v / lambda)   (see geometry.py)
 
 Inputs are scaled per cycle by their largest magnitude first, so amplitudes of 1e-30 and noise-free frames
@@ -36,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft
 
-from carav_stream.estimate import spectral
+from carav_stream.estimate import joint, spectral
 from carav_stream.estimate.geometry import Geometry
 
 METHODS = ("fft_peak", "fft_zeropad", "fft_interp", "music", "root_music", "ml")
@@ -191,22 +195,40 @@ def _cells(spec, chirps: _Chirps, l, k, md: int):
     return (col * np.exp(-2j * np.pi * turns) * chirps.mask[:, :, None]).sum(axis=1)
 
 
-def _doppler_column(spec, chirps: _Chirps, k0, l0, md, n_tgt, pad: int = 8):
-    """Slow-time frequency [cycles/chirp] (C, K) from a pad-times zero-padded Doppler FFT of the range bins
-    k0 (C, K) of spec (C, A, nb), with a parabolic vertex. One target: the global maximum of the column
-    (robust to the high sidelobes of the sparse active set when the coarse grid scallops); several: the
-    maximum within one coarse bin of the 2-D peak l0."""
-    col = np.swapaxes(chirps.scatter(np.take_along_axis(spec, k0[:, None, :], axis=2)), 1, 2)  # (C, K, M)
-    n_pad = md * pad
-    pw = np.abs(scipy.fft.fft(col, n=n_pad, axis=-1)).astype(float)
+def _start(spec, chirps: _Chirps, k0, l0, n_samp: int, pad: int):
+    """Sub-bin start (f [cycles/sample], nu [cycles/chirp], |RD| there), each (C, K), of the targets at the cells
+    (l0, k0) (C, K) of the compacted range spectra spec (C, A, nb).
+
+    nu: the parabolic vertex of |RD| along range bin k0 on a pad-times zero-padded Doppler FFT, at its global
+    maximum for one target (robust to the high sidelobes of the sparse active set when the coarse grid scallops),
+    within one coarse bin of l0 for several. f: Candan's three-bin interpolation across bins k0 - 1, k0, k0 + 1
+    (clipped to the spectrum) at that padded Doppler cell (exact integer phases; n_samp the unpadded length).
+    pad (_start_pad): 8 where nu is the answer (fft_interp: a coarser grid's parabolic vertex is biased at high
+    SNR), 4 where it is a start (ml: RMSE from -5 to 30 dB the same as with 8 on both presets; with 1, the coarse
+    grid, one Newton step no longer reaches the bound)."""
+    n_cycles, _, nb = spec.shape
+    n_tgt = k0.shape[1]
+    n_pad = chirps.n_chirps * pad
+    c = np.arange(n_cycles)[:, None, None]
+    t = np.arange(n_tgt)[None, :, None]
+    col = np.zeros((n_cycles, n_tgt, chirps.n_chirps), dtype=spec.dtype)
+    col[c, t, chirps.index[:, None, :]] = spec[c[..., 0], :, k0]  # (C, K, M): silent chirps zero
+    pw = np.abs(scipy.fft.fft(col, n=n_pad, axis=-1, overwrite_x=True))  # (C, K, n_pad)
     if n_tgt == 1:
-        j = np.argmax(pw, axis=-1)
+        j = np.argmax(pw, axis=-1)  # (C, K)
     else:
-        win = (np.arange(-pad, pad + 1)[None, None, :] + (l0 * pad)[..., None]) % n_pad
+        win = (np.arange(-pad, pad + 1) + (l0 * pad)[..., None]) % n_pad
         j = np.take_along_axis(win, np.argmax(np.take_along_axis(pw, win, axis=-1), axis=-1)[..., None],
                                axis=-1)[..., 0]
-    p = [np.take_along_axis(pw, ((j + d) % n_pad)[..., None], axis=-1)[..., 0] for d in (-1, 0, 1)]
-    return (j + spectral.parabolic_delta(*p)) / n_pad
+    p = pw[c, t, (j[..., None] + np.arange(-1, 2)) % n_pad].astype(float)  # (C, K, 3)
+    nu = (j + spectral.parabolic_delta(p[..., 0], p[..., 1], p[..., 2])) / n_pad
+    # the three range bins at that Doppler cell: exact integer phases over the active chirps (padding rows are 0)
+    rows = spec[c, :, np.clip(k0[..., None] + np.arange(-1, 2), 0, nb - 1)]  # (C, K, 3, A)
+    turns = (chirps.index[:, None, :] * j[..., None]) % n_pad * (1.0 / n_pad)  # (C, K, A)
+    e = np.exp((-2j * np.pi) * turns).astype(spec.dtype)
+    v = np.matmul(rows, e[..., None])[..., 0].astype(complex)  # (C, K, 3): a product per cycle
+    f = (k0 + spectral.candan_delta(v[..., 0], v[..., 1], v[..., 2], n_samp)) / n_samp
+    return f, nu, np.abs(v[..., 1])
 
 
 def _integrate_fast(x, chirps: _Chirps, nu):
@@ -277,11 +299,7 @@ def _one_target(x, chirps: _Chirps, method, zeropad, n_newton, music_length, iq)
         nu = nu + spectral.parabolic_delta(mag[:, 3:4], mag[:, 1:2], mag[:, 4:5]) / md
         peak = mag[:, 1:2]
     elif method != "fft_peak":
-        k3 = np.concatenate([np.clip(k0 - 1, 0, nb - 1), k0, np.clip(k0 + 1, 0, nb - 1)], axis=1)
-        rd = _cells(spec, chirps, np.repeat(l0, 3, axis=1), k3, md)
-        f = f + spectral.candan_delta(rd[:, 0:1], rd[:, 1:2], rd[:, 2:3], n_samp) / nr
-        nu = _doppler_column(spec, chirps, k0, l0, md, 1)
-        peak = np.abs(rd[:, 1:2])
+        f, nu, peak = _start(spec, chirps, k0, l0, n_samp, _start_pad(method))
     else:
         peak = np.abs(_cells(spec, chirps, l0, k0, md))
     amp = peak / (n_samp * np.maximum(chirps.count, 1))[:, None]
@@ -406,7 +424,7 @@ def refine_at(frames, rho, geometry: Geometry, f0, nu0, *, method: str = DEFAULT
         x, _, _ = _normalise(frames[rows], sub)
         fs, nus = f[rows, :k], nu[rows, :k]
         if method != "fft_peak":
-            fs, nus = _interpolate(x, sub, fs, nus, geometry.iq)
+            fs, nus = _interpolate(x, sub, fs, nus, geometry.iq, _start_pad(method))
         if method in ("ml", "music", "root_music"):
             fs, nus, amps = _refine(x, sub, fs, nus, None, method, n_newton, music_length, geometry.iq)
         else:
@@ -442,24 +460,24 @@ def _refine_walking(frames, rho, geometry: Geometry, f0, nu0, max_speed_mps: flo
                      n_found=found.sum(axis=1).astype(np.int64), method="ml_walking")
 
 
-def _interpolate(x, chirps: _Chirps, f, nu, iq):
-    """From cells to sub-bin frequencies, as `_one_target` does for one: the beat from Candan's three-bin formula
-    on the range-Doppler cells around each target's cell, the Doppler from the zero-padded Doppler column."""
+def _start_pad(method: str) -> int:
+    """Zero padding of _start's Doppler FFT: 4 for a start that Newton steps refine, 8 for a final answer."""
+    return 4 if method == "ml" else 8
+
+
+def _interpolate(x, chirps: _Chirps, f, nu, iq, pad: int):
+    """From cells to sub-bin frequencies, as `_one_target` does for one (`_start` on the cells of f, nu)."""
     n_samp, md = x.shape[-1], chirps.n_chirps
     spec = scipy.fft.fft(x, axis=-1) if iq else scipy.fft.rfft(x, axis=-1)
-    nb = spec.shape[-1]
-    k0 = np.clip(np.rint(f * n_samp).astype(np.int64) % n_samp, 0, nb - 1)
+    k0 = np.clip(np.rint(f * n_samp).astype(np.int64) % n_samp, 0, spec.shape[-1] - 1)
     l0 = np.rint(nu * md).astype(np.int64) % md
-    f_out = np.empty(f.shape)
-    for j in range(f.shape[1]):
-        k3 = np.stack([np.clip(k0[:, j] - 1, 0, nb - 1), k0[:, j], np.clip(k0[:, j] + 1, 0, nb - 1)], axis=1)
-        rd = _cells(spec, chirps, np.repeat(l0[:, j:j + 1], 3, axis=1), k3, md)
-        f_out[:, j] = (k0[:, j] + spectral.candan_delta(rd[:, 0], rd[:, 1], rd[:, 2], n_samp)) / n_samp
-    return f_out, _doppler_column(spec, chirps, k0, l0, md, f.shape[1])
+    f_out, nu_out, _ = _start(spec, chirps, k0, l0, n_samp, pad)
+    return f_out, nu_out
 
 
 def _refine(x, chirps: _Chirps, f, nu, amp, method, n_newton, music_length, iq):
-    """Alternating ML refinement (ml) or MUSIC beat + ML Doppler (music, root_music) on the compacted x (C, A, N).
+    """ML refinement (ml: joint for one target, alternating for several) or MUSIC beat + ML Doppler (music,
+    root_music) on the compacted x (C, A, N).
 
     The other targets, and for real samples the negative-frequency image of every target (x real =
     sum_k a_k e^{+j..} + conj(a_k) e^{-j..}), are removed in the reduced domain: their contributions to the
@@ -468,6 +486,11 @@ def _refine(x, chirps: _Chirps, f, nu, amp, method, n_newton, music_length, iq):
     n_cycles, n_samp = x.shape[0], x.shape[-1]
     n_chirps = chirps.n_chirps
     n_tgt = f.shape[1]
+    if n_tgt == 1 and method == "ml":
+        # one target: joint Newton steps on the 2-D periodogram, one pass over the samples each (joint.py)
+        f1, nu1, a1 = joint.refine_tone(x, chirps.index, chirps.mask, n_chirps, f[:, 0], nu[:, 0], iq=iq,
+                                        n_iter=n_newton)
+        return f1[:, None], nu1[:, None], a1[:, None]
     rho = chirps.rho
     m_times = np.arange(n_chirps, dtype=float)
     n_times = np.arange(n_samp, dtype=float)

@@ -11,6 +11,8 @@ All frequencies are in cycles/sample (normalised, in [-0.5, 0.5) or [0, 1)); bin
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import scipy.fft
 
@@ -46,13 +48,22 @@ def phasor(f, n_len: int, sign: float = -1.0, origin: float = 0.0):
     ~ n_len * 1e-16 rad, far below any estimator's resolution.
     """
     f = np.asarray(f, dtype=float)
-    block = max(int(np.ceil(np.sqrt(n_len))), 1)
-    n_blocks = -(-n_len // block)
-    t = np.concatenate((np.arange(block), np.arange(0, n_blocks * block, block) - origin))  # i, then b B
+    block, t = _phasor_times(n_len, float(origin))
+    n_blocks = t.size - block
     a = (sign * 2.0 * np.pi) * f[..., None] * t
     e = np.cos(a) + 1j * np.sin(a)
     out = e[..., block:, None] * e[..., None, :block]
     return out.reshape(f.shape + (n_blocks * block,))[..., :n_len]
+
+
+@functools.lru_cache(maxsize=64)
+def _phasor_times(n_len: int, origin: float):
+    """phasor's block length B and read-only time table: i = 0..B-1, then b B - origin."""
+    block = max(int(np.ceil(np.sqrt(n_len))), 1)
+    n_blocks = -(-n_len // block)
+    t = np.concatenate((np.arange(block), np.arange(0, n_blocks * block, block) - origin))  # i, then b B
+    t.flags.writeable = False
+    return block, t
 
 
 def dtft_derivatives(y, f, times=None, order: int = 2):

@@ -1,0 +1,154 @@
+"""Joint Newton refinement of one tone's beat and Doppler on the 2-D periodogram, one pass over the samples a step.
+
+Per cycle (A active chirps at times t_a, N samples, centred times n' = n - (N-1)/2, t' = t - (M-1)/2):
+
+    S_pq(f, nu) = sum_a t'_a^q exp(-j 2 pi nu t'_a) Z_p[a],    Z_p[a] = sum_n x[a, n] n'^p exp(-j 2 pi f n')
+    P(f, nu)    = |S_00|^2,   dS/df = -j 2 pi S_10,  d2S/df dnu = -4 pi^2 S_11,  ...
+
+The per-chirp moments Z_0, Z_1, Z_2 come from one single-precision matrix product per cycle (the samples against
+the 6 real columns cos, -sin times 1, n', n'^2), so a step reads the samples once; everything after it is on
+(C, A) arrays. Real (I-only) samples x = a e^{+j..} + conj(a) e^{-j..} hold the target's image at (-f, -nu): its
+contribution conj(a) F_p(2f) G_q(2 nu) (F_p = sum_n n'^p e^{-j 2 pi 2f n'}, G_q the same over the active chirp
+times) is removed from every S_pq in closed form, a solved from S_00 = a N A + conj(a) F_0 G_0.
+
+The step is Newton's on the 2-D Hessian where it is negative definite, otherwise per dimension as
+spectral.newton_refine (a 1-D Newton step where that direction is concave, else a gradient step of a quarter of
+the largest), clipped to half a bin (0.5 / N in beat, 0.5 / M in Doppler). A last pass at the result keeps the
+start wherever the periodogram fell, and gives the amplitude there.
+
+Every product and sum is within one cycle (matmul over the stack of cycles, reductions along a cycle's own axes):
+a cycle's result does not depend on the batch it came in.
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from carav_stream.estimate import spectral
+
+__all__ = ["fast_time_moments", "refine_tone"]
+
+
+@functools.lru_cache(maxsize=16)
+def _powers(n_len: int, n_orders: int, dtype=float, columns: bool = False):
+    """n'^p for n' = n - (n_len - 1) / 2, p = 0..n_orders-1: read-only (n_orders, n_len) of dtype, or
+    (n_len, n_orders) with columns."""
+    t = np.arange(n_len) - 0.5 * (n_len - 1)
+    out = np.empty((n_orders, n_len))
+    out[0] = 1.0
+    for p in range(1, n_orders):
+        out[p] = out[p - 1] * t
+    out = np.ascontiguousarray(out.T if columns else out, dtype=dtype)
+    out.flags.writeable = False
+    return out
+
+
+def fast_time_moments(x, f, order: int = 2):
+    """(Z, e): Z[c, p, a] = sum_n x[c, a, n] n'^p exp(-j 2 pi f_c n') complex128 (C, order + 1, A), and the phasor
+    e[c, n] = exp(-j 2 pi f_c n') complex128 (C, N); n' = n - (N - 1) / 2.
+
+    x  float32 or complex64 (C, A, N); f float (C,) [cycles/sample]. Single-precision products (the data's
+    precision) from one real matrix product per cycle: complex samples are read as interleaved (re, im) pairs."""
+    n_cycles, n_rows, n_samp = x.shape
+    e = spectral.phasor(f, n_samp, origin=0.5 * (n_samp - 1))  # (C, N)
+    n_centred = _powers(n_samp, 2, np.float32)[1]
+    if np.iscomplexobj(x):
+        # sum (xr + j xi)(c - j s) n'^p: the xr samples weigh (c, -s), the xi samples (s, c)
+        w = np.empty((n_cycles, 2, order + 1, n_samp, 2), dtype=np.float32)
+        w[:, 0, 0, :, 0] = e.real
+        w[:, 1, 0, :, 0] = e.imag
+        for p in range(order):
+            np.multiply(w[:, :, p, :, 0], n_centred, out=w[:, :, p + 1, :, 0])
+        np.negative(w[:, 1, :, :, 0], out=w[:, 0, :, :, 1])
+        w[:, 1, :, :, 1] = w[:, 0, :, :, 0]
+        w = w.reshape(n_cycles, 2 * (order + 1), 2 * n_samp)
+        x = x.view(np.float32)
+    else:
+        w = np.empty((n_cycles, 2, order + 1, n_samp), dtype=np.float32)
+        w[:, 0, 0] = e.real   # cos
+        w[:, 1, 0] = e.imag   # -sin
+        for p in range(order):
+            np.multiply(w[:, :, p], n_centred, out=w[:, :, p + 1])
+        w = w.reshape(n_cycles, 2 * (order + 1), n_samp)
+    r = np.matmul(w, np.swapaxes(x, 1, 2))  # (C, 2P, A) float32: a product per cycle, none across cycles
+    z = np.empty((n_cycles, order + 1, n_rows), dtype=complex)
+    z.real = r[:, :order + 1]
+    z.imag = r[:, order + 1:]
+    return z, e
+
+
+def _sums(x, f, nu, t, tq, iq: bool, k):
+    """S[c, p, q] = S_pq(f, nu) (C, P, P), P = tq.shape[1], with the image removed for real samples (then
+    S_00 = a k, a the tone's complex amplitude). t (C, A): centred chirp times; tq (C, P, A): t'^q on active rows,
+    0 on padding rows (q = 0: the mask); k (C,): N times the active chirps."""
+    n_orders = tq.shape[1]
+    z, e = fast_time_moments(x, f, n_orders - 1)  # (C, P, A)
+    em = np.exp((-2j * np.pi) * (nu[:, None] * t))
+    wq = np.swapaxes(em[:, None, :] * tq, 1, 2)  # (C, A, Q)
+    s = np.matmul(z, wq)  # (C, P, Q): a product per cycle
+    if iq:
+        return s
+    # the image conj(a) exp(-j 2 pi (f n' + nu t')) adds conj(a) F_p(2 f) G_q(2 nu) to S_pq; a from
+    # S_00 = a k + conj(a) F_0 G_0
+    fm = np.matmul(np.square(e)[:, None, :], _powers(e.shape[-1], n_orders, complex, True))[:, 0]  # (C, P): per cycle
+    gm = np.matmul(em[:, None, :], wq)[:, 0]  # (C, Q): sum_a em^2 t'^q
+    b = fm[:, 0] * gm[:, 0]
+    a = (k * s[:, 0, 0] - b * np.conj(s[:, 0, 0])) / (k * k - np.abs(b) ** 2)
+    return s - np.conj(a)[:, None, None] * fm[:, :, None] * gm[:, None, :]
+
+
+def refine_tone(x, index, mask, n_chirps: int, f, nu, *, iq: bool, n_iter: int = 1):
+    """One tone per cycle refined jointly in beat f and Doppler nu: (f, nu, amplitude) each float (C,).
+
+    x       float32 or complex64 (C, A, N): the active chirps of each cycle (rows past its count are zero)
+    index   int (C, A): chirp number of each row; mask bool (C, A): the row holds an active chirp
+    f, nu   float (C,): start [cycles/sample], [cycles/chirp] (within a fraction of a bin: an interpolated peak)
+    n_iter  Newton steps (each one pass over x)
+    Amplitude: |a| of the tone a e^{j..} per sample (normalised units), from the second-order expansion of S_00
+    about the last step's start (the periodogram is not evaluated again at the result)."""
+    n_samp = x.shape[-1]
+    m = mask.astype(float)
+    t = (index - 0.5 * (n_chirps - 1)) * m  # centred chirp times, 0 on padding rows
+    tq = np.stack((m, t, t * t), axis=1)  # (C, 3, A)
+    count = mask.sum(axis=1)
+    k = n_samp * np.maximum(count, 1).astype(float)
+    no_doppler = count < 2  # one chirp: P is flat in nu (velocity unknown); no step there
+    f, nu = np.asarray(f, dtype=float), np.asarray(nu, dtype=float)
+    s_end = np.full(f.shape, np.nan)
+    for _ in range(n_iter):
+        s = _sums(x, f, nu, t, tq, iq, k)
+        step_f, step_v, s_end = _newton_step(s, n_samp, n_chirps, no_doppler)
+        f, nu = f + step_f, nu + step_v
+    return f, nu, np.abs(s_end) / k
+
+
+_D = (-2j * np.pi) ** np.add.outer(np.arange(3), np.arange(3))  # d^(p+q) S / df^p dnu^q = (-j 2 pi)^(p+q) S_pq
+_FIRST = (np.array([1, 0]), np.array([0, 1]))  # dS/df, dS/dnu in the (3, 3) table of derivatives
+_SECOND = (np.array([[2, 1], [1, 0]]), np.array([[0, 1], [1, 2]]))  # the Hessian's d2S
+
+
+def _newton_step(s, n_samp: int, n_chirps: int, no_doppler):
+    """(step in beat, step in Doppler, S_00 at the step by its second-order expansion), each (C,): a safeguarded
+    Newton step on P = |S_00|^2 from the moments s (C, 3, 3); in beat alone where no_doppler (C,) bool.
+
+    grad P = 2 Re(conj(S) dS),  Hess P = 2 Re(conj(dS) dS^T + conj(S) d2S)."""
+    ds = s * _D  # the derivatives of S
+    c0 = np.conj(ds[:, 0, 0])[:, None, None]
+    d1 = ds[:, _FIRST[0], _FIRST[1]]  # (C, 2)
+    g = 2.0 * (c0[:, :, 0] * d1).real  # (C, 2)
+    h = 2.0 * (np.conj(d1)[:, :, None] * d1[:, None, :] + c0 * ds[:, _SECOND[0], _SECOND[1]]).real  # (C, 2, 2)
+    hff, hfv, hvv = h[:, 0, 0], h[:, 0, 1], h[:, 1, 1]
+    det = hff * hvv - hfv * hfv
+    joint = (hff < 0) & (det > 0) & ~no_doppler  # negative definite: the 2-D Newton step
+    adj = np.stack((hfv * g[:, 1] - hvv * g[:, 0], hfv * g[:, 0] - hff * g[:, 1]), axis=1)
+    max_step = np.array([0.5 / n_samp, 0.5 / n_chirps])
+    diag = h[:, [0, 1], [0, 1]]
+    # elsewhere per dimension: Newton where that direction is concave, else a gradient step of a quarter of the largest
+    other = np.where(diag < 0, -g / np.where(diag < 0, diag, -1.0), np.sign(g) * (0.25 * max_step))
+    step = np.where(joint[:, None], adj / np.where(joint, det, 1.0)[:, None], other)
+    step = np.clip(step, -max_step, max_step)
+    step[:, 1] = np.where(no_doppler, 0.0, step[:, 1])
+    s_end = ds[:, 0, 0] + (d1 * step).sum(axis=1) + 0.5 * (
+        ds[:, 2, 0] * step[:, 0] ** 2 + ds[:, 0, 2] * step[:, 1] ** 2) + ds[:, 1, 1] * step[:, 0] * step[:, 1]
+    return step[:, 0], step[:, 1], s_end
