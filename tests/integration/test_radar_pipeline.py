@@ -181,7 +181,8 @@ def test_a_crashed_detector_reads_as_refusals_never_as_detections_or_false_alarm
 
 @pytest.mark.parametrize("victim,carav", [
     *((v, "zmq") for v in ("source", "channel", "attacker", "adc", "gate", "ranging", "summary")),
-    *((v, "shm") for v in ("channel", "adc", "gate", "ranging"))], indirect=["carav"])   # producers and consumers
+    *((v, "shm") for v in ("channel", "gate"))], indirect=["carav"])   # a producer computing in its slots; a
+    # consumer of a fanned-out port that produces into its own segment too
 def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without_stalling(carav, victim):
     """SIGKILL one node mid-run: after its restart every later cycle is judged once, in order (no sink rejects a
     duplicate or out-of-order frame), what died with it is counted, and `carav stop` drains well within its
@@ -210,7 +211,7 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
 
 @pytest.mark.parametrize("victim,carav", [
     *((v, "zmq") for v in ("source", "channel", "attacker", "adc", "detector", "gate", "ranging", "summary")),
-    *((v, "shm") for v in ("adc", "gate"))], indirect=["carav"])
+    ("gate", "shm")], indirect=["carav"])
 def test_a_node_stopped_and_continued_costs_nothing(carav, victim):
     """SIGSTOP one node for a second (shorter than the heartbeat timeout), then SIGCONT: the graph waits for it
     (bounded queues), nothing is restarted, lost or judged twice, and every cycle is judged in order."""
