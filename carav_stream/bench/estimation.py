@@ -19,6 +19,7 @@ import argparse
 import time
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from carav_stream.bench import records as bench_records
 from carav_stream.cli.options import count, number, output_file
@@ -246,6 +247,9 @@ def run(args: argparse.Namespace) -> int:
         methods = ["fft_peak"] + methods
     rng = np.random.default_rng(args.seed)
     records: list[dict] = []
+    # Timed as a graph's node runs them: one BLAS thread (supervisor.NODE_ENV). A multithreaded BLAS call (music's
+    # eigendecompositions) otherwise leaves its worker threads spinning into whatever is timed next.
+    blas = threadpool_limits(limits=1, user_api="blas")
     print(f"{'preset':8s} {'estimator':12s} {'rho':6s} {'SNR dB':>6s} {'ms/cycle':>9s} {'xpeak':>6s} "
           f"{'range RMSE m':>12s} {'/CRLB':>7s} {'vel RMSE m/s':>12s} {'/CRLB':>7s}")
     for p in presets:
@@ -265,6 +269,7 @@ def run(args: argparse.Namespace) -> int:
                       f"{r['time_per_cycle_s'] * 1e3:9.3f} {xp:6.2f} {r['range_rmse_m']:12.3e} {r['range_ratio']:7.2f} "
                       f"{r['velocity_rmse_mps']:12.3e} {r['velocity_ratio']:7.2f}", flush=True)
             records += recs
+    blas.restore_original_limits()
     print("\nthreshold SNR (range RMSE within 2 x CRLB from there up), dB:")
     for p in presets:
         print(f"  {p}: " + ", ".join(f"{m} {threshold_snr(records, m, p)}" for m in methods))
