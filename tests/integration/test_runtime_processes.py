@@ -241,14 +241,29 @@ def test_status_and_stop_commands_reach_the_running_graph(carav):
     assert "no running graphs" in carav.cli("status").stdout
 
 
-def test_bad_messages_are_rejected_counted_and_named_while_the_graph_runs_on(carav):
-    run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
+def inject_into_t_then_stop(carav, run, bad: list[list]) -> str:
+    """Push the messages `bad` into the running graph's t.inp from outside; once every one is reported rejected and
+    100 more frames went through, stop the graph (it must end cleanly); its stderr."""
     (endpoint,) = carav.run_root.glob("carav-*/*/t.inp")
     ctx = zmq.Context()
     rogue = ctx.socket(zmq.PUSH)
     rogue.linger = 2000
     rogue.connect(f"ipc://{endpoint}")
+    for parts in bad:
+        rogue.send_multipart(parts)
+    rogue.close()
+    ctx.term()
+    wait_until(lambda: f"rejected frame #{len(bad)}" in run.stderr(), 20, f"{len(bad)} rejections reported")
+    n_before = len(read_jsonl(carav.workdir / "out.jsonl"))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > n_before + 100, 20, "graph still running")
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(30) == 0
+    return run.stderr()
+
+
+def test_bad_messages_are_rejected_counted_and_named_while_the_graph_runs_on(carav):
+    run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
     bad = [
         [b"\xc1not msgpack"],
         [msgpack.packb({"v": 1, "stream": "x.y", "seq": 10**9, "cycle": 0, "eos": False,
@@ -257,16 +272,7 @@ def test_bad_messages_are_rejected_counted_and_named_while_the_graph_runs_on(car
                         "arrays": [["data", "object", [1]]]}), b"\x00" * 8],           # forbidden dtype
         encode(Frame.of(np.zeros(4)), seq=0, stream="x.y"),                            # replayed old seq
     ]
-    for parts in bad:
-        rogue.send_multipart(parts)
-    rogue.close()
-    ctx.term()
-    wait_until(lambda: "rejected frame #4" in run.stderr(), 20, "four rejections reported")
-    n_before = len(read_jsonl(carav.workdir / "out.jsonl"))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > n_before + 100, 20, "graph still running")
-    assert carav.cli("stop").returncode == 0
-    assert run.wait(30) == 0
-    err = run.stderr()
+    err = inject_into_t_then_stop(carav, run, bad)
     assert "node 't' input 'inp': rejected frame #1: header is not valid msgpack" in err
     assert "needs 8000 bytes, buffer has 16" in err and "dtype 'object' is not allowed" in err
     assert "duplicate or out of order" in err
@@ -291,11 +297,6 @@ def test_bad_slot_references_are_rejected_counted_and_named_while_the_graph_runs
     the slot does not hold, or carrying buffer parts besides are refused with the reason; the graph runs on."""
     run = carav.run(carav.graph(BIG_CHAIN))
     wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
-    (endpoint,) = carav.run_root.glob("carav-*/*/t.inp")
-    ctx = zmq.Context()
-    rogue = ctx.socket(zmq.PUSH)
-    rogue.linger = 2000
-    rogue.connect(f"ipc://{endpoint}")
     head = {"v": 1, "stream": "x.y", "seq": 10**9, "cycle": 0, "eos": False}
     data = [["data", "float64", [64, 1100]]]
     bad = [
@@ -305,16 +306,7 @@ def test_bad_slot_references_are_rejected_counted_and_named_while_the_graph_runs
         [msgpack.packb({**head, "arrays": data, "shm": [0, 1]}), b"\x00" * 8],       # buffer parts besides
         [msgpack.packb({**head, "arrays": data, "shm": "slot 0"})],                  # not a reference
     ]
-    for parts in bad:
-        rogue.send_multipart(parts)
-    rogue.close()
-    ctx.term()
-    wait_until(lambda: "rejected frame #5" in run.stderr(), 20, "five rejections reported")
-    n_before = len(read_jsonl(carav.workdir / "out.jsonl"))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > n_before + 100, 20, "graph still running")
-    assert carav.cli("stop").returncode == 0
-    assert run.wait(30) == 0
-    err = run.stderr()
+    err = inject_into_t_then_stop(carav, run, bad)
     assert "slot 999 is outside the segment's" in err and "a slot holds" in err
     assert "stale generation 1000000000000" in err and "the header alone" in err
     assert "header key 'shm' must be list" in err
