@@ -35,6 +35,7 @@ energy give NaN.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -224,11 +225,18 @@ def _start(spec, chirps: _Chirps, k0, l0, n_samp: int, pad: int):
     nu = (j + spectral.parabolic_delta(p[..., 0], p[..., 1], p[..., 2])) / n_pad
     # the three range bins at that Doppler cell: exact integer phases over the active chirps (padding rows are 0)
     rows = spec[c, :, np.clip(k0[..., None] + np.arange(-1, 2), 0, nb - 1)]  # (C, K, 3, A)
-    turns = (chirps.index[:, None, :] * j[..., None]) % n_pad * (1.0 / n_pad)  # (C, K, A)
-    e = np.exp((-2j * np.pi) * turns).astype(spec.dtype)
+    e = _turns(n_pad, spec.dtype)[(chirps.index[:, None, :] * j[..., None]) % n_pad]  # (C, K, A)
     v = np.matmul(rows, e[..., None])[..., 0].astype(complex)  # (C, K, 3): a product per cycle
     f = (k0 + spectral.candan_delta(v[..., 0], v[..., 1], v[..., 2], n_samp)) / n_samp
     return f, nu, np.abs(v[..., 1])
+
+
+@functools.lru_cache(maxsize=16)
+def _turns(n: int, dtype) -> np.ndarray:
+    """exp(-j 2 pi i / n), i = 0..n-1, read-only of dtype: the phases of a DFT of length n, looked up by integer."""
+    out = np.exp((-2j * np.pi / n) * np.arange(n)).astype(dtype)
+    out.flags.writeable = False
+    return out
 
 
 def _integrate_fast(x, chirps: _Chirps, nu):

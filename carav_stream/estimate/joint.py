@@ -5,16 +5,19 @@ Per cycle (A active chirps at times t_a, N samples, centred times n' = n - (N-1)
     S_pq(f, nu) = sum_a t'_a^q exp(-j 2 pi nu t'_a) Z_p[a],    Z_p[a] = sum_n x[a, n] n'^p exp(-j 2 pi f n')
     P(f, nu)    = |S_00|^2,   dS/df = -j 2 pi S_10,  d2S/df dnu = -4 pi^2 S_11,  ...
 
-The per-chirp moments Z_0, Z_1, Z_2 come from one single-precision matrix product per cycle (the samples against
-the 6 real columns cos, -sin times 1, n', n'^2), so a step reads the samples once; everything after it is on
-(C, A) arrays. Real (I-only) samples x = a e^{+j..} + conj(a) e^{-j..} hold the target's image at (-f, -nu): its
-contribution conj(a) F_p(2f) G_q(2 nu) (F_p = sum_n n'^p e^{-j 2 pi 2f n'}, G_q the same over the active chirp
-times) is removed from every S_pq in closed form, a solved from S_00 = a N A + conj(a) F_0 G_0.
+The per-chirp moments Z_0, Z_1 come from one single-precision matrix product per cycle (the samples against the 4
+real columns cos, -sin times 1, n'), so a step reads the samples once; everything after it is on (C, A) arrays.
+Real (I-only) samples x = a e^{+j..} + conj(a) e^{-j..} hold the target's image at (-f, -nu): its contribution
+conj(a) F_p(2f) G_q(2 nu) (F_p = sum_n n'^p e^{-j 2 pi 2f n'}, G_q the same over the active chirp times) is removed
+from every S_pq in closed form, a solved from S_00 = a N A + conj(a) F_0 G_0.
 
 The step is Newton's on the 2-D Hessian where it is negative definite, otherwise per dimension as
 spectral.newton_refine (a 1-D Newton step where that direction is concave, else a gradient step of a quarter of
-the largest), clipped to half a bin (0.5 / N in beat, 0.5 / M in Doppler). A last pass at the result keeps the
-start wherever the periodogram fell, and gives the amplitude there.
+the largest), clipped to half a bin (0.5 / N in beat, 0.5 / M in Doppler). The Hessian's beat curvature takes S_20
+at its expectation for a tone at f, S_00 (N^2 - 1) / 12 (Fisher scoring in beat): the observed S_20 would need two
+more columns, a third more work in the pass over the samples, for the same fixed point (grad P = 0) and, from an
+interpolated start a fraction of a bin away, the same error after one step (carav bench estimators). Slow time,
+where the active chirps are irregular, keeps the observed curvature (it costs nothing: (C, A) arrays).
 
 Every product and sum is within one cycle (matmul over the stack of cycles, reductions along a cycle's own axes):
 a cycle's result does not depend on the batch it came in.
@@ -79,19 +82,18 @@ def fast_time_moments(x, f, order: int = 2):
 
 
 def _sums(x, f, nu, t, tq, iq: bool, k):
-    """S[c, p, q] = S_pq(f, nu) (C, P, P), P = tq.shape[1], with the image removed for real samples (then
-    S_00 = a k, a the tone's complex amplitude). t (C, A): centred chirp times; tq (C, P, A): t'^q on active rows,
-    0 on padding rows (q = 0: the mask); k (C,): N times the active chirps."""
-    n_orders = tq.shape[1]
-    z, e = fast_time_moments(x, f, n_orders - 1)  # (C, P, A)
-    em = np.exp((-2j * np.pi) * (nu[:, None] * t))
+    """S[c, p, q] = S_pq(f, nu) (C, 2, Q), p = 0, 1 (fast time), Q = tq.shape[1] (slow time), with the image removed
+    for real samples (then S_00 = a k, a the tone's complex amplitude). t (C, A): centred chirp times; tq (C, Q, A):
+    t'^q on active rows, 0 on padding rows (q = 0: the mask); k (C,): N times the active chirps."""
+    z, e = fast_time_moments(x, f, 1)  # (C, 2, A)
+    em = np.exp((-2j * np.pi) * (nu[:, None] * t))  # (C, A)
     wq = np.swapaxes(em[:, None, :] * tq, 1, 2)  # (C, A, Q)
-    s = np.matmul(z, wq)  # (C, P, Q): a product per cycle
+    s = np.matmul(z, wq)  # (C, 2, Q): a product per cycle
     if iq:
         return s
     # the image conj(a) exp(-j 2 pi (f n' + nu t')) adds conj(a) F_p(2 f) G_q(2 nu) to S_pq; a from
     # S_00 = a k + conj(a) F_0 G_0
-    fm = np.matmul(np.square(e)[:, None, :], _powers(e.shape[-1], n_orders, complex, True))[:, 0]  # (C, P): per cycle
+    fm = np.matmul(np.square(e)[:, None, :], _powers(e.shape[-1], 2, complex, True))[:, 0]  # (C, 2): per cycle
     gm = np.matmul(em[:, None, :], wq)[:, 0]  # (C, Q): sum_a em^2 t'^q
     b = fm[:, 0] * gm[:, 0]
     a = (k * s[:, 0, 0] - b * np.conj(s[:, 0, 0])) / (k * k - np.abs(b) ** 2)
@@ -123,32 +125,43 @@ def refine_tone(x, index, mask, n_chirps: int, f, nu, *, iq: bool, n_iter: int =
     return f, nu, np.abs(s_end) / k
 
 
-_D = (-2j * np.pi) ** np.add.outer(np.arange(3), np.arange(3))  # d^(p+q) S / df^p dnu^q = (-j 2 pi)^(p+q) S_pq
-_FIRST = (np.array([1, 0]), np.array([0, 1]))  # dS/df, dS/dnu in the (3, 3) table of derivatives
-_SECOND = (np.array([[2, 1], [1, 0]]), np.array([[0, 1], [1, 2]]))  # the Hessian's d2S
+_W = 2.0 * np.pi
 
 
 def _newton_step(s, n_samp: int, n_chirps: int, no_doppler):
     """(step in beat, step in Doppler, S_00 at the step by its second-order expansion), each (C,): a safeguarded
-    Newton step on P = |S_00|^2 from the moments s (C, 3, 3); in beat alone where no_doppler (C,) bool.
+    Newton step on P = |S_00|^2 from the moments s (C, 2, 3); in beat alone where no_doppler (C,) bool.
 
-    grad P = 2 Re(conj(S) dS),  Hess P = 2 Re(conj(dS) dS^T + conj(S) d2S)."""
-    ds = s * _D  # the derivatives of S
-    c0 = np.conj(ds[:, 0, 0])[:, None, None]
-    d1 = ds[:, _FIRST[0], _FIRST[1]]  # (C, 2)
-    g = 2.0 * (c0[:, :, 0] * d1).real  # (C, 2)
-    h = 2.0 * (np.conj(d1)[:, :, None] * d1[:, None, :] + c0 * ds[:, _SECOND[0], _SECOND[1]]).real  # (C, 2, 2)
-    hff, hfv, hvv = h[:, 0, 0], h[:, 0, 1], h[:, 1, 1]
-    det = hff * hvv - hfv * hfv
-    joint = (hff < 0) & (det > 0) & ~no_doppler  # negative definite: the 2-D Newton step
-    adj = np.stack((hfv * g[:, 1] - hvv * g[:, 0], hfv * g[:, 0] - hff * g[:, 1]), axis=1)
-    max_step = np.array([0.5 / n_samp, 0.5 / n_chirps])
-    diag = h[:, [0, 1], [0, 1]]
-    # elsewhere per dimension: Newton where that direction is concave, else a gradient step of a quarter of the largest
-    other = np.where(diag < 0, -g / np.where(diag < 0, diag, -1.0), np.sign(g) * (0.25 * max_step))
-    step = np.where(joint[:, None], adj / np.where(joint, det, 1.0)[:, None], other)
-    step = np.clip(step, -max_step, max_step)
-    step[:, 1] = np.where(no_doppler, 0.0, step[:, 1])
-    s_end = ds[:, 0, 0] + (d1 * step).sum(axis=1) + 0.5 * (
-        ds[:, 2, 0] * step[:, 0] ** 2 + ds[:, 0, 2] * step[:, 1] ** 2) + ds[:, 1, 1] * step[:, 0] * step[:, 1]
-    return step[:, 0], step[:, 1], s_end
+    With d^(p+q) S / df^p dnu^q = (-j w)^(p+q) S_pq, w = 2 pi:
+        grad P = 2 w Im(conj(S) [S_10, S_01]),
+        Hess P = 2 w^2 [[|S_10|^2 - Re(conj(S) S_20), Re(conj(S_10) S_01 - conj(S) S_11)],
+                        [.,                            |S_01|^2 - Re(conj(S) S_02)]]
+    with S_20 at its expectation S_00 (N^2 - 1) / 12 (see the module's note)."""
+    c = (n_samp * n_samp - 1) / 12.0
+    s00, s10, s01, s11, s02 = s[:, 0, 0], s[:, 1, 0], s[:, 0, 1], s[:, 1, 1], s[:, 0, 2]
+    u = np.conj(s00)[:, None] * s.reshape(len(s00), -1)  # conj(S) S_pq, (C, 6) in the order of s[:, p, q]
+    power = u[:, 0].real
+    g_f, g_v = u[:, 3].imag, u[:, 1].imag  # grad P / (2 w)
+    h_ff = (s10.real ** 2 + s10.imag ** 2) - c * power  # Hess P / (2 w^2)
+    h_vv = (s01.real ** 2 + s01.imag ** 2) - u[:, 2].real
+    h_fv = (np.conj(s10) * s01).real - u[:, 4].real
+    det = h_ff * h_vv - h_fv * h_fv
+    joint = (h_ff < 0) & (det > 0) & ~no_doppler  # negative definite: the 2-D Newton step
+    max_f, max_v = 0.5 / n_samp, 0.5 / n_chirps
+    num_f, num_v = h_fv * g_v - h_vv * g_f, h_fv * g_f - h_ff * g_v
+    if joint.all():  # the usual case; the same arithmetic per cycle as below
+        step_f, step_v = num_f / (det * _W), num_v / (det * _W)
+    else:
+        safe = np.where(joint, det, 1.0) * _W
+        # elsewhere per dimension: Newton where that direction is concave, else a gradient step of a quarter of the
+        # largest
+        step_f = np.where(joint, num_f / safe, np.where(
+            h_ff < 0, -g_f / (_W * np.where(h_ff < 0, h_ff, -1.0)), np.sign(g_f) * (0.25 * max_f)))
+        step_v = np.where(joint, num_v / safe, np.where(
+            h_vv < 0, -g_v / (_W * np.where(h_vv < 0, h_vv, -1.0)), np.sign(g_v) * (0.25 * max_v)))
+        step_v[no_doppler] = 0.0
+    step_f = np.minimum(np.maximum(step_f, -max_f), max_f)  # ufuncs: np.clip's dispatch costs more on (C,)
+    step_v = np.minimum(np.maximum(step_v, -max_v), max_v)
+    s_end = s00 - (1j * _W) * (s10 * step_f + s01 * step_v) - (0.5 * _W * _W) * (
+        (c * s00) * step_f ** 2 + 2.0 * s11 * step_f * step_v + s02 * step_v ** 2)
+    return step_f, step_v, s_end
