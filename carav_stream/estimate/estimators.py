@@ -15,7 +15,7 @@ Pipeline, vectorised over cycles (C cycles, M chirps, N fast-time samples):
      fft_zeropad   zero-padded grid (zeropad x in range, 4x in Doppler) + parabolic interpolation of |D|
      fft_interp    parabolic vertex of |RD| along the peak's range bin on an 8x zero-padded Doppler FFT, then
                    Candan's bias-corrected three-bin interpolation in range at that Doppler
-     ml            fft_interp (4x padding: a start), then safeguarded Newton steps on the 2-D periodogram
+     ml            fft_interp (2x padding: a start), then safeguarded Newton steps on the 2-D periodogram
                    |sum_{m active} sum_n x[m,n] exp(-j 2 pi (f n + nu m))|^2. One target: joint steps in (f, nu),
                    each one pass over the samples (per-chirp DTFT moments, then sums over the active chirp
                    times; joint.py), the image of real samples removed in closed form. Several targets:
@@ -205,8 +205,9 @@ def _start(spec, chirps: _Chirps, k0, l0, n_samp: int, pad: int):
     within one coarse bin of l0 for several. f: Candan's three-bin interpolation across bins k0 - 1, k0, k0 + 1
     (clipped to the spectrum) at that padded Doppler cell (exact integer phases; n_samp the unpadded length).
     pad (_start_pad): 8 where nu is the answer (fft_interp: a coarser grid's parabolic vertex is biased at high
-    SNR), 4 where it is a start (ml: RMSE from -5 to 30 dB the same as with 8 on both presets; with 1, the coarse
-    grid, one Newton step no longer reaches the bound)."""
+    SNR), 2 where it is a start (ml: RMSE / CRLB within 1.05 from 0 to 30 dB on both presets, as with 4 or 8; with 1,
+    the coarse grid, one Newton step no longer reaches the bound: 16 to 166 x the CRLB in velocity on table1 from 10
+    to 30 dB, carav bench estimators --estimators fft_peak,ml at 500 cycles)."""
     n_cycles, _, nb = spec.shape
     n_tgt = k0.shape[1]
     n_pad = chirps.n_chirps * pad
@@ -469,8 +470,8 @@ def _refine_walking(frames, rho, geometry: Geometry, f0, nu0, max_speed_mps: flo
 
 
 def _start_pad(method: str) -> int:
-    """Zero padding of _start's Doppler FFT: 4 for a start that Newton steps refine, 8 for a final answer."""
-    return 4 if method == "ml" else 8
+    """Zero padding of _start's Doppler FFT: 2 for a start that Newton steps refine, 8 for a final answer."""
+    return 2 if method == "ml" else 8
 
 
 def _interpolate(x, chirps: _Chirps, f, nu, iq, pad: int):
