@@ -3,8 +3,9 @@
     {"command": "carav bench transport --repeats 3", "machine": {...}, "records": [...], ...}
 
 `command` is the command line that made the records (without --json/--plot and their files), `machine` the
-machine it ran on (CPU model, cores, memory, Python and numpy versions, load average when the records were
-written). Further keys are a benchmark's own (the estimator benchmark's chosen default, for example).
+machine it ran on (CPU model, its widest SIMD extension, cores, memory, Python and numpy versions, load average
+when the records were written). Further keys are a benchmark's own (the estimator benchmark's chosen default, for
+example).
 """
 from __future__ import annotations
 
@@ -21,20 +22,26 @@ import numpy as np
 OUTPUT_OPTIONS = ("--json", "--plot")      # options naming output files: not part of what was measured
 
 
+SIMD_LEVELS = ("avx512f", "avx2", "sse4_2")    # widest first: numpy's float32 kernels (log, tan, exp) scale with it
+
+
 def machine() -> dict[str, Any]:
-    model = platform.processor() or platform.machine()
+    model, simd = platform.processor() or platform.machine(), None
     try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
+        info = Path("/proc/cpuinfo").read_text().splitlines()
     except OSError:
-        pass
+        info = []
+    for line in info:
+        if line.startswith("model name"):
+            model = line.split(":", 1)[1].strip()
+        elif line.startswith("flags") and simd is None:
+            flags = set(line.split(":", 1)[1].split())
+            simd = next((level.upper() for level in SIMD_LEVELS if level in flags), "none of " + "/".join(SIMD_LEVELS))
     try:
         mem_gib = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2 ** 30
     except (ValueError, OSError, AttributeError):
         mem_gib = None
-    return {"cpu": model, "cores": os.cpu_count(), "memory_gib": round(mem_gib, 1) if mem_gib else None,
+    return {"cpu": model, "simd": simd, "cores": os.cpu_count(), "memory_gib": round(mem_gib, 1) if mem_gib else None,
             "python": platform.python_version(), "numpy": np.__version__,
             "load_average": [round(x, 2) for x in os.getloadavg()]}
 

@@ -378,7 +378,8 @@ times vary between runs by more than the ratios do.
 def _machine(m: dict[str, Any]) -> str:
     mem = f", {m['memory_gib']:g} GiB" if m.get("memory_gib") else ""
     load = " / ".join(f"{x:g}" for x in m.get("load_average", []))
-    return (f"{m['cpu']}, {m['cores']} cores{mem}; Python {m['python']}, numpy {m['numpy']}; "
+    simd = f" ({m['simd']})" if m.get("simd") else ""
+    return (f"{m['cpu']}{simd}, {m['cores']} cores{mem}; Python {m['python']}, numpy {m['numpy']}; "
             f"load average (1 / 5 / 15 min) {load} when written")
 
 
