@@ -2,7 +2,10 @@
 
 ``Generator.standard_normal(dtype=np.float32)`` costs about 11 ns per sample on the 2-core reference
 machine (the ziggurat's per-sample branch); vectorised Box-Muller on the generator's raw 64-bit words
-costs about 2 ns, more than half of it the generator itself (docs/bench/synth.md).
+costs about 2 ns, more than half of it the generator itself (docs/bench/synth.md). That machine has AVX-512,
+where numpy's float32 tan is vectorised; without it (AVX2 only) numpy runs float32 tan one element at a time,
+13.9 ns an element against 1.6 for sin or cos, and a sample costs about 13 ns, half of it the tangent
+(measured on an AMD EPYC with AVX2; the records' `machine.simd` says which kind ran a benchmark).
 
 A row of n samples takes h = ceil(n / 2) consecutive 64-bit words, read as 2h 32-bit integers (little
 endian: word j gives integers 2j and 2j + 1). Pair j (j < h) takes u = integer j, as u1 = (u + 1/2) 2^-32
