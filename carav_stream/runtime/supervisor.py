@@ -281,10 +281,18 @@ class Supervisor:
             if problems:
                 self.admin.send(pack("swap", ok=False, error="; ".join(problems)))
                 return
-            self.pending_admin = {**req, "params": params, "deadline": time.monotonic() + 30}
-            self.send(node, Control.SWAP, block=block, params=params, id=1)
+            self.pending_admin = {**req, "params": params, "deadline": time.monotonic() + 30, "sent": False}
+            self.deliver_swap()
         else:
             self.admin.send(pack(str(cmd), ok=False, error=f"unknown or busy command {cmd!r}"))
+
+    def deliver_swap(self) -> None:
+        """Send the pending swap to its node once the node is ready: a node still starting (or restarting) has no
+        control connection yet, and the router would drop the request unseen."""
+        req = self.pending_admin
+        if req is not None and not req["sent"] and self.nodes[req["node"]].ready:
+            req["sent"] = True
+            self.send(req["node"], Control.SWAP, block=req["block"], params=req["params"], id=1)
 
     def reply_admin(self, reply: dict[str, Any]) -> None:
         if self.pending_admin is not None:
@@ -507,8 +515,10 @@ class Supervisor:
                     if self.stop_requested and not self.graph.edges_into(n):
                         self.send(n, Control.STOP)
                     self.pending_go.discard(n)
+            self.deliver_swap()
             if self.pending_admin and time.monotonic() > self.pending_admin["deadline"]:
-                self.reply_admin({"ok": False, "error": "the node did not confirm the swap within 30 s"})
+                up = "did not confirm the swap" if self.pending_admin["sent"] else "was not ready for the swap"
+                self.reply_admin({"ok": False, "error": f"the node {up} within 30 s"})
             if all(st.done or st.failed for st in self.nodes.values()):
                 for n, st in self.nodes.items():
                     if st.done:

@@ -161,6 +161,28 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
     assert s["lost"] == 0
 
 
+def test_a_swap_asked_while_the_node_is_still_starting_waits_for_it_instead_of_being_dropped(carav):
+    # the swap goes out as soon as the run exists, the swapped node listed last so it starts last: a request sent
+    # before its control connection was up used to vanish, the swap refused after 30 s
+    body = """
+connections = ["src.out -> t.inp", "t.out -> log.inp"]
+[blocks]
+src = { type = "counter_source", n_values = 1 }
+log = { type = "jsonl_sink", path = "out.jsonl" }
+t = { type = "tagger", tag = "first", offset = 0.5 }
+"""
+    run = carav.run(carav.graph(body), "--cycles", "2000")
+    res = None
+    for _ in range(200):
+        res = carav.cli("swap", "t", "tagger_b", "--set", "factor=3.0", timeout_s=40)
+        if "no running graph" not in res.stderr:
+            break
+    assert res.returncode == 0 and "now tagger_b" in res.stdout, res.stderr
+    assert run.wait(60) == 0, run.stderr()
+    s = run.summary()
+    assert [sw["block"] for sw in s["swaps"]] == ["tagger_b"] and s["lost"] == 0
+
+
 CRASH = """
 connections = ["src.out -> c.inp", "c.out -> log.inp"]
 [run]
