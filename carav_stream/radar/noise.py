@@ -1,11 +1,9 @@
 """Fast float32 Gaussian samples from a numpy Generator's raw bit stream (Box-Muller).
 
-``Generator.standard_normal(dtype=np.float32)`` costs about 11 ns per sample on the 2-core reference
-machine (the ziggurat's per-sample branch); vectorised Box-Muller on the generator's raw 64-bit words
-costs about 2 ns, more than half of it the generator itself (docs/bench/synth.md). That machine has AVX-512,
-where numpy's float32 tan is vectorised; without it (AVX2 only) numpy runs float32 tan one element at a time,
-13.9 ns an element against 1.6 for sin or cos, and a sample costs about 13 ns, half of it the tangent
-(measured on an AMD EPYC with AVX2; the records' `machine.simd` says which kind ran a benchmark).
+``Generator.standard_normal(dtype=np.float32)`` costs about 10 ns per sample (the ziggurat's per-sample
+branch); vectorised Box-Muller on the generator's raw 64-bit words costs about 6 ns on an AVX2 machine
+(AMD EPYC, 2 cores; about 1.5 ns of it the generator itself), measured with the same words by
+`carav bench synth` (docs/bench/synth.md).
 
 A row of n samples takes h = ceil(n / 2) consecutive 64-bit words, read as 2h 32-bit integers (little
 endian: word j gives integers 2j and 2j + 1). Pair j (j < h) takes u = integer j, as u1 = (u + 1/2) 2^-32
@@ -13,10 +11,11 @@ in (0, 1], and v = integer h + j, signed, as the angle theta = 2 pi v 2^-32 in [
 
     r = sqrt(-2 ln u1),   sample j = r cos(theta),   sample h + j = r sin(theta)
 
-evaluated with one tangent instead of a cosine and a sine (exact identities, float32 rounding only):
-t = tan(theta / 2), q = 2 r / (1 + t^2), r cos(theta) = q - r, r sin(theta) = q t. u1 >= 2^-33 bounds |z|
-at 6.8 (P(|N(0,1)| > 6.8) = 1e-11). Each row is filled from its own consecutive block of words, so
-drawing n rows at once gives exactly the rows that n one-row calls give, however the rows are chunked.
+with numpy's float32 ln, cos and sin, which are vectorised on AVX2 and AVX-512 alike (about 1.7 ns an element
+each here; numpy's float32 tan, which an earlier version used to replace the cosine and the sine, runs one
+element at a time without AVX-512: 12.6 ns). u1 >= 2^-33 bounds |z| at 6.8 (P(|N(0,1)| > 6.8) = 1e-11). Each
+row is filled from its own consecutive block of words, so drawing n rows at once gives exactly the rows that
+n one-row calls give, however the rows are chunked.
 
 Work is done a few rows at a time (about ``CHUNK_WORDS`` words, so the raw words, the radii and the
 output of a chunk stay in the core's L2 cache) in a reused scratch buffer per thread: no temporary the
@@ -32,8 +31,7 @@ import numpy as np
 CHUNK_WORDS = 1 << 15                        # 256 KiB of raw words per chunk (at least one row)
 _U32 = np.float32(2.0 ** -32)
 _HALF_U32 = np.float32(2.0 ** -33)
-_HALF_ANGLE = np.float32(np.pi * 2.0 ** -32)
-_LN2 = float(np.log(2.0))
+_ANGLE = np.float32(2.0 * np.pi * 2.0 ** -32)
 _local = threading.local()
 
 
@@ -61,32 +59,29 @@ def standard_normal_rows(rng: np.random.Generator, n_rows: int, n_per_row: int, 
     if n_rows == 0 or n_per_row == 0:
         return out
     folded = 1e-15 < scale < 1e15                # scale^2 stays a normal float32
-    k = np.float32(-8.0 * _LN2 * (scale * scale if folded else 1.0))   # 2 r, with the scale riding on it
+    k = np.float32(-2.0 * (scale * scale if folded else 1.0))   # r^2 = k ln u1, the scale riding on it
     even = 2 * h == n_per_row
     m_max = max(1, CHUNK_WORDS // h)
     bits = rng.bit_generator
     for a in range(0, n_rows, m_max):
         m = min(m_max, n_rows - a)
         u = bits.random_raw(m * h).view(np.uint32).reshape(m, 2 * h)
-        buf = _scratch(m * (2 * h if even else 4 * h))
-        r2, q = buf[:m * h].reshape(m, h), buf[m * h: 2 * m * h].reshape(m, h)
-        z = out[a: a + m] if even else buf[2 * m * h:].reshape(m, 2 * h)
+        buf = _scratch(m * (h if even else 3 * h))
+        r = buf[:m * h].reshape(m, h)
+        z = out[a: a + m] if even else buf[m * h:].reshape(m, 2 * h)
         c, s = z[:, :h], z[:, h:]
-        np.multiply(u[:, :h], _U32, out=r2, dtype=np.float32)        # u1
-        r2 += _HALF_U32
-        np.log2(r2, out=r2)
-        r2 *= k
-        np.sqrt(r2, out=r2)                                           # 2 r
+        np.multiply(u[:, :h], _U32, out=r, dtype=np.float32)         # u1
+        r += _HALF_U32
+        np.log(r, out=r)
+        r *= k
+        np.sqrt(r, out=r)                                            # r
         if not folded:
-            r2 *= np.float32(scale)
-        np.multiply(u[:, h:].view(np.int32), _HALF_ANGLE, out=s, dtype=np.float32)   # theta / 2
-        np.tan(s, out=s)                                              # t
-        np.multiply(s, s, out=q)
-        q += np.float32(1.0)
-        np.divide(r2, q, out=q)                                       # q = 2 r / (1 + t^2)
-        s *= q                                                        # r sin(theta) = q t
-        r2 *= np.float32(0.5)
-        np.subtract(q, r2, out=c)                                     # r cos(theta) = q - r
+            r *= np.float32(scale)
+        np.multiply(u[:, h:].view(np.int32), _ANGLE, out=s, dtype=np.float32)   # theta
+        np.cos(s, out=c)
+        np.sin(s, out=s)
+        c *= r                                                       # r cos(theta)
+        s *= r                                                       # r sin(theta)
         if not even:
             out[a: a + m] = z[:, :n_per_row]
     return out

@@ -21,6 +21,18 @@ def test_noise_pairs_have_chi2_radius_and_uniform_angle():
     assert abs(np.corrcoef(z.ravel()[:-1], z.ravel()[1:])[0, 1]) < 0.01
 
 
+def test_noise_equals_box_muller_of_the_words_in_float64():
+    # independent reference: the module docstring's mapping, evaluated in float64 from the same raw words
+    n_rows, n = 3, 2001
+    h = (n + 1) // 2
+    got = standard_normal_rows(np.random.default_rng(21), n_rows, n, 2.5).astype(np.float64)
+    w = np.random.default_rng(21).bit_generator.random_raw(n_rows * h).view(np.uint32).reshape(n_rows, 2 * h)
+    r = 2.5 * np.sqrt(-2.0 * np.log((w[:, :h] + 0.5) * 2.0 ** -32))
+    theta = 2.0 * np.pi * w[:, h:].view(np.int32) * 2.0 ** -32
+    ref = np.concatenate([r * np.cos(theta), r * np.sin(theta)], axis=1)[:, :n]
+    np.testing.assert_allclose(got, ref, rtol=0, atol=2e-6 * 2.5 * 6.8)
+
+
 def test_noise_tails_match_the_gaussian():
     z = standard_normal_rows(np.random.default_rng(12), 20, 100_000).ravel()
     for k in (2.0, 3.0):
