@@ -22,6 +22,7 @@ from carav_stream.radar.activation import ActivationSource
 from carav_stream.radar.adc import adc
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene_loader import load_scene
+from carav_stream.radar.streams import seed_streams
 from carav_stream.radar.synth import _add_echo, draw_noise, simulate_cycles
 
 ATTACKERS = {"none": None, "random": {"rarms": 3.0}, "ghost": {"range_m": 30.0, "rarms": 3.0},
@@ -53,7 +54,8 @@ def time_case(preset: str, fidelity: str, attacker: str, iq: bool, n_cycles: int
     src = ActivationSource("seeded", seed=1)
     params = ATTACKERS[attacker]
     att = make_attacker(attacker, scene, **params) if params is not None else None
-    rng_n, rng_a = np.random.default_rng(1), np.random.default_rng(2)
+    streams = seed_streams(1)                     # the generators a run's channel and attacker draw from
+    rng_n, rng_a = streams.noise, streams.attack
     cycle = 0
 
     def batch() -> tuple[float, float]:
@@ -81,7 +83,7 @@ def time_stages(preset: str, iq: bool, repeats: int) -> list[dict]:
     """Where one beat-fidelity cycle goes: noise, echo, ADC (median of ``repeats`` x 20 single cycles)."""
     scene = load_scene(preset, {"iq": iq})
     rho = ActivationSource("seeded", seed=1).next(1, scene.n_chirps)
-    rng = np.random.default_rng(0)
+    rng = seed_streams(0).noise
     rx = draw_noise(scene, rng, 1)
     stages = {"noise": lambda: draw_noise(scene, rng, 1), "echo": lambda: _add_echo(scene, rx, rho, "beat"),
               "adc": lambda: adc(scene, rx), "total": lambda: simulate_cycles(scene, rho, rng, fidelity="beat")}
