@@ -40,15 +40,13 @@ class AdcFramer(Block):
         self.scene_obj = scene_of(self.scene)
 
     def process(self, rx: Frame, attack: Frame | None = None) -> Frame:
-        x, per, extra = rx.payload, {}, {}
+        x, a, per, extra = rx.payload, None, {}, {}
         if attack is not None:
             a, per["attack_active"] = self.attack_of(rx, attack)
-            if a is not None:
-                x = x + a
             extra["attack_model"] = attack.header.get("attack_model", "unknown")
         out = None if adc_step(self.scene_obj) is None else self.output_buffer(   # in its shared-memory slot
             "frames", x.shape + (2,) if self.scene_obj.iq else x.shape, np.int16)
-        codes, clipped, nonfinite = adc_codes(self.scene_obj, x, out)
+        codes, clipped, nonfinite = adc_codes(self.scene_obj, x, out, add=a)   # codes of x + a
         per["clipped"] = clipped.tolist()
         per["nonfinite"] = nonfinite.tolist()   # NaN/Inf samples at the input: the detector judges the cycle invalid
         return rx.derive(codes, per_cycle=per, **extra)

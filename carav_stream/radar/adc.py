@@ -41,7 +41,11 @@ def with_nonfinite(frames: np.ndarray, rx: np.ndarray, nonfinite: np.ndarray) ->
     return frames
 
 
-def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+CHUNK_ELEMENTS = 1 << 16   # float32 elements of rx quantised at a time (256 KiB: stays in the core's L2 cache)
+
+
+def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
+              add: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the ADC delivers: integer codes, int16 (n_cycles, n_chirps, n_samples), or for I/Q
     (n_cycles, n_chirps, n_samples, 2) with I then Q; clipped as in :func:`adc`; and nonfinite, int64
     (n_cycles,): samples whose I or Q was NaN or Inf at the ADC input (a simulation fault, not a signal: their
@@ -50,43 +54,59 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None) -> tu
     within about 1e-4 LSB of a half code (near full scale) may round to the other neighbour than exact
     arithmetic would. An ideal ADC (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx
     instead (float32 | complex64; non-finite samples stay as they are and are counted). ``out``: an int16 array
-    of the codes' shape to write them into (ignored for an ideal ADC).
+    of the codes' shape to write them into (ignored for an ideal ADC). ``add``: a signal of rx's dtype that
+    broadcasts to rx (the attack, (1 | n_cycles, 1 | n_chirps, n_samples)), added at the ADC input: the codes
+    of ``rx + add`` without that sum's temporary. Work goes a few cycles at a time (``CHUNK_ELEMENTS``), so
+    the intermediate values stay in cache: the same numbers as one pass over the whole batch.
     """
     n_cycles = rx.shape[0]
+    if add is not None and (add.dtype != rx.dtype or add.ndim != rx.ndim
+                            or any(d not in (1, r) for d, r in zip(add.shape, rx.shape))):
+        raise ValueError(f"adc_codes: add must be {rx.dtype} broadcasting to {rx.shape}, got {add.dtype} {add.shape}")
     lsb = adc_step(scene)
     if lsb is None:
+        rx = rx.copy() if add is None else rx + add
         flat = rx.reshape(n_cycles, -1)
         nonfinite = np.zeros(n_cycles, dtype=np.int64)
         for i in np.flatnonzero(~np.isfinite(flat.sum(axis=1))):
             nonfinite[i] = np.count_nonzero(~np.isfinite(flat[i]))
-        return rx.copy(), np.zeros(n_cycles, dtype=np.int64), nonfinite
+        return rx, np.zeros(n_cycles, dtype=np.int64), nonfinite
     hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
     lo = np.float32(-(2 ** (scene.adc_bits - 1)))
-    codes = np.multiply(rx.view(np.float32), np.float32(1.0 / lsb))   # complex64 -> interleaved I, Q
-    np.rint(codes, out=codes)
-    flat = codes.reshape(n_cycles, math.prod(codes.shape[1:]))
-    clipped = np.zeros(n_cycles, dtype=np.int64)
-    nonfinite = np.zeros(n_cycles, dtype=np.int64)
-    # two fast reductions find the cycles that hit a rail or hold a NaN/Inf (NaN propagates through max);
-    # only those are counted and fixed
-    top, bottom = flat.max(axis=1, initial=lo), flat.min(axis=1, initial=hi)
-    for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
-        row = flat[i]
-        bad = ~np.isfinite(row)
-        over = ((row > hi) | (row < lo)) & ~bad
-        row[bad] = 0.0
-        np.clip(row, lo, hi, out=row)
-        if scene.iq:   # a sample's I and Q flags share two bytes: any -> != 0
-            over, bad = over.view(np.uint16), bad.view(np.uint16)
-        clipped[i] = np.count_nonzero(over)
-        nonfinite[i] = np.count_nonzero(bad)
+    scale = np.float32(1.0 / lsb)
     shape = rx.shape + (2,) if scene.iq else rx.shape
     if out is None:
-        out = codes.astype(np.int16).reshape(shape)
+        out = np.empty(shape, np.int16)
     elif out.dtype != np.int16 or out.shape != shape:
         raise ValueError(f"adc_codes: out must be int16 of shape {shape}, got {out.dtype} {out.shape}")
-    else:
-        np.copyto(out, codes.reshape(shape), casting="unsafe")
+    per = math.prod(shape[1:])                                     # float32 values (I, Q interleaved) a cycle
+    clipped = np.zeros(n_cycles, dtype=np.int64)
+    nonfinite = np.zeros(n_cycles, dtype=np.int64)
+    step = max(1, CHUNK_ELEMENTS // max(per, 1))
+    buf = np.empty(min(step, n_cycles) * per, np.float32)
+    for a in range(0, n_cycles, step):
+        b = min(a + step, n_cycles)
+        codes = buf[:(b - a) * per].reshape(b - a, per)
+        if add is None:
+            np.multiply(rx[a:b].reshape(b - a, -1).view(np.float32), scale, out=codes)   # complex64 -> I, Q
+        else:
+            np.add(rx[a:b], add if add.shape[0] == 1 else add[a:b], out=codes.view(rx.dtype).reshape(rx[a:b].shape))
+            codes *= scale
+        np.rint(codes, out=codes)
+        # two fast reductions find the cycles that hit a rail or hold a NaN/Inf (NaN propagates through max);
+        # only those are counted and fixed
+        top, bottom = codes.max(axis=1, initial=lo), codes.min(axis=1, initial=hi)
+        for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
+            row = codes[i]
+            bad = ~np.isfinite(row)
+            over = ((row > hi) | (row < lo)) & ~bad
+            row[bad] = 0.0
+            np.clip(row, lo, hi, out=row)
+            if scene.iq:   # a sample's I and Q flags share two bytes: any -> != 0
+                over, bad = over.view(np.uint16), bad.view(np.uint16)
+            clipped[a + i] = np.count_nonzero(over)
+            nonfinite[a + i] = np.count_nonzero(bad)
+        np.copyto(out[a:b], codes.reshape((b - a,) + shape[1:]), casting="unsafe")
     return out, clipped, nonfinite
 
 

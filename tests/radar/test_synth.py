@@ -374,6 +374,31 @@ def test_channel_and_adc_codes_computed_into_a_given_array_equal_their_own_bit_f
         adc_codes(scene, own, into.astype(np.int32))
 
 
+@pytest.mark.parametrize("iq", [False, True])
+@pytest.mark.parametrize("chunk", [1, 700, 1 << 16])
+@pytest.mark.parametrize("rows", ["every_cycle", "one_row"])
+def test_adc_codes_of_a_sum_equal_the_codes_of_the_summed_signal_however_chunked(monkeypatch, small_scene, iq,
+                                                                                  chunk, rows):
+    """add= (the attack at the ADC input) gives the codes, clip and NaN counts of rx + add computed first, and
+    the chunk size (cycles quantised at a time) changes nothing, clipping and non-finite samples included."""
+    from carav_stream.radar import adc as adc_mod
+    scene = small_scene(iq=iq, adc_bits=12)
+    rho = ActivationSource("seeded", seed=4).next(5, scene.n_chirps)
+    rx = synth.channel(scene, synth.transmit(scene, rho, 0, "beat"), np.random.default_rng(2), 0)
+    a = (np.random.default_rng(3).standard_normal((5 if rows == "every_cycle" else 1, 1, rx.shape[2]))
+         * 40 * scene.adc_full_scale).astype(rx.dtype)
+    rx[1, 0, 3] = np.nan
+    rx[3, 1, 0] = np.inf
+    want = adc_mod.adc_codes(scene, rx + a)
+    monkeypatch.setattr(adc_mod, "CHUNK_ELEMENTS", chunk)
+    got = adc_mod.adc_codes(scene, rx, add=a)
+    assert want[1].sum() > 0 and want[2][1] == 1 and want[2][3] == 1
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+    with pytest.raises(ValueError, match="add must be"):
+        adc_mod.adc_codes(scene, rx, add=a[..., :-1])
+
+
 def test_if_filter_removes_an_echo_beyond_the_band_and_without_it_the_echo_folds():
     # awr1642_literal: the 20 m target beats at 10.4 MHz, beyond the 5 MHz I-only band. Its scene has no anti-alias
     # filter (MATLAB's example), so the beat fidelity folds the echo back; with the filter nothing of it is left.
