@@ -104,6 +104,8 @@ def time_stages(preset: str, iq: bool, repeats: int) -> list[dict]:
 def run(args: argparse.Namespace) -> int:
     presets = [p.strip() for p in args.presets.split(",") if p.strip()]
     records = []
+    if not bench_records.use_node_allocator():
+        print("note: glibc's mallopt is not available: timed with this allocator's defaults, not a node's")
     print(f"{'preset':<10} {'fidelity':<9} {'attacker':<18} {'iq':<3} {'us/cycle':>9} {'cycles/s':>9} "
           f"{'radar/s':>8} {'x realtime':>10} {'cpu us':>7} {'cold ms':>8}")
     for preset, fidelity, attacker, iq in cases(presets, args.quick):
