@@ -375,7 +375,7 @@ def test_channel_and_adc_codes_computed_into_a_given_array_equal_their_own_bit_f
 
 
 @pytest.mark.parametrize("iq", [False, True])
-@pytest.mark.parametrize("chunk", [1, 700, 1 << 16])
+@pytest.mark.parametrize("chunk", [1, 5000, 9000, 1 << 16])   # 1, 2 or 4 cycles at a time, or all 5
 @pytest.mark.parametrize("rows", ["every_cycle", "one_row"])
 def test_adc_codes_of_a_sum_equal_the_codes_of_the_summed_signal_however_chunked(monkeypatch, small_scene, iq,
                                                                                   chunk, rows):
