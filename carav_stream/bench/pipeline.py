@@ -85,6 +85,12 @@ def _run(graph, n: int, what: str) -> dict:
     return summary
 
 
+def outside_blocks(summary: dict, n: int) -> dict[str, float]:
+    """us per cycle each node spends outside its block from its first frame on (the ZeroMQ I/O thread, decoding,
+    pairing, sending, shared-memory slots, control): what only the pipeline spends, beside the kernels."""
+    return {node: max(p["cpu_working_s"] - p["busy_s"], 0.0) / n * 1e6 for node, p in summary["per_node"].items()}
+
+
 def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, transport: str,
               record_to: Path | None = None) -> tuple[float, dict, dict]:
     """cycles/s, busy us per cycle by node, and the run summary; with record_to, the graph with its recorder
@@ -147,11 +153,13 @@ def run(args: argparse.Namespace) -> int:
             runs = {(m, t): [] for m in MODES if m in modes
                     for t in (args.transport if m == "pipeline" else ["none"] if m == "fused" else [first])}
             busy_runs, fused_cpu, bytes_per_cycle = {k: [] for k in runs}, [], None
+            outside_runs = {t: [] for t in args.transport}
             for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
                 for transport in args.transport:
-                    rate, busy, _ = _pipeline(preset, fidelity, n, args.method, batch, transport)
+                    rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, transport)
                     runs[("pipeline", transport)].append(rate)
                     busy_runs[("pipeline", transport)].append(busy)
+                    outside_runs[transport].append(outside_blocks(summary, n))
                 rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
                 runs[("fused", "none")].append(rate)
                 fused_cpu.append(cpu_us)
@@ -181,6 +189,11 @@ def run(args: argparse.Namespace) -> int:
                     rec["bottleneck_node"] = bottleneck = max(busy, key=busy.get)
                     rec["busy_us_per_cycle"] = busy
                     note = f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)"
+                    if mode == "pipeline":
+                        o_runs = outside_runs[transport]
+                        rec["outside_us_per_cycle"] = outside = {
+                            node: statistics.median(o[node] for o in o_runs) for node in o_runs[0]}
+                        note += f"  outside the blocks {sum(outside.values()):.0f} us/cycle"
                 if mode in ("record", "replay"):
                     rec["bytes_per_cycle"] = bytes_per_cycle
                     rec["ratio_to_pipeline"] = rate / statistics.median(runs[("pipeline", transport)])

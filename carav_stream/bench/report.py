@@ -244,11 +244,14 @@ def pipeline_rows(doc: dict) -> list[Row]:
 
 def pipeline_table(doc: dict) -> list[str]:
     lines = ["| preset | fidelity | batch | mode | transport | cycles/s (runs) | x real time | x fused "
-             "| bottleneck (busy us/cycle) or CPU us/cycle |", "|---|---|---:|---|---|---|---:|---:|---|"]
+             "| bottleneck (busy us/cycle) or CPU us/cycle; the nodes' CPU outside their blocks (us/cycle) |",
+             "|---|---|---:|---|---|---|---:|---:|---|"]
     for r in doc["records"]:
         runs = ", ".join(f"{x:.0f}" for x in r["runs_cycles_per_s"])
         extra = (f"{r['bottleneck_node']} ({r['busy_us_per_cycle'][r['bottleneck_node']]:.0f})"
                  if "bottleneck_node" in r else f"{r['cpu_us_per_cycle']:.0f} CPU")
+        if "outside_us_per_cycle" in r:
+            extra += f"; outside the blocks {sum(r['outside_us_per_cycle'].values()):.0f}"
         if "bytes_per_cycle" in r:
             extra += f"; {r['bytes_per_cycle'] / 1e3:.1f} kB/cycle on disk"
         lines.append(f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} "

@@ -95,6 +95,7 @@ class NodeRunner:
         self.consumed = 0                                # input frames handed to the block
         self.cycles = spec.start_cycles                  # cycles those frames carried (header `cycles`)
         self.busy_s = 0.0                                # CPU time spent inside the block's own code
+        self.cpu_at_first_s: float | None = None          # the process's CPU time when the first frame came
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
         self.next_hb = 0.0
@@ -145,6 +146,9 @@ class NodeRunner:
                 "undeliverable": dict(self.outputs.c_undeliverable), "skipped": dict(self.outputs.c_skipped),
                 "processed": self.processed, "consumed": self.consumed, "cycles": self.cycles, "busy_s": self.busy_s,
                 "cpu_s": time.process_time(),           # the whole node process, ZeroMQ I/O thread included
+                # the same from the first frame on: start-up left out, so working - busy is what the node spends
+                # outside its block (decoding, pairing, sending, shared-memory slots, control)
+                "cpu_working_s": 0.0 if self.cpu_at_first_s is None else time.process_time() - self.cpu_at_first_s,
                 "block": self.block_type, "generation": self.generation,
                 **({"shm": {p: w.counters() for p, w in self.writers.items()}} if self.writers else {})}
 
@@ -324,6 +328,8 @@ class NodeRunner:
         self.seq = seq = context.header["seq"]
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
+        if self.cpu_at_first_s is None:
+            self.cpu_at_first_s = time.process_time()
         t0 = time.thread_time()
         if what == "process":
             if self.direct:
@@ -353,6 +359,8 @@ class NodeRunner:
             if not self.within_lease():
                 continue
             self.block.cycle_budget = max_cycles - self.cycles if max_cycles else None
+            if self.cpu_at_first_s is None:
+                self.cpu_at_first_s = time.process_time()
             t0 = time.thread_time()
             result = self.block.generate(self.seq)
             self.busy_s += time.thread_time() - t0

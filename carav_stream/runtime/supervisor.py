@@ -558,7 +558,8 @@ class Supervisor:
         per_node: dict[str, Any] = {}
         for n, st in self.nodes.items():
             per_node[n] = {"block": st.spec.type,
-                           **{k: st.total(k) for k in (*PER_PORT_COUNTERS, "processed", "cycles", "busy_s", "cpu_s")},
+                           **{k: st.total(k) for k in (*PER_PORT_COUNTERS, "processed", "cycles", "busy_s", "cpu_s",
+                                                           "cpu_working_s")},
                            "restarts": st.restarts, "failed": st.failed, "history": st.history}
         lost = 0
         edge_loss = {}

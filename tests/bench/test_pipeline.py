@@ -33,6 +33,9 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
     for r in records:
         assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
     assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")
+    # what each node spends outside its block: one figure per node, and a node moving frames spends some
+    assert all(set(r["outside_us_per_cycle"]) == set(r["busy_us_per_cycle"]) and r["outside_us_per_cycle"]["gate"] > 0
+               for r in records if r["mode"] == "pipeline")
     assert all(r["cpu_us_per_cycle"] > 0 for r in records if r["mode"] == "fused")   # measured in its own process
     # on disk: awr1642's 128 chirps x 256 real int16 codes per cycle, nothing else
     assert all(r["bytes_per_cycle"] == 128 * 256 * 2 for r in records if r["mode"] in ("record", "replay"))

@@ -39,6 +39,8 @@ def test_fan_out_and_pairing_deliver_every_frame_once_in_order(carav):
     assert s["per_node"]["src"]["sent"] == {"src.out -> t.inp": n, "src.out -> add.b": n}
     assert s["throughput_cycles_per_s"] > 0 and s["per_node"]["log"]["history"][0]["summary"] == {"lines": n}
     assert all(p["busy_s"] > 0 and p["cpu_s"] > 0 for p in s["per_node"].values())   # time in blocks, process CPU
+    # CPU from the first frame on holds the block's time and leaves the start-up (imports) out
+    assert all(p["busy_s"] <= p["cpu_working_s"] < p["cpu_s"] for p in s["per_node"].values()), s["per_node"]
 
 
 def test_frames_carrying_several_cycles_are_counted_as_cycles_and_the_last_is_sized_to_the_budget(carav):
