@@ -149,8 +149,24 @@ class NodeRunner:
                 # the same from the first frame on: start-up left out, so working - busy is what the node spends
                 # outside its block (decoding, pairing, sending, shared-memory slots, control)
                 "cpu_working_s": 0.0 if self.cpu_at_first_s is None else time.process_time() - self.cpu_at_first_s,
-                "block": self.block_type, "generation": self.generation,
+                "block": self.block_type, "generation": self.generation, "state": self.state(),
                 **({"shm": {p: w.counters() for p, w in self.writers.items()}} if self.writers else {})}
+
+    def state(self) -> str:
+        """What the node is doing, in one line: for the supervisor's report on a run that does not drain."""
+        waiting = [p for p, w in self.writers.items() if w.waiting]
+        if self.outputs.blocked_on:
+            what = f"sending on {self.outputs.blocked_on}"
+        elif waiting:
+            what = f"waiting for a free shared-memory slot on {', '.join(waiting)}"
+        elif self.outputs.eos_sent:
+            what = "finished, waiting to be released"
+        elif self.cls.is_source():
+            what = "stopping" if self.ctl.stopping else f"generating (seq lease up to {self.ctl.seq_lease})"
+        else:
+            what = "waiting for input"
+        inputs = f"; inputs {self.pairing.describe()}" if self.in_ports else ""
+        return f"{what}; seq {self.seq}{inputs}"
 
     def idle(self) -> None:
         """Serve control messages and heartbeats at most every CONTROL_S; called between frames and every

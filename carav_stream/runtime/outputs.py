@@ -45,6 +45,7 @@ class Outputs:
         self.c_undeliverable = collections.Counter()
         self.c_skipped = collections.Counter()    # per tap edge: frames skipped because its queue was full
         self.eos_sent = False
+        self.blocked_on: str | None = None        # the edge a send is waiting on (full queue, resume): diagnostics
 
     def send(self, port: str, parts: list[Any], seq: int) -> list[str]:
         """Send one encoded frame on every edge of `port`, blocking under back-pressure; the edges that did not
@@ -89,21 +90,26 @@ class Outputs:
         """Send on edge i of `port`, blocking under back-pressure; on the fresh connection if its consumer was
         restarted meanwhile. False only if the edge was cut (its consumer died for good)."""
         edges = self.sockets[port]
-        while True:
-            edge, sock = edges[i]
-            if edge in self.cut:
-                return False
-            if edge in self.reconnect:          # not resumed yet (no room for the marker): resume retries
-                time.sleep(self.tick_s)
-                self.idle()
-                continue
-            try:
-                self._send(sock, parts)
-                return True
-            except zmq.Again:
-                self.idle()
+        try:
+            while True:
+                edge, sock = edges[i]
                 if edge in self.cut:
                     return False
+                if edge in self.reconnect:          # not resumed yet (no room for the marker): resume retries
+                    self.blocked_on = f"{edge} (waiting to resume)"
+                    time.sleep(self.tick_s)
+                    self.idle()
+                    continue
+                try:
+                    self._send(sock, parts)
+                    return True
+                except zmq.Again:
+                    self.blocked_on = f"{edge} (queue full)"
+                    self.idle()
+                    if edge in self.cut:
+                        return False
+        finally:
+            self.blocked_on = None
 
     def resume_all(self, marker: Callable[[str, str], list[list[Any]]]) -> None:
         """Connect afresh to every restarted consumer and send it `marker(port, edge)` first (the resume marker,

@@ -99,6 +99,17 @@ class Pairing:
             return buf[0].seq > seq
         return port in self.eos or self.last_seq.get(port, -1) >= seq
 
+    def describe(self) -> str:
+        """One line on each input: frames buffered (from which seq), the last seq received, end of stream."""
+        out = []
+        for p, b in self.buffers.items():
+            ended = "" if p not in self.eos else (" ended (upstream gone)" if self.eos[p] is None
+                                                   else f" ended after {self.eos[p]} frames")
+            head = f" from seq {b[0].seq}" if b else ""
+            out.append(f"{p}: {len(b)} buffered{head}, last seq {self.last_seq.get(p)}{ended}")
+        handled = f"; handed on up to seq {self.handled}" if self.handled >= 0 else ""
+        return "; ".join(out) + handled + ("; recovering" if self.recovering else "")
+
     def given_up(self) -> bool:
         """In recovery only: a full buffer has waited stall_s for an empty partner input, which in a graph that
         lost frames with a crashed node means the partner is gone (and the graph is stalled)."""

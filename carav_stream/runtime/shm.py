@@ -147,6 +147,7 @@ class SlotWriter:
         self.c_full = 0           # ... of which for want of a free slot
         self.c_in_place = 0       # frames whose payload the block computed in its slot (reserve)
         self.base = 0             # address of slot 0 in this process
+        self.waiting = False      # waiting for a free slot (diagnostics)
 
     def place(self, buffers: list[Any], ignore: int = 0, wait_s: float = 0.0,
               idle: Callable[[], None] | None = None) -> list[int] | None:
@@ -237,12 +238,16 @@ class SlotWriter:
         if slot is None and wait_s > 0:      # back-pressure: consumers give slots back as they finish frames
             deadline = time.monotonic() + wait_s
             pause = 5e-5
-            while slot is None and time.monotonic() < deadline:
-                if idle is not None:
-                    idle()
-                time.sleep(pause)
-                pause = min(2 * pause, 1e-3)
-                slot = self.free_slot(ignore)
+            self.waiting = True
+            try:
+                while slot is None and time.monotonic() < deadline:
+                    if idle is not None:
+                        idle()
+                    time.sleep(pause)
+                    pause = min(2 * pause, 1e-3)
+                    slot = self.free_slot(ignore)
+            finally:
+                self.waiting = False
         return slot
 
     def held(self, ignore: int = 0) -> np.ndarray:

@@ -531,8 +531,10 @@ class Supervisor:
                 self.stop_deadline = time.monotonic() + self.graph.run["drain_timeout_s"]
             if self.stop_requested and time.monotonic() > self.stop_deadline:
                 late = [n for n, st in self.nodes.items() if not (st.done or st.failed)]
+                # what each was doing at its last heartbeat: which edge it was blocked on, which seqs it held
+                states = "".join(f"\n  {n}: {self.nodes[n].counters.get('state', 'no heartbeat yet')}" for n in late)
                 self.failures.append(f"drain deadline of {self.graph.run['drain_timeout_s']:.0f} s passed; "
-                                     f"killed {late}")
+                                     f"killed {late}; their last reported state:{states}")
                 break
             if self.signals >= 2:
                 self.failures.append("killed by a second interrupt")

@@ -265,6 +265,39 @@ def test_status_and_stop_commands_reach_the_running_graph(carav):
     assert "no running graphs" in carav.cli("status").stdout
 
 
+@pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
+def test_a_run_that_cannot_drain_is_killed_at_its_deadline_and_says_where_each_node_stood(carav):
+    """A consumer that takes 3 s a frame keeps the source blocked on a full queue after `carav stop`: at the
+    drain deadline the supervisor kills what is left, fails the run and names, for each node it killed, what
+    that node was doing at its last heartbeat (the edge it was blocked on, the seqs it held)."""
+    body = """
+connections = ["src.out -> t.inp", "t.out -> log.inp"]
+[run]
+queue_frames = 2
+drain_timeout_s = 2.0
+[blocks]
+src = { type = "counter_source", rows = 64, n_values = 1100 }
+t = { type = "tagger", delay_s = 3.0 }
+log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
+"""
+    run = carav.run(carav.graph(body))
+
+    def blocked():
+        st = carav.cli("status", "--json", timeout_s=10)
+        if st.returncode != 0 or not st.stdout.strip().startswith("["):
+            return False
+        return any("queue full" in s["nodes"]["src"]["counters"].get("state", "") for s in json.loads(st.stdout))
+    wait_until(blocked, 30, "the source to block on t's full queue")
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(60) == 1, run.stderr()
+    (failure,) = [f for f in run.summary()["failures"] if "drain deadline" in f]
+    assert failure.startswith("drain deadline of 2 s passed; killed ['src', 't', 'log']"), failure
+    states = dict(line.strip().split(": ", 1) for line in failure.splitlines()[1:])
+    assert states["src"].startswith("sending on src.out -> t.inp (queue full); seq "), failure
+    assert states["log"].startswith("waiting for input; seq ") and "inp: 0 buffered" in states["log"], failure
+    assert "inp: " in states["t"] and "last seq " in states["t"], failure
+
+
 def inject_into_t_then_stop(carav, run, bad: list[list]) -> str:
     """Push the messages `bad` into the running graph's t.inp from outside; once every one is reported rejected and
     100 more frames went through, stop the graph (it must end cleanly); its stderr."""

@@ -116,3 +116,16 @@ def test_merging_inputs_hands_on_every_frame_alone_in_arrival_order_per_port():
     while (nxt := pairing.next_set(merge=True)) is not None:
         got.append((nxt[2], nxt[1][0].seq))
     assert sorted(got) == [("a", 0), ("a", 1), ("b", 5)] and [s for p, s in got if p == "a"] == [0, 1]
+
+
+def test_describe_names_each_input_s_buffered_frames_last_seq_and_end_of_stream():
+    """The line the supervisor prints for a node that did not drain in time (supervisor: drain deadline)."""
+    node = Node(limit=8, recovering=True)
+    node.feed("a", 0, 1, 2)
+    node.feed("b", 0)
+    node.feed("b", seq=5, eos=True, count=1)
+    assert node.pairing.describe() == ("a: 0 buffered, last seq 2; b: 0 buffered, last seq 0 ended after 1 frames; "
+                                       "handed on up to seq 2; recovering")
+    fresh = Node()
+    fresh.feed("b", 3, 4)
+    assert fresh.pairing.describe() == "a: 0 buffered, last seq None; b: 2 buffered from seq 3, last seq 4"
