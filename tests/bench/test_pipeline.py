@@ -1,5 +1,6 @@
 """`carav bench pipeline`: the shipped radar chain graph against run_algorithm1 in one process."""
 import json
+import statistics
 
 import pytest
 
@@ -37,6 +38,11 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
     assert all(set(r["outside_us_per_cycle"]) == set(r["busy_us_per_cycle"]) and r["outside_us_per_cycle"]["gate"] > 0
                for r in records if r["mode"] == "pipeline")
     assert all(r["cpu_us_per_cycle"] > 0 for r in records if r["mode"] == "fused")   # measured in its own process
+    # against the fused chain of the same repeat, repeat by repeat, and the median of those ratios
+    fused = {r["batch"]: r["runs_cycles_per_s"] for r in records if r["mode"] == "fused"}
+    for r in records:
+        assert r["runs_speedup_over_fused"] == [x / f for x, f in zip(r["runs_cycles_per_s"], fused[r["batch"]])]
+        assert r["speedup_over_fused"] == statistics.median(r["runs_speedup_over_fused"])
     # on disk: awr1642's 128 chirps x 256 real int16 codes per cycle, nothing else
     assert all(r["bytes_per_cycle"] == 128 * 256 * 2 for r in records if r["mode"] in ("record", "replay"))
     assert all("recorder" in r["busy_us_per_cycle"] for r in records if r["mode"] == "record")
