@@ -204,7 +204,8 @@ def run(args: argparse.Namespace) -> int:
                     note += f"  {bytes_per_cycle} B/cycle on disk, x{rec['ratio_to_pipeline']:.2f} live graph"
                 records.append(rec)
                 print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {transport:<4} {rate:9.1f} cycles/s  "
-                      f"real-time x{rate / rate_radar:6.3f}  vs fused x{rec['speedup_over_fused']:5.2f}{note}", flush=True)
+                      f"real-time x{rate / rate_radar:6.3f}  vs fused x{rec['speedup_over_fused']:5.2f}{note}",
+                      flush=True)
     if args.json:
         bench_records.write(args.json, args, records)
     return 0
