@@ -25,6 +25,19 @@ log = {{ type = "jsonl_sink", path = "out.jsonl" }}
 """
 
 
+# a chain moving 64 x 1100 frames through queues of 2 frames, its tagger taking `delay` per frame
+LARGE_FRAME_CHAIN = """
+connections = ["src.out -> t.inp", "t.out -> log.inp"{edges}]
+[run]
+queue_frames = 2
+{run}
+[blocks]
+src = {{ type = "counter_source", rows = 64, n_values = 1100 }}
+t = {{ type = "tagger", delay_s = {delay} }}
+log = {{ type = "jsonl_sink", path = "out.jsonl", max_values = 0 }}
+{blocks}"""
+
+
 def test_fan_out_and_pairing_deliver_every_frame_once_in_order(carav):
     n = 3000
     run = carav.run(carav.graph(CHAIN.format(cycles=n, delay=0.0)))
@@ -63,16 +76,7 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
 @pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_slow_consumer_slows_the_producer_and_nothing_is_dropped(carav):
     n = 300
-    body = """
-connections = ["src.out -> t.inp", "t.out -> log.inp"]
-[run]
-cycles = %d
-queue_frames = 2
-[blocks]
-src = { type = "counter_source", rows = 64, n_values = 1100 }
-t = { type = "tagger", delay_s = 0.01 }
-log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
-""" % n  # noqa: UP031 (the TOML braces would need doubling in a format string)
+    body = LARGE_FRAME_CHAIN.format(edges="", run=f"cycles = {n}", delay=0.01, blocks="")
     run = carav.run(carav.graph(body))
     gaps = []
 
@@ -99,17 +103,8 @@ def test_a_slow_tap_never_slows_the_chain_and_what_it_skips_is_counted_skipped_n
     """The same slow consumer as above, but on a tap input beside a fast chain: the producer does not wait for
     it; the tap sees an increasing subset of the frames and every other frame is counted skipped on its edge."""
     n = 400
-    body = """
-connections = ["src.out -> t.inp", "t.out -> log.inp", "src.out -> view.inp"]
-[run]
-cycles = %d
-queue_frames = 2
-[blocks]
-src = { type = "counter_source", rows = 64, n_values = 1100 }
-t = { type = "tagger" }
-log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
-view = { type = "slow_tap", delay_s = 0.02, path = "seen.txt" }
-""" % n  # noqa: UP031
+    body = LARGE_FRAME_CHAIN.format(edges=', "src.out -> view.inp"', run=f"cycles = {n}", delay=0.0,
+                                    blocks='view = { type = "slow_tap", delay_s = 0.02, path = "seen.txt" }')
     run = carav.run(carav.graph(body))
     assert run.wait(60) == 0, run.stderr()
     s = run.summary()
@@ -270,16 +265,7 @@ def test_a_run_that_cannot_drain_is_killed_at_its_deadline_and_says_where_each_n
     """A consumer that takes 3 s a frame keeps the source blocked on a full queue after `carav stop`: at the
     drain deadline the supervisor kills what is left, fails the run and names, for each node it killed, what
     that node was doing at its last heartbeat (the edge it was blocked on, the seqs it held)."""
-    body = """
-connections = ["src.out -> t.inp", "t.out -> log.inp"]
-[run]
-queue_frames = 2
-drain_timeout_s = 2.0
-[blocks]
-src = { type = "counter_source", rows = 64, n_values = 1100 }
-t = { type = "tagger", delay_s = 3.0 }
-log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
-"""
+    body = LARGE_FRAME_CHAIN.format(edges="", run="drain_timeout_s = 2.0", delay=3.0, blocks="")
     run = carav.run(carav.graph(body))
 
     def blocked():
