@@ -91,6 +91,17 @@ def outside_blocks(summary: dict, n: int) -> dict[str, float]:
     return {node: max(p["cpu_working_s"] - p["busy_s"], 0.0) / n * 1e6 for node, p in summary["per_node"].items()}
 
 
+def ceiling(busy: dict[str, float], outside: dict[str, float], cores: int) -> tuple[float, str]:
+    """The most cycles/s a graph whose nodes spend these CPU times per cycle (us, inside and outside their blocks)
+    can make on `cores` cores, its stages overlapping perfectly: a node works on one core at a time, so it allows
+    1 / (its CPU per cycle), and all of them share the cores, which allow cores / (the sum). Returns (cycles/s,
+    what binds: the node's name, or "N cores")."""
+    per_node = {node: busy[node] + outside.get(node, 0.0) for node in busy}
+    node = max(per_node, key=per_node.get)
+    one_node, shared = 1e6 / per_node[node], cores * 1e6 / sum(per_node.values())
+    return (one_node, node) if one_node <= shared else (shared, f"{cores} cores")
+
+
 def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, transport: str,
               record_to: Path | None = None) -> tuple[float, dict, dict]:
     """cycles/s, busy us per cycle by node, and the run summary; with record_to, the graph with its recorder

@@ -5,7 +5,7 @@ import statistics
 import pytest
 
 from carav_graphs import graph_file
-from carav_stream.bench.pipeline import pipeline_overrides
+from carav_stream.bench.pipeline import ceiling, pipeline_overrides
 from carav_stream.cli import main as carav
 from carav_stream.runtime.loader import load_graph
 
@@ -16,6 +16,18 @@ def test_the_benchmark_runs_the_shipped_radar_chain_with_only_its_case_set():
     assert g.nodes["attacker"].params["model"] == "smart" and g.nodes["attacker"].params["start_cycle"] == 50
     assert g.nodes["ranging"].params["method"] == "fft_peak"
     assert [str(e) for e in g.edges] == [str(e) for e in load_graph(graph_file("radar_chain")).edges]
+
+
+@pytest.mark.parametrize("busy, outside, cores, expected", [
+    # one node of 500 us a cycle on one core: 2000 cycles/s, though the three share 2 cores at 2 / 700 us
+    ({"a": 450.0, "b": 100.0, "c": 100.0}, {"a": 50.0}, 2, (2000.0, "a")),
+    # balanced nodes: the cores bind, 2 cores over 900 us of CPU a cycle
+    ({"a": 300.0, "b": 300.0, "c": 200.0}, {"a": 0.0, "b": 0.0, "c": 100.0}, 2, (2e6 / 900, "2 cores")),
+    # one core: the sum binds whatever the split
+    ({"a": 300.0, "b": 300.0}, {}, 1, (1e6 / 600, "1 cores"))])
+def test_the_ceiling_is_the_busiest_node_or_the_cores_whichever_allows_fewer_cycles(busy, outside, cores, expected):
+    rate, what = ceiling(busy, outside, cores)
+    assert what == expected[1] and rate == pytest.approx(expected[0], rel=1e-12)
 
 
 @pytest.mark.integration
