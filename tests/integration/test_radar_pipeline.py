@@ -244,7 +244,9 @@ def test_a_killed_supervisor_takes_its_nodes_and_leaves_nothing_behind(carav):
     judged = carav.workdir / "judged.jsonl"
     wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
     [folder] = list(carav.run_root.glob("carav-*/*"))
-    pids = [run.proc.pid, *(int(p) for p in _node_pids(carav))]
+    nodes = _node_pids(carav)
+    assert len(nodes) == len(list(folder.glob("*.spec"))) > 1   # every node's process
+    pids = [run.proc.pid, *nodes]
     if carav.transport == "shm":
         assert _segments_held_by(pids) >= 1                       # the run's data does travel in segments
     os.kill(run.proc.pid, signal.SIGKILL)
@@ -259,10 +261,19 @@ def test_a_killed_supervisor_takes_its_nodes_and_leaves_nothing_behind(carav):
     assert estimates and all(r["verdict"] == "clean" for r in estimates)
 
 
-def _node_pids(carav) -> list[int]:
-    st = carav.cli("status", "--json", timeout_s=10)
-    assert st.returncode == 0, st.stderr
-    return [n["pid"] for s in __import__("json").loads(st.stdout) for n in s["nodes"].values() if n["pid"]]
+def _node_pids(carav, node: str = "*") -> list[int]:
+    """The pids of the run's node processes (or of one node), from /proc: a node's command line names its spec
+    file in the run folder. No `carav status` process to start, which takes seconds on a loaded machine."""
+    specs = {str(p) for p in carav.run_root.glob(f"carav-*/*/{node}.spec")}
+    pids = []
+    for proc in Path("/proc").iterdir():
+        try:
+            argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
+        except OSError:                     # not a process, or it ended meanwhile
+            continue
+        if argv[1:3] == ["-m", "carav_stream.runtime.node"] and argv[3:] and argv[3] in specs:
+            pids.append(int(proc.name))
+    return pids
 
 
 def _segments_held_by(pids: list[int]) -> int:
@@ -292,18 +303,8 @@ def _kill_mid_run_and_stop(carav, run, victim: str, judged) -> int:
 
 
 def _pid_of(carav, run, node):
-    """The pid of this run's node process, from /proc (its command line names the node's spec file in the run
-    folder): no `carav status` process to start, which takes seconds on a loaded machine."""
-    for spec in carav.run_root.glob(f"carav-*/*/{node}.spec"):
-        wanted = ["-m", "carav_stream.runtime.node", str(spec)]
-        for proc in Path("/proc").iterdir():
-            try:
-                argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
-            except OSError:                 # not a process, or it ended meanwhile
-                continue
-            if argv[1:] == wanted and run.proc.poll() is None:
-                return int(proc.name)
-    return None
+    pids = _node_pids(carav, node) if run.proc.poll() is None else []
+    return pids[0] if len(pids) == 1 else None
 
 
 @pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
