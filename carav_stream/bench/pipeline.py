@@ -99,7 +99,7 @@ def ceiling(busy: dict[str, float], outside: dict[str, float], cores: int) -> tu
     per_node = {node: busy[node] + outside.get(node, 0.0) for node in busy}
     node = max(per_node, key=per_node.get)
     one_node, shared = 1e6 / per_node[node], cores * 1e6 / sum(per_node.values())
-    return (one_node, node) if one_node <= shared else (shared, f"{cores} cores")
+    return (one_node, node) if one_node <= shared else (shared, f"{cores} core{'s' if cores != 1 else ''}")
 
 
 def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, transport: str,

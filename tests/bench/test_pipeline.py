@@ -24,7 +24,7 @@ def test_the_benchmark_runs_the_shipped_radar_chain_with_only_its_case_set():
     # balanced nodes: the cores bind, 2 cores over 900 us of CPU a cycle
     ({"a": 300.0, "b": 300.0, "c": 200.0}, {"a": 0.0, "b": 0.0, "c": 100.0}, 2, (2e6 / 900, "2 cores")),
     # one core: the sum binds whatever the split
-    ({"a": 300.0, "b": 300.0}, {}, 1, (1e6 / 600, "1 cores"))])
+    ({"a": 300.0, "b": 300.0}, {}, 1, (1e6 / 600, "1 core"))])
 def test_the_ceiling_is_the_busiest_node_or_the_cores_whichever_allows_fewer_cycles(busy, outside, cores, expected):
     rate, what = ceiling(busy, outside, cores)
     assert what == expected[1] and rate == pytest.approx(expected[0], rel=1e-12)
