@@ -93,12 +93,13 @@ def outside_blocks(summary: dict, n: int) -> dict[str, float]:
 
 def ceiling(busy: dict[str, float], outside: dict[str, float], cores: int) -> tuple[float, str]:
     """The most cycles/s a graph whose nodes spend these CPU times per cycle (us, inside and outside their blocks)
-    can make on `cores` cores, its stages overlapping perfectly: a node works on one core at a time, so it allows
-    1 / (its CPU per cycle), and all of them share the cores, which allow cores / (the sum). Returns (cycles/s,
-    what binds: the node's name, or "N cores")."""
-    per_node = {node: busy[node] + outside.get(node, 0.0) for node in busy}
-    node = max(per_node, key=per_node.get)
-    one_node, shared = 1e6 / per_node[node], cores * 1e6 / sum(per_node.values())
+    can make on `cores` cores. A node's block runs on its main thread, one frame after another, so the node allows
+    1 / (its busy time per cycle); what it spends outside the block may run beside it (ZeroMQ's I/O thread), so
+    that counts only toward the cores, which allow cores / (the sum of everything). Returns (cycles/s, what binds:
+    the node's name, or "N cores")."""
+    node = max(busy, key=busy.get)
+    one_node = 1e6 / busy[node]
+    shared = cores * 1e6 / (sum(busy.values()) + sum(outside.get(n, 0.0) for n in busy))
     return (one_node, node) if one_node <= shared else (shared, f"{cores} core{'s' if cores != 1 else ''}")
 
 
