@@ -4,6 +4,7 @@
     python3 dev.py demo [carav run options]   run the default graph graphs/demo.toml and print its summary
     python3 dev.py test [pytest options]      run the whole test suite
                                               (a quick loop without processes: -m "not integration")
+    python3 dev.py bench NAME [options]       a benchmark of bench/ (`python3 dev.py bench --help` lists them)
     python3 dev.py lint                       ruff: lint and import order of the whole tree
     python3 dev.py carav ARGS...              any carav command inside the project's environment
 
@@ -34,9 +35,9 @@ def ensure_env() -> None:
     if not (BIN / "python").exists():
         print(f"dev.py: creating virtual environment {VENV}", file=sys.stderr)
         venv.EnvBuilder(with_pip=True, clear=True).create(VENV)
-    print("dev.py: installing carav-stream and its test extra into .venv", file=sys.stderr)
+    print("dev.py: installing carav-stream and its dev extra into .venv", file=sys.stderr)
     pip = [str(BIN / "python"), "-m", "pip", "--disable-pip-version-check", "-q"]
-    subprocess.run(pip + ["install", "-e", f"{ROOT}[test]"], check=True)
+    subprocess.run(pip + ["install", "-e", f"{ROOT}[dev]"], check=True)
     STAMP.write_text(_fingerprint())
 
 
@@ -50,12 +51,14 @@ def main(argv: list[str]) -> int:
         cmd = [str(BIN / "carav"), "run", str(ROOT / "graphs" / "demo.toml"), *rest]
     elif command == "test":
         cmd = [str(BIN / "python"), "-m", "pytest", *rest]
+    elif command == "bench":
+        cmd = [str(BIN / "python"), "-m", "bench", *rest]
     elif command == "lint":
         cmd = [str(BIN / "ruff"), "check", *rest, str(ROOT)]
     elif command == "carav":
         cmd = [str(BIN / "carav"), *rest]
     else:
-        print(f"dev.py: unknown command {command!r}; expected demo, test, lint or carav", file=sys.stderr)
+        print(f"dev.py: unknown command {command!r}; expected demo, test, bench, lint or carav", file=sys.stderr)
         return 2
     code = subprocess.run(cmd, cwd=ROOT).returncode
     if command == "test" and code == 5:

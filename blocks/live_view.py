@@ -40,6 +40,8 @@ class LiveView(Block):
         self.scene_obj = scene_of(self.scene)
 
     def start(self) -> None:
+        # imported here, in the node's own process: the page needs Bokeh (the view extra), which `carav blocks` and
+        # `carav validate`, reading this block's ports, must not need
         from carav_stream.view.control import RunControl
         from carav_stream.view.page import PageConfig, make_document
         from carav_stream.view.server import ViewServer

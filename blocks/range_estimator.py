@@ -6,7 +6,7 @@ root_music, ml (see carav_stream/estimate). A frame that does not carry the gate
 (counted, and reported as a record with refused = true): target processing never runs without a verdict.
 
 Detection: "strongest" reports the n_targets strongest maxima of every cycle; "ca_cfar" | "os_cfar" reports the
-radar's target list (carav_stream/target_list.py): CFAR on the range-Doppler map of the active chirps at the
+radar's target list (carav_stream/firmware/target_list.py): CFAR on the range-Doppler map of the active chirps at the
 design false-alarm rate `pfa` per cell, every detection refined by `method` (ml, music, root_music: jointly; the
 FFT methods keep the cells), up to max_targets, a variable number per cycle.
 
@@ -32,10 +32,10 @@ import numpy as np
 
 from carav_stream.estimate.estimators import METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
+from carav_stream.firmware.target_list import KINDS, target_list
 from carav_stream.radar.adc import from_codes
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, pick
-from carav_stream.target_list import KINDS, target_list
 
 
 def _plain(values: np.ndarray) -> list:

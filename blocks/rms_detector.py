@@ -18,7 +18,7 @@ Graph   detector = { type = "rms_detector", eta = 1.5 }
 import numpy as np
 
 from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
-from carav_stream.montecarlo.design import scene_law, threshold_warning
+from carav_stream.firmware.design import scene_law, threshold_warning
 from carav_stream.radar.adc import adc_step
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import SCENE, scene_of

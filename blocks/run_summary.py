@@ -30,9 +30,9 @@ import sys
 import time
 
 from carav_stream.estimate.geometry import Geometry
+from carav_stream.firmware.target_list import KINDS, associate, gates
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Param, n_cycles, per_cycle
-from carav_stream.target_list import KINDS, associate, gates
 
 
 class ErrorStats:

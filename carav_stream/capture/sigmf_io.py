@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from carav_stream import __version__
 from carav_stream.capture.activation_log import ActivationLogError, log_path, read_log
 from carav_stream.radar.scene import Scene
 
@@ -85,7 +86,6 @@ def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[s
     import sigmf
     from sigmf.sigmffile import SigMFFile
 
-    from carav_stream import __version__
     glob = {"core:datatype": datatype, "core:sample_rate": scene.fs_hz, "core:version": sigmf.__specification__,
             "core:num_channels": 1, "core:recorder": f"carav-stream {__version__}", "core:extensions": [EXTENSION],
             "core:description": f"ADC output of a carav-stream radar graph, scene {scene.name}",

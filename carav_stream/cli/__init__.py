@@ -1,4 +1,4 @@
-"""carav: run, validate and steer carav-stream graphs; sweep thresholds; reproduce the paper; benchmark.
+"""carav: run, validate and steer carav-stream graphs; sweep thresholds; reproduce the paper.
 
     carav run GRAPH [--cycles N] [--set node.param=value | param=value ...] [--json FILE]
     carav record GRAPH --out DIR [carav run options]   the run's ADC output as SigMF (+ private activation log)
@@ -12,12 +12,11 @@
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency ...
-    carav bench transport|zerocopy|synth|detector|estimators|pipeline|view|soak ... --json docs/bench/records/NAME.json
-    carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
-for is imported (the studies and benchmarks import scipy and matplotlib). Errors are one line naming the option,
-file or field; --debug (anywhere on the command line) shows the traceback of an unexpected one.
+for is imported, which keeps a command's start-up short (the studies import scipy, Dask and matplotlib). Errors
+are one line naming the option, file or field; --debug (anywhere on the command line) shows the traceback of an
+unexpected one. The benchmarks (`python3 dev.py bench NAME`, outside the installed package) use the same parser.
 """
 from __future__ import annotations
 
@@ -25,7 +24,7 @@ import argparse
 import importlib
 import sys
 
-from carav_stream.cli.common import EXIT_CODES_HELP, CommandError, Exit
+from carav_stream.console.errors import EXIT_CODES_HELP, CommandError, Exit
 
 COMMANDS = {
     "run": ("carav_stream.cli.run", "run a graph and print its summary"),
@@ -37,33 +36,20 @@ COMMANDS = {
     "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
     "stop": ("carav_stream.cli.stop", "stop a running graph in order (sources first, drain, sinks last)"),
     "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),
-    "sweep": ("carav_stream.studies.sweep_command", "PF/PM Monte Carlo over eta and RARMS, with threshold design"),
-    "reproduce": ("carav_stream.studies.reproduce", "the paper's figures and claims beside ours, as markdown"),
-    "study": ("carav_stream.studies.study", "a declarative grid of sweeps on Dask distributed: CSV, JSON, figures"),
-    "design": ("carav_stream.studies.design_command", "detector thresholds of a scene for a target false-alarm rate"),
+    "sweep": ("carav_stream.cli.sweep", "PF/PM Monte Carlo over eta and RARMS, with threshold design"),
+    "reproduce": ("carav_stream.cli.reproduce", "the paper's figures and claims beside ours, as markdown"),
+    "study": ("carav_stream.cli.study", "a declarative grid of sweeps on Dask distributed: CSV, JSON, figures"),
+    "design": ("carav_stream.cli.design", "detector thresholds of a scene for a target false-alarm rate"),
 }
 EXPERIMENTS = {
-    "secondary-antenna": ("carav_stream.studies.secondary_antenna", "the paper's Figures 6 to 8"),
-    "matlab-table1": ("carav_stream.studies.matlab_table1", "MATLAB's FMCWExample result beside our estimators"),
-    "interference": ("carav_stream.studies.interference", "another car's FMCW radar: false alarms by detector"),
-    "cfar": ("carav_stream.studies.cfar_experiment", "the radar's CFAR target detection against its design"),
-    "clutter": ("carav_stream.studies.clutter", "several targets and clutter: false alarms, the target list"),
-    "latency": ("carav_stream.studies.latency", "spill test: PF over echo power, PM over repeater latency"),
+    "secondary-antenna": ("carav_stream.experiments.secondary_antenna", "the paper's Figures 6 to 8"),
+    "matlab-table1": ("carav_stream.experiments.matlab_table1", "MATLAB's FMCWExample result beside our estimators"),
+    "interference": ("carav_stream.experiments.interference", "another car's FMCW radar: false alarms by detector"),
+    "cfar": ("carav_stream.experiments.cfar_experiment", "the radar's CFAR target detection against its design"),
+    "clutter": ("carav_stream.experiments.clutter", "several targets and clutter: false alarms, the target list"),
+    "latency": ("carav_stream.experiments.latency", "spill test: PF over echo power, PM over repeater latency"),
 }
-BENCHES = {
-    "transport": ("carav_stream.bench.wire", "frames/s, GB/s and latency through a chain of processes"),
-    "synth": ("carav_stream.bench.signal_chain", "signal-chain time per cycle by preset, fidelity and attacker"),
-    "detector": ("carav_stream.bench.detection", "detector stability, ns/sample and Monte Carlo speed"),
-    "estimators": ("carav_stream.bench.estimation", "run time against error of the range/velocity estimators"),
-    "pipeline": ("carav_stream.bench.pipeline", "cycles/s of the multi-process graph against one process"),
-    "study": ("carav_stream.bench.study_bench", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),
-    "zerocopy": ("carav_stream.bench.zero_copy", "one same-host hop of a large frame: zmq, shared memory, iceoryx2"),
-    "view": ("carav_stream.bench.view_bench", "what the live view costs the radar chain, with and without a browser"),
-    "soak": ("carav_stream.bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
-    "report": ("carav_stream.bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
-}
-GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS),
-          "bench": ("benchmarks (JSON records, summarised in BENCHMARKS.md)", BENCHES)}
+GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 
 
 def _add(sub, name: str, module: str, help_text: str, wanted: bool) -> None:
@@ -82,14 +68,17 @@ class Parser(argparse.ArgumentParser):
         self.exit(Exit.USAGE, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
-def build_parser(argv: list[str] = ()) -> argparse.ArgumentParser:
+def build_parser(argv: list[str] = (), *, prog: str = "carav", description: str = __doc__,
+                 commands: dict = COMMANDS, groups: dict = GROUPS) -> argparse.ArgumentParser:
+    """The parser of `prog` with `commands` (name: (module, help)) and `groups` of such tables (`carav experiment X`);
+    only the module of the command that argv names is imported."""
     words = [a for a in argv if not a.startswith("-")]
-    ap = Parser(prog="carav", description=__doc__, epilog=EXIT_CODES_HELP,
+    ap = Parser(prog=prog, description=description, epilog=EXIT_CODES_HELP,
                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name, (module, text) in COMMANDS.items():
+    for name, (module, text) in commands.items():
         _add(sub, name, module, text, words[:1] == [name])
-    for group, (text, table) in GROUPS.items():
+    for group, (text, table) in groups.items():
         p = sub.add_parser(group, help=text, description=text)
         gsub = p.add_subparsers(dest=group, required=True, metavar=group.upper())
         for name, (module, help_text) in table.items():
@@ -97,20 +86,13 @@ def build_parser(argv: list[str] = ()) -> argparse.ArgumentParser:
     return ap
 
 
-def run_as_command(module: str) -> int:
-    """`python -m <command module> ARGS` is `carav <its command> ARGS`."""
-    for prefix, table in (([], COMMANDS), (["experiment"], EXPERIMENTS), (["bench"], BENCHES)):
-        for name, (mod, _) in table.items():
-            if mod == module:
-                return main([*prefix, name, *sys.argv[1:]])
-    raise LookupError(f"{module} is not a carav command module")
-
-
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, **tables) -> int:
+    """Run one command line (default sys.argv); `tables` as build_parser's (prog, description, commands, groups)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
-    parser = build_parser(argv)
+    parser = build_parser(argv, **tables)
+    prog = parser.prog
     if not argv:
         parser.print_help(sys.stderr)
         return Exit.USAGE
@@ -123,13 +105,13 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except CommandError as exc:
-        print(f"carav {name}: {exc}", file=sys.stderr)
+        print(f"{prog} {name}: {exc}", file=sys.stderr)
         return int(exc.code)
     except KeyboardInterrupt:
-        print(f"carav {name}: interrupted", file=sys.stderr)
+        print(f"{prog} {name}: interrupted", file=sys.stderr)
         return Exit.INTERRUPTED
     except Exception as exc:        # one line for the user; the traceback with --debug
         if debug:
             raise
-        print(f"carav {name}: failed: {type(exc).__name__}: {exc} (--debug shows the traceback)", file=sys.stderr)
+        print(f"{prog} {name}: failed: {type(exc).__name__}: {exc} (--debug shows the traceback)", file=sys.stderr)
         return Exit.FAILED

@@ -1,46 +1,19 @@
-"""What the command modules share: exit codes, the error line, and finding and asking a running graph."""
+"""What the commands that steer a running graph share: finding it and asking its supervisor."""
 from __future__ import annotations
 
 import json
 import os
-import sys
-from enum import IntEnum
 from pathlib import Path
 from typing import Any
 
+from carav_stream.console.errors import CommandError, Exit
 from carav_stream.runtime.admin import request
-
-
-class Exit(IntEnum):
-    """One exit code per class of outcome, the same for every command (listed by `carav --help`)."""
-
-    OK = 0
-    FAILED = 1          # the work failed: a node crashed, frames were lost, a benchmark run broke, a swap refused
-    USAGE = 2           # a bad command line: unknown option, bad value, output path that cannot be written
-    INVALID = 3         # an invalid graph, scene or block parameter
-    INTERRUPTED = 130   # stopped by Ctrl-C or SIGTERM before it finished
-
-
-EXIT_CODES_HELP = "exit codes: " + ", ".join(f"{int(c)} {c.name.lower()}" for c in Exit)
-
-
-class CommandError(Exception):
-    """A user-facing error: one line, naming the option, file or field; `code` is its Exit class."""
-
-    def __init__(self, text: str, code: Exit = Exit.USAGE) -> None:
-        super().__init__(text)
-        self.code = code
-
-
-def fail(text: str, code: Exit = Exit.USAGE) -> int:
-    print(f"carav: {text}", file=sys.stderr)
-    return int(code)
+from carav_stream.runtime.supervisor import remove_stale_runs, run_root
 
 
 def running_graphs() -> list[dict[str, Any]]:
     """The run.json of every graph running on this machine under this user (the folders of runs whose
     supervisor was killed are removed on the way)."""
-    from carav_stream.runtime.supervisor import remove_stale_runs, run_root
     remove_stale_runs()
     runs = []
     for f in sorted(run_root().glob("*/run.json")):

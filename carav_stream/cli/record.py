@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 
 from carav_stream.cli import run as run_command
-from carav_stream.cli.common import CommandError, Exit
+from carav_stream.console.errors import CommandError, Exit
 from carav_stream.runtime.graph import Graph
 
 BASE = "recording"

@@ -15,7 +15,7 @@ from pathlib import Path
 from carav_graphs import graph_file as default_graph
 from carav_stream.capture.sigmf_io import Recording, RecordingError, open_recording
 from carav_stream.cli import run as run_command
-from carav_stream.cli.common import CommandError, Exit
+from carav_stream.console.errors import CommandError, Exit
 from carav_stream.runtime.loader import read_graph_file
 
 RECORDED = {"rms_detector": ("eta", "sigma_n"),

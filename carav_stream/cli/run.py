@@ -8,10 +8,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from carav_stream.cli.common import CommandError, Exit, fail
-from carav_stream.cli.options import count, output_file
+from carav_stream.cli.view import view_graph
+from carav_stream.console.errors import CommandError, Exit, fail
+from carav_stream.console.options import count, output_file
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
 from carav_stream.runtime.loader import load_graph
+from carav_stream.runtime.supervisor import Supervisor
+from carav_stream.view.server import free_port
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -45,8 +48,6 @@ def run(args: argparse.Namespace) -> int:
     graph = load(args.graph, args)
     if not args.view:
         return execute(graph, args)
-    from carav_stream.cli.view import view_graph
-    from carav_stream.view.server import free_port
     port = args.port or free_port(args.view_host)
     path = view_graph(graph, args.view_host, port)
     try:
@@ -70,7 +71,6 @@ def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_
 
 def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int:
     """Run a loaded graph with the options of `carav run` (host, progress, json) and report it."""
-    from carav_stream.runtime.supervisor import Supervisor
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     for w in graph.warnings:

@@ -9,7 +9,9 @@ from __future__ import annotations
 import argparse
 import math
 
-from carav_stream.cli.common import CommandError, Exit
+from carav_stream.console.errors import CommandError, Exit
+from carav_stream.radar.scene import SceneError, fold_beat_hz
+from carav_stream.radar.scene_loader import load_scene, preset_names
 
 __all__ = ["configure", "run", "scene_table"]
 
@@ -31,7 +33,6 @@ def _kmh(mps: float) -> str:
 
 
 def _column(scene) -> dict[str, str]:
-    from carav_stream.radar.scene import fold_beat_hz
 
     t0 = scene.targets[0] if scene.targets else None
     beat = "-"
@@ -75,8 +76,6 @@ def scene_table(scenes) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from carav_stream.radar.scene import SceneError
-    from carav_stream.radar.scene_loader import load_scene, preset_names
 
     names = args.scenes or preset_names()
     try:

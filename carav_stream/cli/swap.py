@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import argparse
 
-from carav_stream.cli.common import Exit, ask, fail, pick_run
+from carav_stream.cli.common import ask, pick_run
+from carav_stream.console.errors import Exit, fail
 from carav_stream.runtime.graph import parse_value
 from carav_stream.runtime.protocol import Admin
 

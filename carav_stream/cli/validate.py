@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from carav_stream.cli.common import Exit
+from carav_stream.console.errors import Exit
 from carav_stream.runtime.graph import GraphError
 from carav_stream.runtime.loader import load_graph
 

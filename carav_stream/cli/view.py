@@ -10,7 +10,7 @@ import json
 import tempfile
 from pathlib import Path
 
-from carav_stream.cli.common import CommandError, Exit
+from carav_stream.console.errors import CommandError, Exit
 from carav_stream.runtime.graph import Graph
 
 NODE = "view"

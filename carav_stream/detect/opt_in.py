@@ -34,8 +34,8 @@ import numpy as np
 import scipy.fft
 from scipy import optimize, stats
 
-from carav_stream.detect.cfar import rd_power
 from carav_stream.detect.detector import _check_frames, check_rho
+from carav_stream.detect.rdmap import rd_power
 
 __all__ = ["spectral_silent_test", "spectral_threshold", "SpectralResult", "integrated_silent_test",
            "integrated_threshold", "coherent_silent_test", "spill_test", "SpillResult",
@@ -167,7 +167,7 @@ def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e
 
     frames  float32/64 | complex64/128 (n_cycles, n_chirps, n_samples);  rho  (n_cycles, n_chirps) or (n_chirps,)
     sigma_n noise RMS per sample (> 0);  first_sample  first sample of the window (1 .. n_samples - 4), from
-            ``physics.max_visible_delay_s`` plus the IF filter's settling (``studies/latency.py: window_start``)
+            ``physics.max_visible_delay_s`` plus the IF filter's settling (``experiments/latency.py: window_start``)
     pf      false-alarm probability per cycle, exact under white Gaussian noise for any echo within the range
     Slot k (k >= 1) is used iff rho[k - 1] and not rho[k]; the chirp before chirp 0 belongs to another cycle.
     """

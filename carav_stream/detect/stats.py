@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import integrate, special, stats
 
+from carav_stream.detect.detector import detect_from_rms
+
 __all__ = ["clopper_pearson", "pf_pm_closed_form", "rms_moments", "cfar_eta_closed_form",
            "pf_importance_sampling"]
 
@@ -131,7 +133,6 @@ def pf_importance_sampling(eta, *, n_chirps: int, dof: int, snr: float, n_trials
         p / q = 1 / mean_j L_j,   log L_j = -(nu/2) log(tilt) + E_j (1 - 1/tilt) / 2     (E_j in noise units)
     returns dict(pf, std_err, rel_err, n_trials, method) for the scalar eta (noise units, sigma_n = 1).
     """
-    from carav_stream.detect.detector import detect_from_rms
 
     eta = float(eta)
     tilt = eta ** 2 if tilt is None else float(tilt)

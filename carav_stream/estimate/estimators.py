@@ -43,6 +43,7 @@ import scipy.fft
 
 from carav_stream.estimate import joint, spectral
 from carav_stream.estimate.geometry import Geometry
+from carav_stream.estimate.migration import refine_walking
 
 METHODS = ("fft_peak", "fft_zeropad", "fft_interp", "music", "root_music", "ml")
 DEFAULT_METHOD = "ml"
@@ -445,7 +446,6 @@ def refine_at(frames, rho, geometry: Geometry, f0, nu0, *, method: str = DEFAULT
 
 
 def _refine_walking(frames, rho, geometry: Geometry, f0, nu0, max_speed_mps: float, couple: bool) -> Estimates:
-    from carav_stream.estimate.migration import refine_walking
     frames, rho = _check_inputs(frames, rho, geometry, "ml")
     f0, nu0 = np.asarray(f0, dtype=float), np.asarray(nu0, dtype=float)
     present = np.isfinite(f0) & np.isfinite(nu0)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from carav_stream.detect import opt_in
+from carav_stream.radar.physics import spill_window_start
 
 __all__ = ["DETECTORS", "OPT_IN", "statistic"]
 
@@ -38,7 +39,6 @@ def _coherent(frames, rho, sigma_n):
 
 
 def _spill(frames, rho, sigma_n, scene):
-    from carav_stream.radar.physics import spill_window_start
 
     if scene is None:
         raise ValueError("detector 'spill' needs the scene (its window starts after the longest visible round trip)")

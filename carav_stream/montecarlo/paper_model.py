@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from carav_stream.radar.scene_loader import load_scene
+
 __all__ = ["PaperScene", "paper_scene", "simulate_frames", "sample_rms", "sample_q_fast", "exchangeable", "ATTACKS"]
 
 ATTACKS = ("none", "random", "smart")
@@ -71,7 +73,6 @@ def paper_scene(preset: str = "table1", *, n_chirps: int | None = None, n_sample
                 iq: bool = False, sigma_n: float = 1.0, snr_db: float = 0.0) -> PaperScene:
     """A paper-model scene with the chirp structure and first target of a radar preset (`table1` = Table I,
     `awr1642` = Table II; carav_stream/radar/presets), at the echo SNR `snr_db` per sample (the paper: 0 dB)."""
-    from carav_stream.radar.scene_loader import load_scene
 
     radar = load_scene(preset)
     n_r = radar.n_chirps if n_chirps is None else int(n_chirps)

@@ -17,7 +17,11 @@ import numpy as np
 
 from carav_stream.detect.detector import chirp_rms, detect_from_rms
 from carav_stream.montecarlo import paper_model
-from carav_stream.radar.activation import balanced_rows
+from carav_stream.montecarlo.detectors import statistic
+from carav_stream.radar.activation import ActivationSource, balanced_rows
+from carav_stream.radar.attackers import make_attacker
+from carav_stream.radar.physics import echo_templates
+from carav_stream.radar.synth import simulate_cycles
 
 __all__ = ["RadarSource", "ENERGY_ATTACKS"]
 
@@ -53,7 +57,6 @@ class RadarSource:
     def paper_equivalent(self) -> paper_model.PaperScene:
         """The paper-model scene with this scene's beat-fidelity echo template (for the energy path)."""
         if self._paper is None:
-            from carav_stream.radar.physics import echo_templates
 
             tpl = echo_templates(self.scene, "beat")
             echo = tpl.main_sum.astype(np.complex128 if self.iq else np.float64)
@@ -62,7 +65,6 @@ class RadarSource:
         return self._paper
 
     def make_attacker(self, attack: str, rarms: float):
-        from carav_stream.radar.attackers import make_attacker
 
         if attack == "none":
             return None
@@ -97,7 +99,6 @@ class RadarSource:
 
     def begin_job(self, attack: str, rarms: float) -> None:
         """Start a fresh (attack, RARMS) job: new attacker, activation stream and cycle counter."""
-        from carav_stream.radar.activation import ActivationSource
 
         act = None
         if self.activation == "lfsr":
@@ -117,14 +118,12 @@ class RadarSource:
 
     def draw_stat(self, n_cycles, attack, rarms, rng, detector: str):
         """An opt-in detector's statistic (carav_stream.montecarlo.detectors) on n_cycles full-sample cycles."""
-        from carav_stream.montecarlo.detectors import statistic
 
         frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
         return statistic(detector, frames, rho, self.sigma_n, self.scene)
 
     def draw_frames(self, n_cycles, attack, rarms, rng):
         """Every sample of n_cycles cycles of the current job (its attacker, activation and cycle count)."""
-        from carav_stream.radar.synth import simulate_cycles
 
         if self._job is None or self._job["key"] != (attack, rarms):
             self.begin_job(attack, rarms)

@@ -4,7 +4,7 @@ The three are graph-wide parameters (declared here once, `SCENE`, `SEED`, `FIDEL
 the loader checks it once, and every radar block uses the same value.
 
 With a seed, SeedSequence(seed) spawns three independent streams (activation, noise, attack), each drawn in
-cycle order by the block that owns it, so a pipeline and `carav_stream.algorithm1.run_algorithm1` give the same
+cycle order by the block that owns it, so a pipeline and `carav_stream.firmware.algorithm1.run_algorithm1` give the same
 numbers bit for bit. Without a seed (NO_SEED) the activation sequence comes from the OS's secure generator.
 The noise stream's bit generator is numpy's SFC64 (the others numpy's default, PCG64): the receiver noise takes
 one 64-bit word for every two samples (carav_stream.radar.noise), and SFC64 makes a word in about half the time

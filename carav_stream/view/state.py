@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from carav_stream.detect.cfar import rd_power
+from carav_stream.detect.rdmap import rd_power
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.runtime.cycles import cycle_indices, per_cycle
 from carav_stream.runtime.frames import Frame
@@ -60,7 +60,7 @@ def rd_map_db(x: np.ndarray, rho: np.ndarray, geometry: Geometry, sigma_n: float
     """The range-Doppler map of one cycle in dB over the noise (0 dB = the mean of a noise cell), Doppler centred:
     (map (n_chirps, n_range_bins) float32, range of each bin [m], velocity of each Doppler row [m/s]).
 
-    x (n_chirps, n_samples) samples of one cycle, rho (n_chirps,) its activation; the map is detect.cfar.rd_power's
+    x (n_chirps, n_samples) samples of one cycle, rho (n_chirps,) its activation; the map is detect.rdmap.rd_power's
     (active chirps only). Range bin j is beat frequency j fs / N (I/Q) or (j + 1) fs / N (I-only, DC dropped), read
     as a range without Doppler (a target moving at v shows 2 v / lambda x range_per_hz further: the map is what the
     receiver sees, before range-Doppler coupling is removed); Doppler row k is the chirp-to-chirp progression

@@ -1,12 +1,12 @@
-"""`carav bench pipeline`: the shipped radar chain graph against run_algorithm1 in one process."""
+"""`python3 dev.py bench pipeline`: the shipped radar chain graph against run_algorithm1 in one process."""
 import json
 import statistics
 
 import pytest
 
+from bench import main as run_bench
+from bench.pipeline import ceiling, pipeline_overrides
 from carav_graphs import graph_file
-from carav_stream.bench.pipeline import ceiling, pipeline_overrides
-from carav_stream.cli import main as carav
 from carav_stream.runtime.loader import load_graph
 
 
@@ -34,10 +34,10 @@ def test_the_ceiling_is_the_busiest_node_or_the_cores_whichever_allows_fewer_cyc
 @pytest.mark.integration
 def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
     out = tmp_path / "bench.json"
-    assert carav(["bench", "pipeline", "--cases", "awr1642:beat", "--repeats", "1", "--scale", "0.04",
+    assert run_bench(["pipeline", "--cases", "awr1642:beat", "--repeats", "1", "--scale", "0.04",
                   "--batch", "4,8", "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
-    assert doc["command"] == "carav bench pipeline --cases awr1642:beat --repeats 1 --scale 0.04 --batch 4,8"
+    assert doc["command"] == "python3 dev.py bench pipeline --cases awr1642:beat --repeats 1 --scale 0.04 --batch 4,8"
     assert doc["machine"]["cores"] >= 1
     records = doc["records"]
     assert [(r["preset"], r["fidelity"], r["mode"], r["transport"], r["batch"]) for r in records] == [

@@ -1,11 +1,11 @@
-"""`carav bench soak`: memory and descriptors sampled from /proc while the demo graph runs with live swaps."""
+"""`python3 dev.py bench soak`: memory and descriptors sampled from /proc while the demo graph runs with live swaps."""
 import json
 import os
 
 import pytest
 
-from carav_stream.bench.soak import floor, growth_per_hour, no_growth, proc_figures
-from carav_stream.cli import main as carav
+from bench import main as run_bench
+from bench.soak import floor, growth_per_hour, no_growth, proc_figures
 
 
 def test_growth_per_hour_is_the_slope_of_a_least_squares_line_with_its_standard_error():
@@ -37,7 +37,7 @@ def test_process_figures_come_from_proc():
 @pytest.mark.integration
 def test_a_short_soak_swaps_the_attacker_samples_every_node_and_loses_nothing(tmp_path):
     out = tmp_path / "soak.json"
-    assert carav(["bench", "soak", "--minutes", "0.3", "--swap-s", "2", "--sample-s", "0.25", "--batch", "8",
+    assert run_bench(["soak", "--minutes", "0.3", "--swap-s", "2", "--sample-s", "0.25", "--batch", "8",
                   "--json", str(out)]) == 0
     rec = json.loads(out.read_text())["records"][0]
     assert rec["lost"] == 0 and not rec["failures"] and rec["swaps"] >= 3 and rec["cycles"] > 0

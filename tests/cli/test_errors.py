@@ -1,11 +1,12 @@
 """Bad input on the command line: one line naming the option, file or field, the documented exit code, and no
-work started (so nothing is lost or left behind). Exit codes: common.Exit."""
+work started (so nothing is lost or left behind). Exit codes: console.errors.Exit."""
 from pathlib import Path
 
 import pytest
 
+from bench import main as run_bench
 from carav_stream.cli import main as carav
-from carav_stream.cli.common import Exit
+from carav_stream.console.errors import Exit
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = str(ROOT / "graphs" / "demo.toml")
@@ -35,8 +36,6 @@ def test_no_arguments_prints_the_help_with_the_exit_codes(capsys):
      "argument --json: /nonexistent/dir/out.json: folder '/nonexistent/dir' does not exist"),
     (["run", DEMO, "--cycles", "x"], Exit.USAGE, "argument --cycles: invalid int value: 'x'"),
     (["experiment", "secondary-antenna", "--trials", "0"], Exit.USAGE, "argument --trials: must be >= 1, got 0"),
-    (["bench", "pipeline", "--repeats", "0"], Exit.USAGE, "argument --repeats: must be >= 1, got 0"),
-    (["bench", "transport", "--json", "/"], Exit.USAGE, "argument --json: '/' is a folder, not a file"),
     (["stop", "no-such-run"], Exit.USAGE, "carav stop: no running graph matches 'no-such-run'"),
     (["nosuchcommand"], Exit.USAGE, "invalid choice: 'nosuchcommand'"),
 ])
@@ -45,6 +44,17 @@ def test_bad_input_is_refused_in_one_place_with_its_exit_code(capsys, argv, code
     err = error_of(capsys)
     assert text in err, err
     assert scene_reported_once(err)
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["pipeline", "--repeats", "0"], "dev.py bench pipeline: argument --repeats: must be >= 1, got 0"),
+    (["transport", "--json", "/"], "argument --json: '/' is a folder, not a file"),
+    (["nosuch"], "invalid choice: 'nosuch'"),
+])
+def test_the_benchmarks_refuse_bad_input_as_carav_does(capsys, argv, text):
+    assert run_bench(argv) == Exit.USAGE
+    err = error_of(capsys)
+    assert text in err, err
 
 
 def scene_reported_once(err: str) -> bool:

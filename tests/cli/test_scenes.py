@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from carav_stream.cli import main as carav
-from carav_stream.cli.common import Exit
+from carav_stream.console.errors import Exit
 
 C = 299_792_458.0
 

@@ -7,15 +7,16 @@ import dataclasses
 import numpy as np
 import pytest
 
-from carav_stream.detect import cfar
+from carav_stream.detect.rdmap import rd_power
 from carav_stream.estimate.estimators import estimate, refine_at
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.estimate.migration import alias_folds, walk
+from carav_stream.firmware import cfar
+from carav_stream.firmware.target_list import associate, gates, target_list
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.scene import Target
 from carav_stream.radar.streams import scene_of
 from carav_stream.radar.synth import simulate_cycles
-from carav_stream.target_list import associate, gates, target_list
 
 
 def cycles(scene, n, seed):
@@ -25,7 +26,7 @@ def cycles(scene, n, seed):
 
 
 def cells(x, rho, scene, geometry, n=1):
-    det = cfar.detect_targets(cfar.rd_power(x, rho, scene.sigma_n, single=True), rho, pfa=1e-6, kind="os",
+    det = cfar.detect_targets(rd_power(x, rho, scene.sigma_n, single=True), rho, pfa=1e-6, kind="os",
                               max_targets=8)
     ok = det.range_bin[:, :n] >= 0
     f0 = np.where(ok, (det.range_bin[:, :n] + (0 if geometry.iq else 1)) / x.shape[-1], np.nan)

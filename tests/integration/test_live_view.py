@@ -8,7 +8,7 @@ import urllib.request
 
 import pytest
 
-from carav_stream.view.browser import DEEP_FIND, headless_chromium, missing, model
+from bench.browser import DEEP_FIND, headless_chromium, missing, model
 from carav_stream.view.server import free_port
 from tests.integration.conftest import ROOT, wait_until
 

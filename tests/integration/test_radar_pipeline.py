@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from carav_stream.algorithm1 import run_algorithm1
+from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.graph import TRANSPORTS
 from tests.integration.conftest import read_jsonl, wait_until

@@ -1,0 +1,38 @@
+"""Benchmarks, outside the installed package: `python3 dev.py bench NAME` (or `python -m bench NAME` from the
+repository's root). Each writes JSON records with --json docs/bench/records/NAME.json; `report` renders
+BENCHMARKS.md and docs/bench/*.md from them.
+
+transport    frames/s and CPU per hop through a chain of processes, against raw pyzmq
+synth        signal-chain time per cycle by preset, fidelity and attacker
+detector     detector: numerical stability, ns/sample, Monte Carlo speed
+estimators   run time against error, beside the Cramer-Rao bound
+pipeline     the multi-process radar graph against the same chain in one process
+study        carav study on 1 and 2 local Dask workers; the scheduler's cost per task
+view         what the live view costs the radar chain, with and without a browser
+soak         the demo graph for minutes with live swaps: memory and descriptor growth, lost cycles
+report       BENCHMARKS.md and docs/bench/*.md rendered from the records
+records      what every benchmark writes with --json: command, machine, records
+browser      the headless Chromium (Selenium) that the view benchmark and the live view's browser test drive
+blocks/      the transport benchmark's own blocks (source, pass-through, sink)
+"""
+from __future__ import annotations
+
+from carav_stream.cli import main as _carav_main
+
+BENCHES = {
+    "transport": ("bench.transport", "frames/s, GB/s and latency through a chain of processes"),
+    "synth": ("bench.synth", "signal-chain time per cycle by preset, fidelity and attacker"),
+    "detector": ("bench.detector", "detector stability, ns/sample and Monte Carlo speed"),
+    "estimators": ("bench.estimators", "run time against error of the range/velocity estimators"),
+    "pipeline": ("bench.pipeline", "cycles/s of the multi-process graph against one process"),
+    "study": ("bench.study", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),
+    "view": ("bench.view", "what the live view costs the radar chain, with and without a browser"),
+    "soak": ("bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
+    "report": ("bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
+}
+
+
+
+def main(argv: list[str] | None = None) -> int:
+    """One benchmark command line (default sys.argv), on the parser and error handling of `carav`."""
+    return _carav_main(argv, prog="dev.py bench", description=__doc__, commands=BENCHES, groups={})

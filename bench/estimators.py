@@ -1,0 +1,289 @@
+"""`python3 dev.py bench estimators`: run time against error of the range/velocity estimators.
+
+For every estimator, preset (table1, awr1642: geometry from carav_stream.radar presets when installed) and
+SNR after coherent integration over the active chirps (-10..30 dB), it synthesises closed-form beat signals
+(carav_stream.estimate.tones: one target, random range within +-0.5 m of range resolution around the preset's
+target, random velocity inside the unambiguous interval, balanced random silencing: n_chirps/2 active), and
+measures the range and velocity RMSE, their ratio to the CRLB (carav_stream.estimate.crlb) and the median
+run time per cycle (batches of --batch cycles, median over --repeat runs, estimators interleaved so they
+share the machine's load). A baseline with every chirp transmitting, at the same per-sample SNR, measures
+what the random silencing costs. The radar's CFAR target lists (ca_cfar, os_cfar: CFAR on the range-Doppler
+map at 1e-6 per cell, every cell refined by ml; the strongest listed target scored, a cycle listing none
+counted as missing) are timed and scored beside the estimators, as the stage they add. Prints a table, the
+threshold SNR per estimator, the Pareto set at --pareto-snr and the default estimator; --json writes one record
+per estimator, preset, SNR and rho mode; --plot draws error against time and RMSE/CRLB against SNR.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from bench import records as bench_records
+from carav_stream.console.options import count, number, output_file
+from carav_stream.estimate.crlb import fmcw_crlb
+from carav_stream.estimate.estimators import DEFAULT_METHOD, METHODS, estimate
+from carav_stream.estimate.geometry import Geometry
+from carav_stream.estimate.tones import synth_beat
+from carav_stream.firmware.target_list import target_list
+from carav_stream.radar.activation import balanced_rows
+from carav_stream.radar.scene_loader import load_scene
+
+__all__ = ["configure", "run", "load_preset", "measure"]
+
+PRESETS = ("table1", "awr1642")
+SNR_GRID_DB = tuple(range(-10, 31, 5))
+TARGET_RATIO = 1.1
+TARGET_TIME_FACTOR = 1.5   # refinement to the bound at FFT cost (at most 1.5 x fft_peak time)
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--presets", default=",".join(PRESETS), help="comma-separated presets")
+    parser.add_argument("--estimators", default=",".join(METHODS + LISTS), help="comma-separated estimators, and the "
+                        "CFAR target lists ca_cfar, os_cfar (strongest listed target, each refined by ml)")
+    parser.add_argument("--snr-db", default=",".join(str(s) for s in SNR_GRID_DB),
+                        help="SNRs after coherent integration over the active chirps [dB]")
+    parser.add_argument("--cycles", type=count(1), default=1000, help="Monte Carlo cycles per point (1000: an RMSE / "
+                        "CRLB figure within about 2 %%, fine enough to judge the 1.1 target)")
+    parser.add_argument("--batch", type=count(1), default=16, help="cycles per estimate() call")
+    parser.add_argument("--repeat", type=count(1), default=5, help="timing repetitions (median reported)")
+    parser.add_argument("--iq", choices=("preset", "complex", "real"), default="preset",
+                        help="sample type: the preset's, or force complex (I/Q) or real (I-only)")
+    parser.add_argument("--pareto-snr", type=number(), default=20.0, help="SNR of the Pareto table [dB]")
+    parser.add_argument("--seed", type=count(0), default=1, help="seed of the synthetic data (simulation only)")
+    parser.add_argument("--quick", action="store_true", help="40 cycles, 2 repeats, 3 SNRs (smoke test)")
+    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the records as JSON")
+    parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png", help="draw error against time")
+
+
+def load_preset(name: str) -> tuple[Geometry, int, float, float]:
+    """(geometry, n_chirps, target range [m], target range rate [m/s]) of a radar preset."""
+    sc = load_scene(name)
+    t = sc.targets[0]
+    return Geometry.from_scene(sc), int(sc.n_chirps), float(t.range_m), float(sc.range_rate_mps(t))
+
+
+def _truth(rng, geometry: Geometry, n_cycles: int, range_m: float, rate_mps: float):
+    vmax = geometry.max_velocity_mps
+    r0 = min(range_m, 0.8 * geometry.max_range_m)
+    ranges = r0 + rng.uniform(-0.5, 0.5, (n_cycles, 1)) * geometry.range_resolution_m
+    v0 = (rate_mps + vmax) % (2 * vmax) - vmax  # the preset's (aliased) Doppler
+    vels = np.clip(v0 + rng.uniform(-0.25, 0.25, (n_cycles, 1)) * vmax, -0.9 * vmax, 0.9 * vmax)
+    return ranges, vels
+
+
+LISTS = ("ca_cfar", "os_cfar")   # the radar's target list (CFAR on the map, each cell refined by ml) as a stage
+
+
+def _estimate(x, rho, geometry, method, sigma_n):
+    """(range, velocity) (C, 1): an estimator's first target, or a CFAR list's strongest (NaN: none listed)."""
+    if method in LISTS:
+        tl = target_list(x, rho, geometry, sigma_n, detection=method)
+        return tl.range_m[:, :1], tl.velocity_mps[:, :1]
+    e = estimate(x, rho, geometry, method=method)
+    return e.range_m, e.velocity_mps
+
+
+def _run_batches(x, rho, geometry, method, batch, sigma_n):
+    outs = [_estimate(x[i:i + batch], rho[i:i + batch], geometry, method, sigma_n) for i in range(0, len(x), batch)]
+    return np.concatenate([o[0] for o in outs]), np.concatenate([o[1] for o in outs])
+
+
+def measure(preset: str, geometry: Geometry, n_chirps: int, range_m: float, rate_mps: float, snr_db: float,
+            methods, *, n_cycles: int, batch: int, repeat: int, rng: np.random.Generator,
+            all_chirps: bool = False) -> list[dict]:
+    """Records for one preset and SNR (after integration over n_chirps / 2 active chirps)."""
+    n_active = n_chirps // 2
+    snr_sample_db = snr_db - 10 * np.log10(n_active)
+    rho = np.ones((n_cycles, n_chirps), bool) if all_chirps else balanced_rows(rng, n_cycles, n_chirps)
+    ranges, vels = _truth(rng, geometry, n_cycles, range_m, rate_mps)
+    x = synth_beat(geometry, rho, ranges, vels, snr_sample_db=snr_sample_db, rng=rng)
+    sigma_n = 10 ** (-snr_sample_db / 20) / (1.0 if geometry.iq else np.sqrt(2.0))   # synth_beat's noise RMS
+    bound = fmcw_crlb(geometry, snr_sample_db, rho)
+    r_crlb = float(np.sqrt(np.mean(bound["range_m"] ** 2)))
+    v_crlb = float(np.sqrt(np.mean(bound["velocity_mps"] ** 2)))
+    vmax = geometry.max_velocity_mps
+    times = {m: [] for m in methods}
+    xb, rb = x[:batch], rho[:batch]
+    for m in methods:  # warm-up (imports, FFT plans)
+        _estimate(xb, rb, geometry, m, sigma_n)
+    for _ in range(repeat):
+        for m in methods:
+            t0 = time.perf_counter()
+            _estimate(xb, rb, geometry, m, sigma_n)
+            times[m].append((time.perf_counter() - t0) / len(xb))
+    records = []
+    for m in methods:
+        r_est, v_est = _run_batches(x, rho, geometry, m, batch, sigma_n)
+        r_err = r_est - ranges
+        v_err = (v_est - vels + vmax) % (2 * vmax) - vmax
+        r_rmse = float(np.sqrt(np.nanmean(r_err ** 2)))
+        v_rmse = float(np.sqrt(np.nanmean(v_err ** 2)))
+        records.append({
+            "estimator": m, "preset": preset, "snr_db": float(snr_db), "snr_sample_db": float(snr_sample_db),
+            "rho": "all" if all_chirps else "random", "iq": geometry.iq, "n_cycles": n_cycles,
+            "n_active": int(rho[0].sum()), "time_per_cycle_s": float(np.median(times[m])),
+            "time_ratio_to_fft_peak": float(np.median(np.array(times[m]) / np.array(times["fft_peak"])))
+            if "fft_peak" in times else None,
+            "range_rmse_m": r_rmse, "range_crlb_m": r_crlb, "range_ratio": r_rmse / r_crlb,
+            "velocity_rmse_mps": v_rmse, "velocity_crlb_mps": v_crlb, "velocity_ratio": v_rmse / v_crlb,
+            "n_missing": int(np.isnan(r_est).sum()),
+        })
+    return records
+
+
+def threshold_snr(records: list[dict], estimator: str, preset: str, limit: float = 2.0):
+    """Lowest SNR from which the range RMSE stays within limit x CRLB at every higher SNR (None: never)."""
+    rows = sorted((r for r in records if r["estimator"] == estimator and r["preset"] == preset
+                   and r["rho"] == "random"), key=lambda r: r["snr_db"])
+    best = None
+    for r in reversed(rows):
+        if r["range_ratio"] > limit:
+            break
+        best = r["snr_db"]
+    return best
+
+
+def pareto(records: list[dict], preset: str, snr_db: float) -> list[dict]:
+    rows = [r for r in records if r["preset"] == preset and r["rho"] == "random" and r["snr_db"] == snr_db]
+    front = []
+    for r in rows:
+        dominated = any(o["time_per_cycle_s"] <= r["time_per_cycle_s"] and o["range_rmse_m"] <= r["range_rmse_m"]
+                        and (o["time_per_cycle_s"] < r["time_per_cycle_s"] or o["range_rmse_m"] < r["range_rmse_m"])
+                        for o in rows)
+        front.append(dict(r, pareto=not dominated))
+    return sorted(front, key=lambda r: r["time_per_cycle_s"])
+
+
+def scores(records: list[dict], presets) -> dict[str, tuple[float, float]]:
+    """Per estimator: (worst RMSE/CRLB in range and velocity from 10 to 30 dB over `presets`, worst over presets
+    of the median time ratio to fft_peak)."""
+    ok = {}
+    for m in {r["estimator"] for r in records}:
+        worst_ratio, worst_time = 0.0, 0.0
+        for p in presets:
+            rows = [r for r in records if r["estimator"] == m and r["preset"] == p and r["rho"] == "random"
+                    and 10 <= r["snr_db"] <= 30]
+            base = [r for r in records if r["estimator"] == "fft_peak" and r["preset"] == p and r["rho"] == "random"
+                    and 10 <= r["snr_db"] <= 30]
+            if not rows or not base:
+                worst_ratio = np.inf
+                continue
+            worst_ratio = max(worst_ratio, max(max(r["range_ratio"], r["velocity_ratio"]) for r in rows))
+            # paired ratios (the two estimators timed back to back share the machine's load), median over SNRs
+            t = float(np.median([r["time_ratio_to_fft_peak"] for r in rows]))
+            worst_time = max(worst_time, t)
+        ok[m] = (worst_ratio, worst_time)
+    return ok
+
+
+def choose_default(records: list[dict], presets) -> tuple[str | None, str]:
+    """Fastest estimator holding TARGET_RATIO x CRLB (range and velocity) from 10 to 30 dB on every preset at
+    no more than TARGET_TIME_FACTOR x the fft_peak time; returns (name, reason)."""
+    ok = {m: v for m, v in scores(records, presets).items() if m in METHODS}   # the CFAR lists are a stage
+    good = [m for m, (ratio, tf) in ok.items() if ratio <= TARGET_RATIO and tf <= TARGET_TIME_FACTOR]
+    if good:
+        best = min(good, key=lambda m: ok[m][1])
+        return best, (f"{best}: worst RMSE/CRLB {ok[best][0]:.3f} (range and velocity, 10..30 dB, all presets), "
+                      f"{ok[best][1]:.2f} x the fft_peak time")
+    if not ok:
+        return None, "no records"
+    best = min(ok, key=lambda m: (ok[m][0], ok[m][1]))
+    return None, (f"no estimator met {TARGET_RATIO} x CRLB at <= {TARGET_TIME_FACTOR} x fft_peak time; closest: "
+                  f"{best} (worst ratio {ok[best][0]:.3f}, {ok[best][1]:.2f} x fft_peak time)")
+
+
+def _plot(records, presets, pareto_snr, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
+    fig, axes = plt.subplots(2, len(presets), figsize=(6 * len(presets), 9), squeeze=False)
+    methods = sorted({r["estimator"] for r in records})
+    for j, p in enumerate(presets):
+        ax = axes[0, j]
+        for m in methods:
+            rows = [r for r in records if r["preset"] == p and r["estimator"] == m and r["rho"] == "random"
+                    and r["snr_db"] == pareto_snr]
+            if rows:
+                ax.loglog([rows[0]["time_per_cycle_s"] * 1e3], [rows[0]["range_rmse_m"]], "o", label=m)
+        crlb = [r["range_crlb_m"] for r in records if r["preset"] == p and r["snr_db"] == pareto_snr
+                and r["rho"] == "random"]
+        if crlb:
+            ax.axhline(crlb[0], color="k", ls="--", lw=0.8, label="CRLB")
+        for axis in (ax.xaxis, ax.yaxis):          # a narrow log span: minor labels would overlap the major ones
+            axis.set_minor_formatter(NullFormatter())
+        ax.set(xlabel="time per cycle [ms]", ylabel="range RMSE [m]",
+               title=f"{p}: error against time, {pareto_snr:g} dB after integration")
+        ax.legend(fontsize=8)
+        ax = axes[1, j]
+        for m in methods:
+            rows = sorted((r for r in records if r["preset"] == p and r["estimator"] == m and r["rho"] == "random"),
+                          key=lambda r: r["snr_db"])
+            ax.semilogy([r["snr_db"] for r in rows], [r["range_ratio"] for r in rows], "o-", label=m)
+        ax.axhline(TARGET_RATIO, color="k", ls="--", lw=0.8, label=f"target {TARGET_RATIO:g} x CRLB")
+        ax.yaxis.set_minor_formatter(NullFormatter())
+        ax.set(xlabel="SNR after coherent integration [dB]", ylabel="range RMSE / CRLB (no unit)",
+               title=f"{p}: range RMSE over the Cramer-Rao bound")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(args: argparse.Namespace) -> int:
+    presets = [p.strip() for p in args.presets.split(",") if p.strip()]
+    methods = [m.strip() for m in args.estimators.split(",") if m.strip()]
+    bad = [m for m in methods if m not in METHODS + LISTS]
+    if bad:
+        raise SystemExit(f"bench estimators: unknown estimator(s) {bad}, expected some of {METHODS + LISTS}")
+    snrs = [float(s) for s in args.snr_db.split(",")]
+    n_cycles, repeat = args.cycles, args.repeat
+    if args.quick:
+        n_cycles, repeat, snrs = 40, 2, [0.0, 20.0, 30.0]
+    if "fft_peak" not in methods:
+        methods = ["fft_peak"] + methods
+    rng = np.random.default_rng(args.seed)
+    records: list[dict] = []
+    # Timed as a graph's node runs them: one BLAS thread (supervisor.NODE_ENV). A multithreaded BLAS call (music's
+    # eigendecompositions) otherwise leaves its worker threads spinning into whatever is timed next.
+    blas = threadpool_limits(limits=1, user_api="blas")
+    print(f"{'preset':8s} {'estimator':12s} {'rho':6s} {'SNR dB':>6s} {'ms/cycle':>9s} {'xpeak':>6s} "
+          f"{'range RMSE m':>12s} {'/CRLB':>7s} {'vel RMSE m/s':>12s} {'/CRLB':>7s}")
+    for p in presets:
+        geometry, n_chirps, r0, rate = load_preset(p)
+        if args.iq != "preset":
+            import dataclasses
+            geometry = dataclasses.replace(geometry, iq=args.iq == "complex")
+        for snr in snrs:
+            recs = measure(p, geometry, n_chirps, r0, rate, snr, methods, n_cycles=n_cycles, batch=args.batch,
+                           repeat=repeat, rng=rng)
+            recs += measure(p, geometry, n_chirps, r0, rate, snr, ["fft_peak", DEFAULT_METHOD], n_cycles=n_cycles,
+                            batch=args.batch, repeat=repeat, rng=rng, all_chirps=True)
+            for r in recs:
+                xp = r["time_ratio_to_fft_peak"]
+                xp = float("nan") if xp is None else xp
+                print(f"{p:8s} {r['estimator']:12s} {r['rho']:6s} {r['snr_db']:6.1f} "
+                      f"{r['time_per_cycle_s'] * 1e3:9.3f} {xp:6.2f} {r['range_rmse_m']:12.3e} {r['range_ratio']:7.2f} "
+                      f"{r['velocity_rmse_mps']:12.3e} {r['velocity_ratio']:7.2f}", flush=True)
+            records += recs
+    blas.restore_original_limits()
+    print("\nthreshold SNR (range RMSE within 2 x CRLB from there up), dB:")
+    for p in presets:
+        print(f"  {p}: " + ", ".join(f"{m} {threshold_snr(records, m, p)}" for m in methods))
+    psnr = args.pareto_snr if args.pareto_snr in snrs else snrs[-1]
+    for p in presets:
+        print(f"\nPareto at {psnr:g} dB, {p} (time ascending; * = not dominated):")
+        for r in pareto(records, p, psnr):
+            print(f"  {'*' if r['pareto'] else ' '} {r['estimator']:12s} {r['time_per_cycle_s'] * 1e3:8.3f} ms "
+                  f"({r['time_ratio_to_fft_peak']:.2f} x fft_peak)  "
+                  f"range {r['range_rmse_m']:.3e} m ({r['range_ratio']:.2f} x CRLB)")
+    name, reason = choose_default(records, presets)
+    print(f"\ndefault estimator: {name} -- {reason}")
+    if args.json:
+        bench_records.write(args.json, args, records, default=name, reason=reason)
+    if args.plot:
+        _plot(records, presets, psnr, args.plot)
+    return 0

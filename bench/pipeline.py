@@ -1,0 +1,223 @@
+"""`python3 dev.py bench pipeline`: cycles/s of the multi-process radar graph against the same chain in one process.
+
+For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mode:
+  pipeline       the 8-node graph of graphs/radar_chain.toml (smart attacker from half the run on), one process per
+                 node, run by the supervisor, frames of --batch cycles; cycles/s from go to the last sink
+  fused          carav_stream.firmware.algorithm1.run_algorithm1 in one fresh process started like a node (the
+                 same allocator and BLAS settings, supervisor.NODE_ENV), in batches of the same --batch cycles (the same
+                 work per cycle, the same vectorisation; scene templates built before the clock starts, as
+                 the channel node builds them before the run starts)
+Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
+rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time.
+Noise and attacks are fresh and i.i.d. in every cycle and every cycle is processed in full.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from bench import records as bench_records
+from carav_graphs import graph_file
+from carav_stream.capture.sigmf_io import open_recording
+from carav_stream.cli.record import record_graph
+from carav_stream.cli.replay import overrides_for
+from carav_stream.console.options import count, number, output_file
+from carav_stream.firmware.algorithm1 import run_algorithm1
+from carav_stream.radar.physics import echo_templates
+from carav_stream.radar.streams import scene_of
+from carav_stream.runtime.graph import TRANSPORTS
+from carav_stream.runtime.loader import load_graph
+from carav_stream.runtime.supervisor import NODE_ENV, Supervisor
+
+CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000))
+MODES = ("pipeline", "fused", "record", "replay")
+
+
+def _modes(text: str) -> list[str]:
+    wanted = [] if text == "none" else text.split(",")
+    if set(wanted) - {"record", "replay"} or "replay" in wanted and "record" not in wanted:
+        raise argparse.ArgumentTypeError(f"expected record, record,replay or none, got {text!r}")
+    return wanted
+
+
+def pipeline_overrides(preset: str, fidelity: str, n: int, method: str, batch: int,
+                       transport: str = "zmq") -> list[str]:
+    """`--set` values that make graphs/radar_chain.toml the graph of one benchmark case (the smart attacker from
+    half the run on, as in the fused chain), its arrays over `transport`."""
+    return [f"scene={preset}", f"fidelity={fidelity}", f"batch={batch}", "seed=5", "attacker.model=smart",
+            "attacker.rarms=3.0", f"attacker.start_cycle={n // 2}", f"ranging.method={method}",
+            f"run.transport={transport}"]
+
+
+def _transports(text: str) -> list[str]:
+    wanted = text.split(",")
+    if not wanted or set(wanted) - set(TRANSPORTS):
+        raise argparse.ArgumentTypeError(f"expected a comma list of {', '.join(TRANSPORTS)}, got {text!r}")
+    return wanted
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", type=output_file, metavar="FILE", help="write the records as JSON")
+    parser.add_argument("--repeats", type=count(1), default=3, help="runs per case and mode (median reported)")
+    parser.add_argument("--scale", type=number(0.0, strict=True), default=1.0, help="multiply the cycles of every case")
+    parser.add_argument("--batch", default="16,32", help="cycles per frame (pipeline) and per call (fused); a comma "
+                        "list runs each (default: the blocks' default 16 and the table1 graphs' 32)")
+    parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
+    parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
+    parser.add_argument("--transport", default=",".join(TRANSPORTS), type=_transports,
+                        help="data planes of the pipeline runs: zmq (arrays in ZeroMQ messages), shm (in shared "
+                        "memory, runtime/shm.py), or both as a comma list (record and replay use the first)")
+    parser.add_argument("--with", dest="with_modes", default=["record", "replay"], type=_modes, metavar="MODES",
+                        help="extra modes beside pipeline and fused: record, replay (needs record), or none")
+
+
+def _run(graph, n: int, what: str) -> dict:
+    summary = Supervisor(graph, cycles=n, progress=False, log=lambda text: None).run()
+    if summary["failures"] or summary["lost"] or summary["cycles_judged"] != n:
+        raise RuntimeError(f"{what} failed: {summary['failures']} lost {summary['lost']}")
+    return summary
+
+
+def outside_blocks(summary: dict, n: int) -> dict[str, float]:
+    """us per cycle each node spends outside its block from its first frame on (the ZeroMQ I/O thread, decoding,
+    pairing, sending, shared-memory slots, control): what only the pipeline spends, beside the kernels."""
+    return {node: max(p["cpu_working_s"] - p["busy_s"], 0.0) / n * 1e6 for node, p in summary["per_node"].items()}
+
+
+def ceiling(busy: dict[str, float], outside: dict[str, float], cores: int) -> tuple[float, str]:
+    """The most cycles/s a graph whose nodes spend these CPU times per cycle (us, inside and outside their blocks)
+    can make on `cores` cores. A node's block runs on its main thread, one frame after another, so the node allows
+    1 / (its busy time per cycle); what it spends outside the block may run beside it (ZeroMQ's I/O thread), so
+    that counts only toward the cores, which allow cores / (the sum of everything). Returns (cycles/s, what binds:
+    the node's name, or "N cores")."""
+    node = max(busy, key=busy.get)
+    one_node = 1e6 / busy[node]
+    shared = cores * 1e6 / (sum(busy.values()) + sum(outside.get(n, 0.0) for n in busy))
+    return (one_node, node) if one_node <= shared else (shared, f"{cores} core{'s' if cores != 1 else ''}")
+
+
+def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, transport: str,
+              record_to: Path | None = None) -> tuple[float, dict, dict]:
+    """cycles/s, busy us per cycle by node, and the run summary; with record_to, the graph with its recorder
+    (carav record) writing into that folder."""
+    overrides = pipeline_overrides(preset, fidelity, n, method, batch, transport)
+    graph = load_graph(graph_file("radar_chain"), overrides)
+    if record_to is not None:
+        graph = load_graph(record_graph(graph, record_to, overrides), overrides)
+    summary = _run(graph, n, f"{'record' if record_to else 'pipeline'} run of {preset}/{fidelity}")
+    busy = {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
+    return summary["throughput_cycles_per_s"], busy, summary
+
+
+def _replay(folder: Path, n: int, method: str, transport: str) -> tuple[float, dict]:
+    """cycles/s and busy us per cycle of graphs/replay.toml on the recording in `folder` (carav replay)."""
+    rec = open_recording(folder, verify_hash=False)
+    overrides = [*overrides_for(rec, "source", {}, recorded_settings=False), f"ranging.method={method}",
+                 f"run.transport={transport}"]
+    summary = _run(load_graph(graph_file("replay"), overrides), n, f"replay of {folder}")
+    return summary["throughput_cycles_per_s"], {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
+
+
+_WORKER = ("import json, sys; from bench.pipeline import _fused_worker; "
+           "print(json.dumps(_fused_worker(*json.loads(sys.argv[1]))))")
+
+
+def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, float]:
+    """cycles/s and CPU us per cycle of run_algorithm1 in a fresh process started as the supervisor starts a node."""
+    args = json.dumps([preset, fidelity, n, method, batch])
+    out = subprocess.run([sys.executable, "-c", _WORKER, args], env={**NODE_ENV, **os.environ},
+                         capture_output=True, text=True, timeout=1800)
+    if out.returncode:
+        raise RuntimeError(f"fused run of {preset}/{fidelity} failed:\n{out.stderr[-2000:]}")
+    rate, cpu_us = json.loads(out.stdout.splitlines()[-1])
+    return rate, cpu_us
+
+
+def _fused_worker(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, float]:
+    scene = scene_of(preset)
+    echo_templates(scene, fidelity)   # built once per scene, like the channel node does before the run starts
+    t0, c0 = time.perf_counter(), time.process_time()
+    run_algorithm1(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
+                   method=method, fidelity=fidelity, batch=batch)
+    return n / (time.perf_counter() - t0), (time.process_time() - c0) / n * 1e6
+
+
+def run(args: argparse.Namespace) -> int:
+    wanted = None if args.cases == "all" else {tuple(c.split(":")) for c in args.cases.split(",")}
+    batches = [int(b) for b in str(args.batch).split(",")]
+    modes = {"pipeline", "fused", *args.with_modes}
+    records = []
+    for preset, fidelity, n in CASES:
+        if wanted and (preset, fidelity) not in wanted:
+            continue
+        n = max(20, int(n * args.scale))
+        rate_radar = scene_of(preset).cycles_per_s
+        first = args.transport[0]
+        for batch in batches:
+            # (mode, transport) -> rates; the fused chain has no data plane
+            runs = {(m, t): [] for m in MODES if m in modes
+                    for t in (args.transport if m == "pipeline" else ["none"] if m == "fused" else [first])}
+            busy_runs, fused_cpu, bytes_per_cycle = {k: [] for k in runs}, [], None
+            outside_runs = {t: [] for t in args.transport}
+            for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
+                for transport in args.transport:
+                    rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, transport)
+                    runs[("pipeline", transport)].append(rate)
+                    busy_runs[("pipeline", transport)].append(busy)
+                    outside_runs[transport].append(outside_blocks(summary, n))
+                rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
+                runs[("fused", "none")].append(rate)
+                fused_cpu.append(cpu_us)
+                if ("record", first) in runs:
+                    with tempfile.TemporaryDirectory(prefix="carav-bench-") as folder:
+                        rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, first, Path(folder))
+                        runs[("record", first)].append(rate)
+                        busy_runs[("record", first)].append(busy)
+                        bytes_per_cycle = summary["recording"]["bytes_per_cycle"]
+                        if ("replay", first) in runs:
+                            rate, busy = _replay(Path(folder), n, args.method, first)
+                            runs[("replay", first)].append(rate)
+                            busy_runs[("replay", first)].append(busy)
+            fused_runs = runs[("fused", "none")]
+            for (mode, transport), rates in runs.items():
+                rate = statistics.median(rates)
+                # against the fused chain run in the same repeat, right after: a paired ratio per repeat, and
+                # their median, so that the machine's load drifting from repeat to repeat cancels out
+                paired = [r / f for r, f in zip(rates, fused_runs)]
+                rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "transport": transport, "batch": batch,
+                       "cycles": n, "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
+                       "runs_cycles_per_s": rates, "real_time_factor": rate / rate_radar,
+                       "radar_cycles_per_s": rate_radar, "speedup_over_fused": statistics.median(paired),
+                       "runs_speedup_over_fused": paired}
+                note = ""
+                if mode == "fused":
+                    rec["cpu_us_per_cycle"] = statistics.median(fused_cpu)
+                else:
+                    b_runs = busy_runs[(mode, transport)]
+                    busy = {node: statistics.median(b[node] for b in b_runs) for node in b_runs[0]}
+                    rec["bottleneck_node"] = bottleneck = max(busy, key=busy.get)
+                    rec["busy_us_per_cycle"] = busy
+                    note = f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)"
+                    if mode == "pipeline":
+                        o_runs = outside_runs[transport]
+                        rec["outside_us_per_cycle"] = outside = {
+                            node: statistics.median(o[node] for o in o_runs) for node in o_runs[0]}
+                        note += f"  outside the blocks {sum(outside.values()):.0f} us/cycle"
+                if mode in ("record", "replay"):
+                    rec["bytes_per_cycle"] = bytes_per_cycle
+                    rec["ratio_to_pipeline"] = rate / statistics.median(runs[("pipeline", transport)])
+                    note += f"  {bytes_per_cycle} B/cycle on disk, x{rec['ratio_to_pipeline']:.2f} live graph"
+                records.append(rec)
+                print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {transport:<4} {rate:9.1f} cycles/s  "
+                      f"real-time x{rate / rate_radar:6.3f}  vs fused x{rec['speedup_over_fused']:5.2f}{note}",
+                      flush=True)
+    if args.json:
+        bench_records.write(args.json, args, records)
+    return 0

@@ -1,0 +1,196 @@
+"""`python3 dev.py bench soak --minutes N`: the demo graph at full speed for N minutes, its attacker swapped every
+few seconds.
+
+The graph (graphs/demo.toml, until stopped) runs as `carav run` in a process group of its own, with a private
+run folder. Every `--sample-s` seconds the benchmark reads each node's resident memory (VmRSS) and open file
+descriptors from /proc (the pids come from `carav status`); every `--swap-s` seconds it swaps the attacker's model
+(random, smart, none in turn, through the same admin path as `carav swap`). At the end it stops the graph with
+`carav stop` and reads the run summary.
+
+Memory: the nodes run with the supervisor's allocator settings (supervisor.NODE_ENV), except glibc's trim
+threshold, set by `--trim-mb` (default 0; the node default is 512 MB). glibc keeps up to that much freed heap in each
+process (with 512 MB on purpose: large frames are then reused instead of faulted in again), so resident memory
+creeps towards the threshold whatever the code does (with 16 MB the run-summary node, whose block keeps constant
+state, crept about +30 MB/h over 10 minutes). With 0, resident memory is what is live plus the frames in flight at
+the instant of the sample, which come and go; the benchmark therefore fits the floor of the series, the smallest
+sample in each `--floor-s` window, which a leak raises and frames in flight do not. `--trim-mb 512` measures the
+production setting.
+
+Figures per node: resident memory and file descriptors at the start of the second half of the run and at the
+end, and the growth per hour of the memory floor and of the descriptors from a least-squares line through the
+second half (the first half is warm-up: caches, allocator pools); the line through every sample is kept in the
+record beside it. Targets: no growth beyond noise (memory floor: a slope under SOAK_RSS_MB_PER_H per node and hour,
+or under three standard errors of the fitted slope; descriptors: none), and no lost cycle. Memory is sampled per
+process: a swapped or restarted node's new process is a new series.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bench import records as bench_records
+from carav_stream.console.options import count, number, output_file
+
+SOAK_RSS_MB_PER_H = 20.0
+MODELS = (("random", ["rarms=3.0"]), ("smart", ["rarms=3.0"]), ("none", []))
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--minutes", type=number(0.0, strict=True), default=10.0, help="how long the graph runs")
+    parser.add_argument("--swap-s", type=number(0.5), default=5.0, help="seconds between attacker swaps")
+    parser.add_argument("--sample-s", type=number(0.1), default=2.0, help="seconds between memory samples")
+    parser.add_argument("--batch", type=count(1), default=32, help="cycles per frame")
+    parser.add_argument("--trim-mb", type=count(0), default=0,
+                        help="glibc's trim threshold in the nodes, MB (the node default is 512; see the module doc)")
+    parser.add_argument("--floor-s", type=number(0.1), default=30.0,
+                        help="window of the memory floor: the smallest sample per window is fitted (default 30 s)")
+    parser.add_argument("--json", type=output_file, metavar="FILE", help="write the records as JSON")
+
+
+def proc_figures(pid: int) -> tuple[float, int] | None:
+    """(resident MB, open descriptors) of a live process, or None if it is gone."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+        fds = len(os.listdir(f"/proc/{pid}/fd"))
+    except (FileNotFoundError, ProcessLookupError, PermissionError):
+        return None
+    rss_kb = next(int(line.split()[1]) for line in status.splitlines() if line.startswith("VmRSS:"))
+    return rss_kb / 1024, fds
+
+
+def growth_per_hour(t_s: list[float], values: list[float]) -> tuple[float, float]:
+    """Slope of a least-squares line and its standard error, per hour ((0, 0) with fewer than 4 samples)."""
+    if len(t_s) < 4 or max(t_s) == min(t_s):
+        return 0.0, 0.0
+    t, v = np.asarray(t_s, float), np.asarray(values, float)
+    line = np.polyfit(t, v, 1)
+    slope, resid = line[0], v - np.polyval(line, t)
+    stderr = math.sqrt(float(resid @ resid) / (len(t) - 2) / float(((t - t.mean()) ** 2).sum()))
+    return float(slope * 3600.0), float(stderr * 3600.0)
+
+
+def floor(t_s: list[float], values: list[float], window_s: float) -> tuple[list[float], list[float]]:
+    """The smallest value in each window of window_s seconds from the first sample (at the window's middle);
+    windows with fewer than two samples are left out (a floor of one sample is just a sample)."""
+    t, v = np.asarray(t_s, float), np.asarray(values, float)
+    k = np.floor((t - t[0]) / window_s).astype(int)
+    out_t, out_v = [], []
+    for w in np.unique(k):
+        if np.count_nonzero(k == w) >= 2:
+            out_t.append(float(t[0] + (w + 0.5) * window_s))
+            out_v.append(float(v[k == w].min()))
+    return out_t, out_v
+
+
+def no_growth(per_h: float, stderr_per_h: float) -> bool:
+    """The soak's target: growth under SOAK_RSS_MB_PER_H, or not told apart from noise (under 3 standard errors)."""
+    return per_h < max(SOAK_RSS_MB_PER_H, 3.0 * stderr_per_h)
+
+
+def _carav(env: dict[str, str], *args: str, timeout_s: float = 60) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "carav_stream.cli", *args], env=env, capture_output=True, text=True,
+                          timeout=timeout_s)
+
+
+def _node_pids(env: dict[str, str]) -> dict[str, int]:
+    """{node: pid} of the running graph, from `carav status` ({} while it is not up yet)."""
+    st = _carav(env, "status", "--json", timeout_s=20)
+    if st.returncode != 0 or not st.stdout.strip().startswith("["):
+        return {}
+    return {node: info["pid"] for run in json.loads(st.stdout) for node, info in run["nodes"].items()
+            if info.get("pid")}
+
+
+def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: int = 0,
+         floor_s: float = 30.0) -> dict[str, Any]:
+    from carav_graphs import graph_file
+    with tempfile.TemporaryDirectory(prefix="cs", dir="/tmp") as tmp:     # ipc paths must stay short
+        env = {**os.environ, "CARAV_RUN_DIR": tmp, "MALLOC_TRIM_THRESHOLD_": str(trim_mb << 20),
+               "MALLOC_TOP_PAD_": "0"}          # the user's environment wins over NODE_ENV
+        summary_path = Path(tmp) / "summary.json"
+        proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "run", str(graph_file("demo")),
+                                 "--cycles", "0", "--set", f"batch={batch}", "--no-progress",
+                                 "--json", str(summary_path)], env=env, start_new_session=True,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        series: dict[tuple[str, int], list[tuple[float, float, int]]] = {}
+        swaps, t0 = 0, time.monotonic()
+        pids: dict[str, int] = {}
+        try:
+            next_swap = next_sample = t0
+            end = t0 + minutes * 60
+            while time.monotonic() < end:
+                if proc.poll() is not None:
+                    raise RuntimeError(f"the graph ended early:\n{proc.stderr.read()[-2000:]}")
+                now = time.monotonic()
+                if now >= next_sample:
+                    next_sample = now + sample_s
+                    figs = {node: proc_figures(pid) for node, pid in pids.items()}
+                    if not pids or None in figs.values():      # not known yet, or a node was restarted
+                        pids = _node_pids(env)
+                        figs = {node: proc_figures(pid) for node, pid in pids.items()}
+                    for node, f in figs.items():
+                        if f:
+                            series.setdefault((node, pids[node]), []).append((now - t0, *f))
+                if now >= next_swap and now > t0 + 2:
+                    next_swap = now + swap_s
+                    model, sets = MODELS[swaps % len(MODELS)]
+                    res = _carav(env, "swap", "attacker", "attacker", "--set", f"model={model}",
+                                 *sum((["--set", s] for s in sets), []))
+                    if res.returncode != 0:
+                        raise RuntimeError(f"swap {swaps} to {model} refused: {res.stderr.strip()}")
+                    swaps += 1
+                time.sleep(0.05)
+            stop = _carav(env, "stop")
+            if stop.returncode != 0:
+                raise RuntimeError(f"carav stop failed: {stop.stderr.strip()}")
+            proc.wait(120)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+        summary = json.loads(summary_path.read_text())
+    elapsed = time.monotonic() - t0
+    sampled = [t for samples in series.values() for t, *_ in samples]
+    half = (min(sampled) + max(sampled)) / 2 if sampled else 0.0   # of the sampled run, not of its stop
+    nodes = {}
+    for (node, pid), samples in sorted(series.items()):
+        late = [s for s in samples if s[0] >= half]
+        if len(late) < 3:
+            continue       # a process that lived through too little of the second half to judge
+        t, rss, fds = zip(*late)
+        rss_per_h, rss_err = growth_per_hour(t, rss)
+        t_floor, rss_floor = floor(t, rss, floor_s)
+        floor_per_h, floor_err = growth_per_hour(t_floor, rss_floor)
+        nodes[f"{node}[{pid}]"] = {"node": node, "pid": pid, "samples": len(late), "rss_mb_start": rss[0],
+                                   "rss_mb_end": rss[-1], "rss_mb_per_h": rss_per_h, "rss_mb_per_h_stderr": rss_err,
+                                   "floor_windows": len(rss_floor), "rss_floor_mb_per_h": floor_per_h,
+                                   "rss_floor_mb_per_h_stderr": floor_err,
+                                   "fds_start": fds[0], "fds_end": fds[-1], "fds_per_h": growth_per_hour(t, fds)[0]}
+    return {"minutes": minutes, "trim_mb": trim_mb, "floor_s": floor_s, "elapsed_s": elapsed, "swaps": swaps,
+            "cycles": summary["cycles"],
+            "cycles_per_s": summary["throughput_cycles_per_s"], "lost": summary["lost"],
+            "failures": summary["failures"], "rejected": summary["rejected"], "processes": nodes}
+
+
+def run(args: argparse.Namespace) -> int:
+    rec = soak(args.minutes, args.swap_s, args.sample_s, args.batch, args.trim_mb, args.floor_s)
+    print(f"soak: {rec['elapsed_s']:.0f} s, {rec['cycles']} cycles ({rec['cycles_per_s']:.0f} cycles/s), "
+          f"{rec['swaps']} swaps, lost {rec['lost']}, rejected {rec['rejected']}, failures {len(rec['failures'])}")
+    print(f"{'process':<24}{'RSS MB start':>13}{'end':>8}{'floor MB/h':>12}{'+-':>7}{'fds':>6}{'end':>5}{'fds/h':>8}")
+    for name, p in rec["processes"].items():
+        print(f"{name:<24}{p['rss_mb_start']:>13.1f}{p['rss_mb_end']:>8.1f}{p['rss_floor_mb_per_h']:>12.1f}"
+              f"{p['rss_floor_mb_per_h_stderr']:>7.1f}{p['fds_start']:>6}{p['fds_end']:>5}{p['fds_per_h']:>8.1f}")
+    if args.json:
+        bench_records.write(args.json, args, [rec])
+    return 0 if rec["lost"] == 0 and not rec["failures"] else 1

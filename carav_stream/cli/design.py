@@ -1,0 +1,141 @@
+"""`carav design`: the threshold of every detector for a target false-alarm rate per cycle on one scene.
+
+    carav design --preset NAME | --scene FILE [--pf 1e-6] [--nr N] [--ns N] [--iq] [--snr-db DB] [--rarms LIST]
+                 [--trials N] [--seed S] [--json FILE]
+
+Thresholds (closed forms; model and limits: carav_stream/firmware/design.py):
+- C(eta), the RMS detector (D0 on the silent chirps, D1 on the active ones): eta with PF(eta) = pf per cycle, and PF
+  at the paper's eta = 1.5 beside it;
+- the spectral silent-chirp test (carav_stream/detect/opt_in.py): its exact threshold over the scene's bins;
+- the CUSUM of the silent power across cycles: h for an in-control average run length of 1 / pf cycles.
+Misses of C at both etas for the paper's attacks: `random` by the closed form, `smart` by Monte Carlo (--trials
+cycles per RARMS, seeded, with 95 % intervals).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from carav_stream.console.errors import CommandError, Exit
+from carav_stream.console.options import count, float_list, number, output_file
+from carav_stream.detect.opt_in import cusum_threshold, spectral_threshold
+from carav_stream.detect.stats import clopper_pearson
+from carav_stream.firmware.design import pf_per_cycle, pm_random, rms_threshold, scene_law
+from carav_stream.montecarlo.engine import simulate_q
+from carav_stream.montecarlo.radar_source import RadarSource
+from carav_stream.radar.scene import SceneError
+from carav_stream.radar.scene_loader import load_scene
+
+__all__ = ["configure", "run", "design"]
+
+PAPER_ETA = 1.5
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--preset", default=None, help="a built-in scene (carav_stream/radar/presets); default table1")
+    where.add_argument("--scene", default=None, metavar="FILE", help="a scene file")
+    parser.add_argument("--pf", type=number(0.0, strict=True), default=1e-6,
+                        help="target false-alarm probability per cycle (default 1e-6)")
+    parser.add_argument("--nr", type=count(2), default=None, help="override the number of chirps per cycle N_r")
+    parser.add_argument("--ns", type=count(2), default=None, help="override the samples per chirp N_s")
+    parser.add_argument("--iq", action="store_true", help="complex I/Q samples instead of the scene's I only")
+    parser.add_argument("--snr-db", type=float, default=None, help="per-sample echo SNR of the first target, dB")
+    parser.add_argument("--rarms", type=float_list(0.0), default=[0.5, 1.0, 1.5, 2.0, 3.0, 5.0],
+                        help="attack strengths for the miss rates (default 0.5,1,1.5,2,3,5)")
+    parser.add_argument("--trials", type=count(1), default=2000, help="Monte Carlo cycles per smart-attack point")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the smart-attack Monte Carlo (default 1)")
+    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="also write the numbers as JSON")
+
+
+def _scene(args: argparse.Namespace):
+
+    over: dict = {}
+    if args.nr is not None:
+        over["n_chirps"] = args.nr
+    if args.ns is not None:
+        over["n_samples"] = args.ns
+    if args.iq:
+        over["iq"] = True
+    if args.snr_db is not None:
+        over["snr_db"] = args.snr_db
+    try:
+        return load_scene(args.scene or args.preset or "table1", over or None)
+    except (SceneError, OSError) as exc:
+        raise CommandError(str(exc), Exit.INVALID) from None
+
+
+def design(scene, pf: float, rarms: list[float], trials: int, seed: int) -> dict:
+    """Every number `carav design` prints, as a dict (JSON-ready)."""
+
+    if not 0 < pf < 1:
+        raise CommandError(f"--pf: must be in (0, 1), got {pf:g}", Exit.USAGE)
+    law = scene_law(scene)
+    eta = rms_threshold(law, pf)
+    m = scene.n_chirps // 2
+    bins = scene.n_samples if scene.iq else (scene.n_samples - 1) // 2     # the spectral test's bins per chirp
+    spectral = spectral_threshold(pf, m * bins)
+    source = RadarSource(scene)
+    seeds = np.random.SeedSequence(seed).spawn(len(rarms))
+    misses = []
+    for r, child in zip(rarms, seeds):
+        q = simulate_q(source, "smart", r, trials, child, workers=1).q
+        row = {"rarms": r}
+        for key, e in (("design", eta), ("paper", PAPER_ETA)):
+            k = int(np.sum(q < e))
+            lo, hi = clopper_pearson(k, trials)
+            row[key] = {"random": float(pm_random(law, e, r)), "smart": k / trials,
+                        "smart_ci": [float(lo), float(hi)]}
+        misses.append(row)
+    return {
+        "scene": {"name": scene.name, "n_chirps": scene.n_chirps, "n_samples": scene.n_samples, "iq": scene.iq,
+                  "dof": law.dof, "echo_snr_db": float(10 * np.log10(law.snr)) if law.snr > 0 else None,
+                  "adc_bits": scene.adc_bits, "noise_inflation_by_adc": law.sigma_eff / law.sigma_n},
+        "pf": pf,
+        "rms_detector": {"eta": eta, "pf_at_eta": float(pf_per_cycle(law, eta)),
+                         "paper_eta": PAPER_ETA, "pf_at_paper_eta": float(pf_per_cycle(law, PAPER_ETA))},
+        "spectral_silent_test": {"threshold": spectral, "threshold_db": float(10 * np.log10(spectral)),
+                                 "bins_tested": m * bins},
+        "cusum_silent_power": {"k": 0.5, "h": cusum_threshold(1 / pf, 0.5), "arl0_cycles": 1 / pf},
+        "misses": misses, "smart_trials": trials, "seed": seed,
+    }
+
+
+def _print(d: dict, stream=None) -> None:
+    stream = stream or sys.stdout
+    s, rd = d["scene"], d["rms_detector"]
+    snr = "no echo" if s["echo_snr_db"] is None else f"echo SNR {s['echo_snr_db']:+.1f} dB per sample"
+    print(f"scene {s['name']}: N_r = {s['n_chirps']}, N_s = {s['n_samples']}, {'I/Q' if s['iq'] else 'I only'} "
+          f"(nu = {s['dof']}), {snr}, {s['adc_bits']}-bit ADC (noise x{s['noise_inflation_by_adc']:.6f}); "
+          f"target PF {d['pf']:g} per cycle", file=stream)
+    print(f"  C(eta), RMS detector (D0 + D1)   eta = {rd['eta']:.4f}    PF per cycle {rd['pf_at_eta']:.3g} "
+          f"(at the paper's eta = {rd['paper_eta']:g}: {rd['pf_at_paper_eta']:.3g})", file=stream)
+    sp = d["spectral_silent_test"]
+    print(f"  spectral silent-chirp test       {sp['threshold']:.2f} x noise power per bin ({sp['threshold_db']:.1f} "
+          f"dB) over {sp['bins_tested']} bins", file=stream)
+    cu = d["cusum_silent_power"]
+    print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
+          f"{cu['arl0_cycles']:.3g} cycles", file=stream)
+    print(f"misses of C per attacked cycle (random: closed form; smart: {d['smart_trials']} cycles per RARMS, seed "
+          f"{d['seed']}, 95 % interval)", file=stream)
+    print(f"  {'RARMS':>6}  {'random @ eta':>12}  {'smart @ eta':>22}  {'random @ 1.5':>12}  {'smart @ 1.5':>22}",
+          file=stream)
+    for row in d["misses"]:
+        cells = []
+        for key in ("design", "paper"):
+            c = row[key]
+            cells += [f"{c['random']:12.3g}", f"{c['smart']:7.3g} [{c['smart_ci'][0]:.3g}, {c['smart_ci'][1]:.3g}]"]
+        print(f"  {row['rarms']:6g}  {cells[0]}  {cells[1]:>22}  {cells[2]}  {cells[3]:>22}", file=stream)
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.pf < 1:
+        raise CommandError(f"--pf: must be in (0, 1), got {args.pf:g}", Exit.USAGE)
+    result = design(_scene(args), args.pf, args.rarms, args.trials, args.seed)
+    _print(result)
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=1))
+    return 0

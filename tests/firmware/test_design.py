@@ -1,0 +1,92 @@
+"""Thresholds per scene (carav_stream.firmware.design, `carav design`): closed forms checked against scipy's
+chi-square directly and against the full sample chain (ADC included) by Monte Carlo."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from carav_stream.cli import main as carav
+from carav_stream.console.errors import Exit
+from carav_stream.detect.stats import clopper_pearson
+from carav_stream.firmware.design import pf_per_cycle, rms_threshold, scene_law, threshold_warning
+from carav_stream.montecarlo.engine import simulate_q
+from carav_stream.montecarlo.radar_source import RadarSource
+from carav_stream.radar.scene_loader import load_scene
+
+
+def test_pf_of_eta_1_5_on_a_short_chirp_scene_is_the_chi_square_tail_of_its_silent_chirps():
+    """256 chirps of 32 I-only samples: eta = 1.5 is not a safe threshold there (PF ~ 8e-3 per cycle)."""
+    law = scene_law(load_scene("table1", {"n_chirps": 256, "n_samples": 32}))
+    scale = law.sigma_n / law.sigma_eff           # the ADC's quantisation noise (tiny, but in the law)
+    d0 = 1 - stats.chi2.cdf(32 * (1.5 * scale) ** 2, 32) ** 128
+    assert pf_per_cycle(law, 1.5) == pytest.approx(d0, rel=1e-3)
+    assert 7e-3 < d0 < 9e-3
+
+
+@pytest.mark.parametrize("preset", ["table1", "awr1642"])
+def test_the_designed_eta_gives_the_target_pf_by_the_chi_square_law(preset):
+    law = scene_law(load_scene(preset))
+    for pf in (1e-2, 1e-6, 1e-9):
+        eta = rms_threshold(law, pf) * law.sigma_n / law.sigma_eff
+        m = law.n_chirps // 2
+        d0 = -np.expm1(m * stats.chi2.logcdf(law.dof * eta ** 2, law.dof))     # D1 adds nothing at these etas
+        assert d0 == pytest.approx(pf, rel=1e-6)
+
+
+def test_the_designed_eta_holds_its_pf_on_the_full_sample_chain():
+    """Samples, 12-bit ADC, the echo: the detector's false alarms at the designed eta match the design."""
+    scene = load_scene("table1", {"n_chirps": 32, "n_samples": 24})
+    law = scene_law(scene)
+    pf = 0.02
+    eta = rms_threshold(law, pf)
+    n = 20000
+    q = simulate_q(RadarSource(scene), "none", 0.0, n, np.random.SeedSequence(5), method="samples").q
+    k = int(np.sum(q >= eta))
+    lo, hi = clopper_pearson(k, n, 0.999)
+    assert lo <= pf <= hi, (k, n, eta)
+
+
+def test_threshold_warning_only_above_one_in_a_million():
+    law = scene_law(load_scene("table1"))
+    assert threshold_warning(law, 1.5) is None
+    text = threshold_warning(law, 1.05, who="rms_detector", design_hint="carav design --preset table1")
+    assert text.startswith("rms_detector eta = 1.05 raises false alarms on") and "eta = 1.117 for 1e-06" in text
+
+
+def test_design_command_prints_and_writes_every_threshold(tmp_path, capsys):
+    out = tmp_path / "d.json"
+    assert carav(["design", "--preset", "awr1642", "--rarms", "1,3", "--trials", "300", "--seed", "2",
+                  "--json", str(out)]) == Exit.OK
+    text = capsys.readouterr().out
+    d = json.loads(out.read_text())
+    assert f"eta = {d['rms_detector']['eta']:.4f}" in text
+    assert d["rms_detector"]["pf_at_eta"] == pytest.approx(1e-6, rel=1e-6)
+    assert d["spectral_silent_test"]["bins_tested"] == 64 * 127
+    assert [row["rarms"] for row in d["misses"]] == [1.0, 3.0]
+    # RARMS 3 is caught at both thresholds; the smart attack at RARMS 1 is missed more at 1.5 than at the design eta
+    assert d["misses"][1]["paper"]["smart"] == 0 and d["misses"][1]["design"]["random"] < 1e-12
+    assert d["misses"][0]["paper"]["smart"] > d["misses"][0]["design"]["smart"]
+
+
+def test_design_refuses_a_pf_outside_0_1_and_an_unknown_scene(capsys):
+    assert carav(["design", "--pf", "2"]) == Exit.USAGE
+    assert "--pf: must be in (0, 1)" in capsys.readouterr().err
+    assert carav(["design", "--scene", "/nonexistent.toml"]) == Exit.INVALID
+    assert "/nonexistent.toml" in capsys.readouterr().err
+
+
+def test_validate_and_sweep_warn_when_eta_is_loose_for_the_scene(capsys):
+    from pathlib import Path
+
+    graph = str(Path(__file__).resolve().parents[2] / "graphs" / "table1_random.toml")
+    assert carav(["validate", graph, "--set", "detector.eta=1.05"]) == Exit.OK
+    err = capsys.readouterr().err
+    assert err.count("rms_detector eta = 1.05 raises false alarms") == 1
+    assert "`carav design --preset table1` gives eta = 1.117" in err
+    assert carav(["validate", graph]) == Exit.OK
+    assert "warning" not in capsys.readouterr().err
+    assert carav(["sweep", "--nr", "256", "--ns", "32", "--rarms", "1", "--trials", "20", "--quiet"]) == Exit.OK
+    assert "the paper's eta = 1.5 raises false alarms on 0.0083" in capsys.readouterr().err
