@@ -27,11 +27,11 @@ from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.estimators import DEFAULT_METHOD, METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.estimate.tones import synth_beat
+from carav_stream.experiments.reporting import load_preset
 from carav_stream.firmware.target_list import target_list
 from carav_stream.radar.activation import balanced_rows
-from carav_stream.radar.scene_loader import load_scene
 
-__all__ = ["configure", "run", "load_preset", "measure"]
+__all__ = ["configure", "run", "measure"]
 
 PRESETS = ("table1", "awr1642")
 SNR_GRID_DB = tuple(range(-10, 31, 5))
@@ -56,13 +56,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="40 cycles, 2 repeats, 3 SNRs (smoke test)")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the records as JSON")
     parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png", help="draw error against time")
-
-
-def load_preset(name: str) -> tuple[Geometry, int, float, float]:
-    """(geometry, n_chirps, target range [m], target range rate [m/s]) of a radar preset."""
-    sc = load_scene(name)
-    t = sc.targets[0]
-    return Geometry.from_scene(sc), int(sc.n_chirps), float(t.range_m), float(sc.range_rate_mps(t))
 
 
 def _truth(rng, geometry: Geometry, n_cycles: int, range_m: float, rate_mps: float):

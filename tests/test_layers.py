@@ -63,3 +63,19 @@ def test_a_hidden_import_without_its_reason_is_found(tmp_path):
     f.write_text("def f():\n    # start-up time: units is heavy\n    from carav_stream.core import units\n")
     assert _hidden_imports(f, tmp_path) == []
 
+
+
+def _imported_roots(path: Path) -> set[str]:
+    roots = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            roots |= {a.name.split(".")[0] for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            roots.add(node.module.split(".")[0])
+    return roots
+
+
+def test_the_installed_package_and_the_blocks_import_neither_the_benchmarks_nor_the_tests():
+    files = sorted(PACKAGE.rglob("*.py")) + sorted((ROOT / "blocks").glob("*.py"))
+    offenders = [str(f.relative_to(ROOT)) for f in files if _imported_roots(f) & {"bench", "tests"}]
+    assert offenders == []

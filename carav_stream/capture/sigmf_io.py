@@ -1,7 +1,6 @@
 """SigMF recordings of what the ADC delivered: metadata out of a run, and a recording checked before it is replayed.
 
 A recording is three files with one base name (SigMF 1.2, written and validated with the `sigmf` package):
-
     BASE.sigmf-data     the ADC's output of every recorded cycle, cycle after cycle, chirp after chirp:
                         ri16_le (real codes), ci16_le (I/Q codes), or rf32_le / cf32_le for an ideal ADC
     BASE.sigmf-meta     global: sample rate, datatype, sha512, recorder, the scene's chirp structure

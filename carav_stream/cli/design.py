@@ -52,7 +52,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def _scene(args: argparse.Namespace):
-
     over: dict = {}
     if args.nr is not None:
         over["n_chirps"] = args.nr

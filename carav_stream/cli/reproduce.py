@@ -105,7 +105,6 @@ def run(args: argparse.Namespace) -> int:
         Path(args.json).write_text(json.dumps(data, indent=1, default=float))
     print(f"wrote {out} and {fig_dir}/repro_*.png in {time.perf_counter() - t0:.0f} s")
     if args.in_place:
-
         changed = doc_outputs.regenerate(Path("."), log=lambda m: log(args, f"regenerating {m}"))
         print(f"command outputs quoted in the documents: {len(changed)} document(s) changed "
               f"({', '.join(map(str, changed)) or 'none'})")

@@ -33,7 +33,6 @@ def _kmh(mps: float) -> str:
 
 
 def _column(scene) -> dict[str, str]:
-
     t0 = scene.targets[0] if scene.targets else None
     beat = "-"
     if t0 is not None:
@@ -76,7 +75,6 @@ def scene_table(scenes) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-
     names = args.scenes or preset_names()
     try:
         scenes = [load_scene(n) for n in names]

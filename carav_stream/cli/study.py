@@ -3,7 +3,6 @@
     carav study STUDY.toml [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--plot]
 
 A study file (examples in examples/ at the repository's top):
-
     description = "..."
     seed = 2026                     # required: every draw of the study follows from it
     trials = 1000                   # cycles per point

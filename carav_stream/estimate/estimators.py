@@ -1,7 +1,6 @@
 """Target estimation of Algorithm 1, step 6: range and radial velocity from the active chirps of clean cycles.
 
 Pipeline, vectorised over cycles (C cycles, M chirps, N fast-time samples):
-
 1. Only the active chirps (rho True) are read: they are gathered into (C, A, N), A the largest active count
    of the batch (shorter cycles padded with zero rows), and every sum and fast-time FFT below runs on them.
    Slow-time spectra scatter them back to their chirp times with zeros at the silent ones, which is exactly

@@ -246,7 +246,6 @@ def _plot_ghost(scene, fig_dir: Path, rng) -> None:
 
 
 def reactive_and_ramp(args, data: dict) -> list[str]:
-
     scene = radar_scene("table1")
     n0 = 1000
     rng = np.random.default_rng([args.seed, 8])

@@ -26,12 +26,12 @@ import argparse
 
 import numpy as np
 
-from bench.estimators import load_preset
 from carav_stream.console.options import count, number
 from carav_stream.detect.rdmap import rd_power
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.estimate.tones import synth_beat
+from carav_stream.experiments.reporting import load_preset
 from carav_stream.firmware import cfar
 from carav_stream.firmware.target_list import associate, gates, target_list
 from carav_stream.radar.activation import balanced_rows
@@ -100,7 +100,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _refined_list(rng, c: int) -> None:
-
     print(f"The list refined (ml), pfa 1e-6 per cell, {c} cycles per point: RMSE over the CRLB")
     print(f"{'preset':<9}{'SNR after integration':>22}{'range':>8}{'velocity':>10}{'listed/cycle':>14}")
     for preset in ("table1", "awr1642"):

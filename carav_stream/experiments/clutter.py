@@ -66,7 +66,6 @@ def scenes(base, rng) -> dict:
 
 
 def _measure(scene, fidelity: str, n: int, rng, eta_design: float, max_speed: float) -> dict:
-
     rho = balanced_rows(rng, n, scene.n_chirps)
     x = simulate_cycles(scene, rho, rng, fidelity=fidelity).frames
     q = detect(x, rho, scene.sigma_n).q
@@ -98,7 +97,6 @@ def _measure(scene, fidelity: str, n: int, rng, eta_design: float, max_speed: fl
 
 
 def run(args: argparse.Namespace) -> int:
-
     n = args.trials
     print(f"attack-free cycles, {n} per scene, seed {args.seed}: share of cycles with an alarm (every alarm is false), "
           "and the OS-CFAR target list (pfa 1e-6 per cell)")

@@ -48,7 +48,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def _interferer(scene, slope_ratio: float, rarms: float, range_m: float, period_ratio: float, offset_s: float):
-
     geometry = dict(range_m=range_m, velocity_mps=-100.0 * KMH,       # oncoming at 100 km/h
                     slope_hz_per_s=slope_ratio * scene.slope_hz_per_s, t_sweep_s=scene.t_sweep_s,
                     t_chirp_s=period_ratio * scene.t_sweep_s, t_offset_s=offset_s)
@@ -58,7 +57,6 @@ def _interferer(scene, slope_ratio: float, rarms: float, range_m: float, period_
 
 
 def _alarms(frames, rho, scene, eta_design) -> dict:
-
     q = detect(frames, rho, scene.sigma_n).q
     return {"c_1_5": int(np.sum(q >= 1.5)), "c_design": int(np.sum(q >= eta_design)),
             "spectral": int(opt_in.spectral_silent_test(frames, rho, scene.sigma_n, pf=1e-6).alarm.sum()),
@@ -67,7 +65,6 @@ def _alarms(frames, rho, scene, eta_design) -> dict:
 
 
 def simulate(args: argparse.Namespace) -> dict:
-
     scene = load_scene("table1")
     eta_design = rms_threshold(scene_law(scene), 1e-6)
     root = np.random.SeedSequence(args.seed)

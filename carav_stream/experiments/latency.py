@@ -78,7 +78,6 @@ def _scaled(scene, db: float):
 
 
 def _false_alarms(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
-
     base = load_scene(preset)
     variants = scenes(base, np.random.default_rng(0))
     first = window_start(base)
@@ -101,7 +100,6 @@ def _false_alarms(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
 
 
 def _misses(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
-
     scene = load_scene(preset)
     first = window_start(scene)
     rng = np.random.default_rng([seed, len(preset), len(fidelity), 1])
@@ -123,7 +121,6 @@ def _misses(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-
     n = args.trials
     data = {"false_alarms": [], "misses": []}
     for preset in ("table1", "awr1642"):

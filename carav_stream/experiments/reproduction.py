@@ -68,7 +68,6 @@ def _separation_rarms(n_chirps: int, dof: int, snr: float) -> dict:
 
 
 def paper_figures(args, fig_dir: Path, data: dict) -> list[str]:
-
     md = []
     eta = eta_grid(ETA)
     i15 = int(np.argmin(np.abs(eta - 1.5)))

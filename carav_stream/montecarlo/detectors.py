@@ -39,7 +39,6 @@ def _coherent(frames, rho, sigma_n):
 
 
 def _spill(frames, rho, sigma_n, scene):
-
     if scene is None:
         raise ValueError("detector 'spill' needs the scene (its window starts after the longest visible round trip)")
     return opt_in.spill_test(frames, rho, sigma_n, spill_window_start(scene), pf=DESIGN_PF).stat

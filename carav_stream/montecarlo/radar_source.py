@@ -57,7 +57,6 @@ class RadarSource:
     def paper_equivalent(self) -> paper_model.PaperScene:
         """The paper-model scene with this scene's beat-fidelity echo template (for the energy path)."""
         if self._paper is None:
-
             tpl = echo_templates(self.scene, "beat")
             echo = tpl.main_sum.astype(np.complex128 if self.iq else np.float64)
             self._paper = paper_model.PaperScene(self.name, self.n_chirps, self.n_samples, self.iq,
@@ -65,7 +64,6 @@ class RadarSource:
         return self._paper
 
     def make_attacker(self, attack: str, rarms: float):
-
         if attack == "none":
             return None
         params = dict(self.attack_params.get(attack, {}))
