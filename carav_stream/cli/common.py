@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from carav_stream.runtime.admin import request
+from carav_stream.runtime.rundir import remove_stale_runs, run_root
 
 
 class Exit(IntEnum):
@@ -40,7 +41,6 @@ def fail(text: str, code: Exit = Exit.USAGE) -> int:
 def running_graphs() -> list[dict[str, Any]]:
     """The run.json of every graph running on this machine under this user (the folders of runs whose
     supervisor was killed are removed on the way)."""
-    from carav_stream.runtime.supervisor import remove_stale_runs, run_root
     remove_stale_runs()
     runs = []
     for f in sorted(run_root().glob("*/run.json")):

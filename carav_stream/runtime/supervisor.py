@@ -1,8 +1,7 @@
 """The supervisor: start every node of a graph in its own process, watch them, stop them in order.
 
-Run directory: `$CARAV_RUN_DIR` (else the system temp folder) / `carav-<uid>/<run id>/`, mode 0700, holding
-the ipc endpoints, the node specs, each node's log and `run.json` (how `carav status|stop|swap` find the
-run). It is removed when the run ends, whatever the way it ends.
+Each run has a folder of its own (rundir.py), holding the ipc endpoints, the node specs, each node's log and
+`run.json` (how `carav status|stop|swap` find the run). It is removed when the run ends, whatever the way it ends.
 
 Stop order: sources are told to stop, end of stream flows down the graph behind the last frames, and each
 node exits once it has drained; the sinks end last. A second Ctrl-C (or the drain deadline) kills what is left.
@@ -16,44 +15,18 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import zmq
 
 from carav_stream.runtime import shm, transport
-from carav_stream.runtime.admin import RUN_ID_ENV
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
 from carav_stream.runtime.protocol import LEASE_FRAMES, Admin, Control, NodeSpec, OutEdge, Report, pack, unpack
+from carav_stream.runtime.rundir import RUN_ID_ENV, remove_stale_runs, run_root
 from carav_stream.runtime.validate import swap_problems
-
-
-def run_root() -> Path:
-    base = Path(os.environ.get("CARAV_RUN_DIR") or tempfile.gettempdir())
-    root = base / f"carav-{os.getuid()}"
-    root.mkdir(mode=0o700, parents=True, exist_ok=True)
-    return root
-
-
-def remove_stale_runs(root: Path | None = None) -> list[str]:
-    """Remove the folders of runs whose supervisor died without cleaning up (SIGKILL, power loss): its pid file
-    names a process that no longer exists. Its nodes died with it (parent-death signal). Returns their names."""
-    removed = []
-    for folder in (root or run_root()).iterdir():
-        try:
-            pid = int((folder / "pid").read_text())
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            shutil.rmtree(folder, ignore_errors=True)
-            removed.append(folder.name)
-        except (OSError, ValueError):   # no pid file yet (a run starting), not ours, or unreadable: leave it
-            continue
-    return removed
-
 
 # The environment of node processes (settings in the user's environment win):
 # - glibc malloc keeps freed buffers for reuse rather than handing them back to the OS after every frame.
