@@ -1,6 +1,6 @@
 """The admin client: ask a running graph's supervisor (protocol.Admin: status, stop, swap) from any process on the
 same machine and user, the way `carav status | stop | swap` do. A run is found by its `run.json` in the run
-folder (rundir.run_info).
+folder (rundir.run_info); the supervisor answers through admin_server.AdminServer.
 """
 from __future__ import annotations
 
