@@ -20,7 +20,7 @@ import sys
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Param
-from carav_stream.runtime.admin import RUN_ID_ENV
+from carav_stream.runtime.rundir import RUN_ID_ENV
 
 
 class LiveView(Block):

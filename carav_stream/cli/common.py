@@ -8,7 +8,7 @@ from typing import Any
 
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.runtime.admin import request
-from carav_stream.runtime.supervisor import remove_stale_runs, run_root
+from carav_stream.runtime.rundir import remove_stale_runs, run_root
 
 
 def running_graphs() -> list[dict[str, Any]]:

@@ -1,30 +1,14 @@
 """The admin client: ask a running graph's supervisor (protocol.Admin: status, stop, swap) from any process on the
 same machine and user, the way `carav status | stop | swap` do. A run is found by its `run.json` in the run
-folder (supervisor.run_root); a node finds its own run through CARAV_RUN_ID, which the supervisor sets for it.
+folder (rundir.run_info); the supervisor answers through admin_server.AdminServer.
 """
 from __future__ import annotations
 
-import json
-import os
 from typing import Any
 
 import zmq
 
 from carav_stream.runtime.protocol import pack, unpack
-
-RUN_ID_ENV = "CARAV_RUN_ID"
-
-
-def run_info(run_id: str) -> dict[str, Any]:
-    """The run.json of run `run_id`; LookupError if no such run is running under this user."""
-    from carav_stream.runtime.supervisor import run_root
-    path = run_root() / run_id / "run.json"
-    try:
-        info = json.loads(path.read_text())
-        os.kill(info["pid"], 0)
-    except (OSError, ValueError, KeyError):
-        raise LookupError(f"no running graph with run id {run_id!r} (no readable {path})") from None
-    return info
 
 
 def request(run: dict[str, Any], kind: str, timeout_s: float, **fields: Any) -> dict[str, Any]:

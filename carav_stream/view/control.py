@@ -8,8 +8,9 @@ import time
 from typing import Any
 
 from carav_stream.radar.attackers import KINDS
-from carav_stream.runtime.admin import request, run_info
+from carav_stream.runtime.admin import request
 from carav_stream.runtime.protocol import Admin
+from carav_stream.runtime.rundir import run_info
 
 STATUS_EVERY_S = 1.0
 SWAP_TIMEOUT_S = 40.0

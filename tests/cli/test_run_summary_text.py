@@ -12,7 +12,7 @@ from tests.blocks.helpers import SCENE, wire
 
 
 def runtime(cycles: int, wall_s: float) -> dict:
-    """The supervisor's own keys of a summary (runtime/supervisor.py), for a graph of one summary node."""
+    """The supervisor's own keys of a summary (runtime/report.py), for a graph of one summary node."""
     return {"graph": "g.toml", "run": "g-1", "host": "local", "cycles": cycles, "lost": 0, "lost_by_edge": {},
             "estimated_counts": [], "rejected": 0, "unpaired": 0, "restarts": 0, "failures": [], "swaps": [],
             "stopped_by": "end of stream", "wall_s": wall_s, "throughput_cycles_per_s": cycles / wall_s,

@@ -1,0 +1,146 @@
+"""The supervisor's side of the admin requests (protocol.Admin) that `carav status | stop | swap` and the live
+view send (admin.request), on a REP socket: one answer for every request, a bad one included.
+
+    status   the run, its nodes (pid, alive, restarts, counters, rates, block and parameters), its edges' queues
+             and the swaps so far
+    stop     the supervisor stops the run in order (its request_stop), answered at once
+    swap     checked like the graph file (validate.swap_problems), sent to the node once the node is ready, and
+             answered when the node confirms or refuses it, or after SWAP_TIMEOUT_S; one swap at a time
+"""
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from typing import Any
+
+import zmq
+
+from carav_stream.runtime.graph import Graph
+from carav_stream.runtime.node_state import NodeState
+from carav_stream.runtime.protocol import Admin, Control, Report, pack, unpack
+from carav_stream.runtime.report import RunReport
+from carav_stream.runtime.validate import swap_problems
+
+SWAP_TIMEOUT_S = 30
+
+
+class AdminServer:
+    """Answers admin requests for the nodes `nodes` (the supervisor's own dict) of a run of `graph`. `send(node,
+    kind, **fields)` sends a control message to a node, `request_stop(why)` stops the run, `log(text)` tells the
+    user. `swaps` lists every swap a node confirmed."""
+
+    def __init__(self, graph: Graph, nodes: dict[str, NodeState], report: RunReport, *,
+                 send: Callable[..., None], request_stop: Callable[[str], None], log: Callable[[str], None]) -> None:
+        self.graph = graph
+        self.nodes = nodes
+        self.report = report
+        self.send = send
+        self.request_stop = request_stop
+        self.log = log
+        self.sock: zmq.Socket | None = None
+        self.pending: dict[str, Any] | None = None      # the swap under way: its request, deadline, sent or not
+        self.swaps: list[dict[str, Any]] = []
+
+    def bind(self, ctx: zmq.Context, endpoint: str) -> zmq.Socket:
+        self.sock = ctx.socket(zmq.REP)
+        self.sock.linger = 0
+        self.sock.bind(endpoint)
+        return self.sock
+
+    def receive(self) -> None:
+        """Take one request from the socket (it has one waiting) and answer it, or leave the answer to a swap."""
+        raw = self.sock.recv()
+        try:
+            req = unpack(raw)
+        except ValueError as exc:   # answer, never crash
+            self.sock.send(pack("error", ok=False, error=f"bad admin request: {exc}"))
+            return
+        self.on_admin(req)
+
+    def on_admin(self, req: dict[str, Any]) -> None:
+        cmd = req.get("type")
+        if cmd == Admin.STATUS:
+            self.sock.send(pack("status", ok=True, **self.status()))
+        elif cmd == Admin.STOP:
+            self.request_stop("carav stop")
+            self.sock.send(pack("stop", ok=True))
+        elif cmd == Admin.SWAP and self.pending is None:
+            node, block = req.get("node"), req.get("block")
+            try:
+                params = self.graph.params_for(block, req.get("params", {}))
+            except LookupError as exc:
+                params = {}
+                problems = [str(exc)]
+            else:
+                problems = swap_problems(self.graph, node, block, params)
+            if not problems and node not in self.nodes:
+                problems = [f"node {node!r} does not run on this host"]
+            if problems:
+                self.sock.send(pack("swap", ok=False, error="; ".join(problems)))
+                return
+            self.pending = {**req, "params": params, "deadline": time.monotonic() + SWAP_TIMEOUT_S, "sent": False}
+            self.deliver_swap()
+        else:
+            self.sock.send(pack(str(cmd), ok=False, error=f"unknown or busy command {cmd!r}"))
+
+    def deliver_swap(self) -> None:
+        """Send the pending swap to its node once the node is ready: a node still starting (or restarting) has no
+        control connection yet, and the router would drop the request unseen."""
+        req = self.pending
+        if req is not None and not req["sent"] and self.nodes[req["node"]].ready:
+            req["sent"] = True
+            self.send(req["node"], Control.SWAP, block=req["block"], params=req["params"], id=1)
+
+    def expire_swap(self) -> None:
+        """Refuse the pending swap once its deadline has passed."""
+        if self.pending and time.monotonic() > self.pending["deadline"]:
+            up = "did not confirm the swap" if self.pending["sent"] else "was not ready for the swap"
+            self.reply_admin({"ok": False, "error": f"the node {up} within {SWAP_TIMEOUT_S} s"})
+
+    def on_swap_report(self, st: NodeState, msg: dict[str, Any]) -> None:
+        """A node's answer to the swap (Report.SWAPPED or SWAP_FAILED): a confirmed swap becomes the node's spec
+        (restarts run the new block) and is listed; either way the request is answered."""
+        kind = msg.get("type")
+        if kind == Report.SWAPPED:
+            st.spec = st.spec.with_(type=msg["block"], generation=msg["generation"],
+                                    params=(self.pending or {}).get("params", st.spec.params))
+            self.swaps.append({"node": st.name, "block": msg["block"], "version": msg["version"],
+                               "generation": msg["generation"], "first_seq": msg["next_seq"]})
+            self.log(f"carav: swapped {st.name} to {msg['block']} from seq {msg['next_seq']}")
+        self.reply_admin({"ok": kind == Report.SWAPPED, **{k: v for k, v in msg.items() if k != "type"}})
+
+    def reply_admin(self, reply: dict[str, Any]) -> None:
+        if self.pending is not None:
+            self.pending = None
+            self.sock.send(pack("swap", **reply))
+
+    def status(self) -> dict[str, Any]:
+        t_go = self.report.t_go
+        elapsed = max(time.monotonic() - t_go, 1e-9) if t_go else 0.0
+        return {"run": self.report.run_id, "graph": str(self.graph.path), "pid": os.getpid(), "elapsed_s": elapsed,
+                "cycles": self.report.cycles_done(),
+                "nodes": {n: {"pid": st.proc.pid if st.proc else None,
+                              "alive": bool(st.proc and st.proc.poll() is None),
+                              "restarts": st.restarts, "counters": st.counters,
+                              "rate_per_s": st.counters.get("processed", 0) / elapsed if elapsed else 0.0,
+                              "cycles_per_s": st.counters.get("cycles", 0) / elapsed if elapsed else 0.0,
+                              "block": st.spec.type, "params": st.spec.params}
+                          for n, st in self.nodes.items()},
+                "edges": self.edge_queues(), "swaps": self.swaps}
+
+    def edge_queues(self) -> dict[str, dict[str, Any]]:
+        """Per edge between local nodes, from the last heartbeats (up to HEARTBEAT_S old): frames in flight (sent
+        by the producer, not yet taken by the consumer), the queue capacity (ZeroMQ's send and receive high-water
+        marks; the socket buffers of the kernel can hold a little more), and skipped frames of a tap edge."""
+        capacity = 2 * int(self.graph.run["queue_frames"])
+        out = {}
+        for e in self.graph.edges:
+            src, dst = self.nodes.get(e.src), self.nodes.get(e.dst)
+            if src is None or dst is None:
+                continue
+            sent = src.total("sent").get(str(e), 0)
+            taken = dst.total("in").get(e.dst_port, 0) + dst.total("rejected").get(e.dst_port, 0)
+            out[str(e)] = {"in_flight": max(0, sent - taken), "capacity": capacity,
+                           "skipped": src.total("skipped").get(str(e), 0)}
+        return out
