@@ -26,19 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from carav_stream.capture.activation_log import ActivationLogError, read_log
+from carav_stream.capture.activation_log import ActivationLogError, pattern_rho, read_log
 from carav_stream.capture.dca1000 import ENCODINGS, Layout, complete_cycles, read_cycles
 from carav_stream.capture.inspect import layout_warnings
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, Out, Param
-
-
-def pattern_rho(pattern: str, n_chirps: int) -> np.ndarray:
-    """bool (n_chirps,) from a string of n_chirps digits 0 | 1; ValueError naming the parameter."""
-    if len(pattern) != n_chirps or set(pattern) - {"0", "1"}:
-        raise ValueError(f"pattern: expected {n_chirps} digits 0 or 1 (the scene's n_chirps), got {pattern[:40]!r}"
-                         f" ({len(pattern)} characters)")
-    return np.frombuffer(pattern.encode(), np.uint8) == ord("1")
 
 
 class Dca1000Source(Block):
