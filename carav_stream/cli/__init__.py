@@ -14,7 +14,7 @@
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency ...
-    carav bench transport|zerocopy|synth|detector|estimators|pipeline|view|soak ... --json docs/bench/records/NAME.json
+    carav bench transport|zerocopy|synth|detector|estimators|pipeline|view|soak|dca1000-udp ... --json docs/bench/records/NAME.json
     carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
@@ -62,6 +62,7 @@ BENCHES = {
     "study": ("carav_stream.bench.study_bench", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),
     "zerocopy": ("carav_stream.bench.zero_copy", "one same-host hop of a large frame: zmq, shared memory, iceoryx2"),
     "view": ("carav_stream.bench.view_bench", "what the live view costs the radar chain, with and without a browser"),
+    "dca1000-udp": ("carav_stream.bench.udp_capture", "the live DCA1000 receiver against the AWR1642's data rate"),
     "soak": ("carav_stream.bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
     "report": ("carav_stream.bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }
