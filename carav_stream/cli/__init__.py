@@ -14,7 +14,8 @@
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency ...
-    carav bench transport|zerocopy|synth|detector|estimators|pipeline|view|soak|dca1000-udp ... --json docs/bench/records/NAME.json
+    carav bench transport|zerocopy|synth|detector|estimators|pipeline|view|soak|dca1000-udp ...
+                               --json docs/bench/records/NAME.json
     carav bench report         render BENCHMARKS.md and docs/bench/*.md from those records
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked

@@ -45,11 +45,17 @@ connections = ["radar.frames -> detector.frames", "radar.rho -> detector.rho", "
                "detector.verdict -> gate.verdict", "gate.clean -> ranging.frames",
                "ranging.estimates -> summary.estimates", "gate.alarms -> summary.alarms"]
 [blocks]
-radar = {{ type = "dca1000_udp_source", port = {port}, n_rx = 4, rx = 2, pattern = "{'10' * 64}", idle_timeout_s = 2.0 }}
 detector = {{ type = "rms_detector", eta = 3.0 }}
 gate = {{ type = "gate" }}
 ranging = {{ type = "range_estimator" }}
 summary = {{ type = "run_summary" }}
+[blocks.radar]
+type = "dca1000_udp_source"
+port = {port}
+n_rx = 4
+rx = 2
+pattern = "{'10' * 64}"
+idle_timeout_s = 2.0
 """, "live_graph.toml")
     run = carav.run(graph)
     wait_until(lambda: bound(port) or run.proc.poll() is not None, 60, "the source to bind its port")
