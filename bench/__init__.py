@@ -9,6 +9,7 @@ estimators   run time against error, beside the Cramer-Rao bound
 pipeline     the multi-process radar graph against the same chain in one process
 study        carav study on 1 and 2 local Dask workers; the scheduler's cost per task
 view         what the live view costs the radar chain, with and without a browser
+dca1000_udp  the live DCA1000 UDP receiver fed by the project's replayer, against the AWR1642's data rate
 soak         the demo graph for minutes with live swaps: memory and descriptor growth, lost cycles
 report       BENCHMARKS.md and docs/bench/*.md rendered from the records
 records      what every benchmark writes with --json: command, machine, records
@@ -27,6 +28,7 @@ BENCHES = {
     "pipeline": ("bench.pipeline", "cycles/s of the multi-process graph against one process"),
     "study": ("bench.study", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),
     "view": ("bench.view", "what the live view costs the radar chain, with and without a browser"),
+    "dca1000-udp": ("bench.dca1000_udp", "the live DCA1000 receiver against the AWR1642's data rate"),
     "soak": ("bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
     "report": ("bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }

@@ -1,31 +1,34 @@
-"""DCA1000 player: raw ADC captures of a TI AWR1642-family radar (DCA1000 .bin) into the detector and estimator.
+"""DCA1000 player: raw ADC captures of a TI radar (DCA1000 .bin) into the detector and estimator.
 
-Reads the .bin layout TI documents for xWR16xx devices (two LVDS lanes, int16, real or complex, interleaved by
-receiver and lane: carav_stream/capture/dca1000.py), cuts it into cycles of the scene's n_chirps chirps, keeps
-receiver `rx`, and sends each cycle as this project's ADC frames, with the activation sequence of every cycle
-from a log the capture's firmware wrote (carav_stream/capture/activation_log.py), so that rms_detector, gate
-and range_estimator run on a real radar's samples when its firmware silenced chirps by a known sequence.
+Reads the .bin layouts TI documents (2 LVDS lanes for xWR16xx/18xx/68xx, 4 for xWR12xx/14xx; real or complex;
+two's complement or offset binary; 12, 14 or 16 bits: carav_stream/capture/dca1000.py), cuts it into cycles of
+the scene's n_chirps chirps, keeps receiver `rx`, and sends each cycle as this project's ADC frames, with the
+activation sequence of every cycle from a log the capture's firmware wrote (carav_stream/capture/activation_log.py)
+or the fixed pattern of a TI profile's chirps (`carav scenes --from-ti-cfg` prints it; a fixed pattern is not the
+secret per-cycle sequence the detector needs against an attacker who learns it), so that rms_detector, gate and
+range_estimator run on a real radar's samples when its firmware silenced chirps.
 
 The scene file describes the capture's chirp configuration: n_chirps (chirps per cycle), n_samples, fs_hz,
 slope (bandwidth_hz / t_sweep_s), t_chirp_s, iq (true: complex capture), adc_bits (12, 14 or 16) and
 adc_full_scale (the volts, or sqrt(W), of one full-scale code; the detector's sigma_n is in the same unit).
 A capture that ends within a cycle (truncated) is warned about when the graph is validated; its whole cycles are
-all sent, and then the node fails with an error naming the file and the bytes left over.
+all sent, and then the node fails with an error naming the file and the bytes left over. A layout that does not
+seem to fit the capture (codes of the other encoding, unequal lanes, receivers or chirps) is warned about with
+the likely fix (carav_stream/capture/inspect.py, on the first cycles).
 
 Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's codes (per_cycle attack_active
                      from the log's third column if present, else not set)
         out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
-Params  path (str, required): the .bin capture; activation (str, required): its activation log
-        n_rx (int, 4): receivers enabled in the capture; rx (int, 0): the receiver to process
-        scene (graph-wide), batch (int, 16)
+Params  declared below; activation and pattern: exactly one
 Graph   source = { type = "dca1000_source", path = "adc_data.bin", activation = "adc_data.activation" }
 """
 from pathlib import Path
 
 import numpy as np
 
-from carav_stream.capture.activation_log import ActivationLogError, read_log
-from carav_stream.capture.dca1000 import Layout, complete_cycles, read_cycles
+from carav_stream.capture.activation_log import ActivationLogError, pattern_rho, read_log
+from carav_stream.capture.dca1000 import ENCODINGS, Layout, complete_cycles, read_cycles
+from carav_stream.capture.inspect import layout_warnings
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, Out, Param
 
@@ -34,9 +37,12 @@ class Dca1000Source(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="one receiver's ADC codes per cycle"),
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
     params = (Param("path", str, doc="DCA1000 .bin capture", file=True),
-              Param("activation", str, doc="activation log of the capture", file=True),
+              Param("activation", str, "", "activation log of the capture ('' = use pattern)", file=True),
+              Param("pattern", str, "", "fixed activation pattern of every cycle, n_chirps digits 0 | 1"),
               Param("n_rx", int, 4, "receivers enabled in the capture", low=1, high=4),
               Param("rx", int, 0, "receiver to process", low=0, high=3),
+              Param("lanes", int, 2, "LVDS lanes: 2 (xWR16xx/18xx/68xx) or 4 (xWR12xx/14xx)", choices=(2, 4)),
+              Param("encoding", str, "twos_complement", "how the words hold the codes", choices=ENCODINGS),
               SCENE,
               Param("batch", int, 16, "cycles per frame", low=1, high=4096))
 
@@ -45,10 +51,17 @@ class Dca1000Source(Block):
         if self.rx >= self.n_rx:
             raise ValueError(f"rx: receiver {self.rx} is not among the capture's n_rx = {self.n_rx}")
         self.layout = Layout(self.n_rx, scene.n_samples, scene.n_chirps, scene.iq,
-                             scene.adc_bits if scene.adc_bits in (12, 14) else 16)
+                             scene.adc_bits if scene.adc_bits in (12, 14) else 16, self.lanes, self.encoding)
         if not Path(self.path).is_file():
             raise ValueError(f"path: {self.path}: capture file not found")
         self.cycles, self.left = complete_cycles(self.path, self.layout)
+        if bool(self.activation) == bool(self.pattern):
+            raise ValueError("activation, pattern: give exactly one (an activation log, or the fixed pattern of "
+                             "the radar's profile)")
+        if self.pattern:
+            rho = pattern_rho(self.pattern, scene.n_chirps)
+            self.log_cycles, self.rho = np.arange(self.cycles), np.tile(rho, (self.cycles, 1))
+            return
         try:
             self.log_cycles, self.rho = read_log(self.activation, scene.n_chirps)
         except ActivationLogError as exc:
@@ -62,7 +75,12 @@ class Dca1000Source(Block):
                              "capture's log lists cycles 0, 1, 2, ... in capture order")
 
     def param_warnings(self) -> list[str]:
-        return [self._truncated()] if self.left else []
+        first = min(self.cycles, 8)
+        words = np.fromfile(self.path, dtype="<i2", count=first * self.layout.bytes_per_cycle // 2)
+        codes = read_cycles(self.path, self.layout, 0, first, None)
+        doubts = layout_warnings(self.path, Path(self.path).stat().st_size, words, self.layout, codes,
+                                 self.rho[:first])
+        return ([self._truncated()] if self.left else []) + [w for w in doubts if "whole number of cycles" not in w]
 
     def _truncated(self) -> str:
         return (f"{self.path} is truncated: {self.left} bytes after its {self.cycles} whole cycles are not a cycle "

@@ -70,3 +70,11 @@ def read_log(path: str | Path, n_chirps: int) -> tuple[np.ndarray, np.ndarray]:
 def log_path(base: str | Path) -> Path:
     """The log beside the recording `base` (its name without the .sigmf-meta / .sigmf-data suffix)."""
     return Path(f"{base}{SUFFIX}")
+
+
+def pattern_rho(pattern: str, n_chirps: int) -> np.ndarray:
+    """bool (n_chirps,) from a string of n_chirps digits 0 | 1; ValueError naming the parameter."""
+    if len(pattern) != n_chirps or set(pattern) - {"0", "1"}:
+        raise ValueError(f"pattern: expected {n_chirps} digits 0 or 1 (the scene's n_chirps), got {pattern[:40]!r}"
+                         f" ({len(pattern)} characters)")
+    return np.frombuffer(pattern.encode(), np.uint8) == ord("1")

@@ -1,17 +1,32 @@
-"""Raw ADC captures of TI's DCA1000 capture card, as it records an AWR1642-family radar (xWR16xx, two LVDS lanes).
+"""Raw ADC captures of TI's DCA1000 capture card, in every layout of TI's documented devices.
 
-The layout TI documents for these devices (the DCA1000 and mmWave Studio raw-capture application note and its
-reading script): the .bin file is a stream of little-endian int16, chirp after chirp in capture order; within a
-chirp, receiver after receiver; within a receiver, its n_samples ADC samples.
-  real data:    one int16 per sample, in sample order (the two lanes carry alternate samples)
-  complex data: every two samples n, n+1 of a receiver travel as four int16: I(n), I(n+1), Q(n), Q(n+1)
-                (lane 1 carries even samples, lane 2 odd ones, I before Q)
-An ADC of 12 or 14 bits delivers its codes without sign extension: a code above 2^(b-1) - 1 is negative and
-2^b is subtracted from it, as TI's script does.
+TI's DCA1000 and mmWave Studio raw-capture descriptions (the DCA1000EVM user guide, the raw ADC capture
+application note SWRA581 and the reading scripts that come with them): the .bin file is a stream of
+little-endian 16-bit words, chirp after chirp in capture order. Within a chirp the order depends on how many
+LVDS lanes the radar uses:
+
+  2 lanes (xWR16xx, xWR18xx, xWR68xx): receiver after receiver; within a receiver, its n_samples samples.
+      real data:    one word per sample, in sample order
+      complex data: every two samples n, n+1 of a receiver travel as four words I(n), I(n+1), Q(n), Q(n+1)
+                    (lane 1 carries even samples, lane 2 odd ones, I before Q)
+  4 lanes (xWR12xx, xWR14xx): one receiver per lane; sample after sample; within a sample, the lanes.
+      real data:    a group of four words holds sample n of lanes 1..4
+      complex data: a group of eight words holds I(n) of lanes 1..4, then Q(n) of lanes 1..4
+      The capture always carries the four lanes, whatever receivers are enabled (TI's script: "the number of
+      lanes is always 4 even if only 1 lane is used; unused lanes are populated with 0"): receivers 1..n_rx
+      are lanes 1..n_rx, and the other lanes are read and dropped.
+
+Encodings. Two's complement: a 12- or 14-bit ADC delivers its codes without sign extension (a code above
+2^(b-1) - 1 is negative and 2^b is subtracted from it, as TI's scripts do). Offset binary (what some capture
+tools write): the code plus 2^(b-1), i.e. the top bit of the b-bit code inverted; it is inverted back, then the
+code is read as two's complement.
 
 A cycle (a radar frame in TI's words) is `n_chirps` consecutive chirps; the detector and the estimator read one
 receiver's samples of every cycle, shaped like this project's ADC frames: int16 (cycles, n_chirps, n_samples) for
 real data, (cycles, n_chirps, n_samples, 2) with I then Q for complex data.
+
+Cost: decoding is a few numpy passes over the words (reshape, transpose, one copy); the sign and offset fixes of
+12/14-bit or offset-binary codes add one int32 pass.
 """
 from __future__ import annotations
 
@@ -20,7 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-LANES = 2   # xWR16xx: two LVDS lanes
+LANES = (2, 4)                                     # xWR16xx/18xx/68xx: 2 LVDS lanes; xWR12xx/14xx: 4
+ENCODINGS = ("twos_complement", "offset_binary")
 
 
 @dataclass(frozen=True)
@@ -30,22 +46,51 @@ class Layout:
     n_chirps: int       # chirps per cycle (TI: per frame)
     complex: bool       # complex (I/Q) or real capture
     adc_bits: int = 16
+    lanes: int = 2
+    encoding: str = "twos_complement"
 
     def __post_init__(self) -> None:
         if not 1 <= self.n_rx <= 4 or self.n_samples < 1 or self.n_chirps < 1 or self.adc_bits not in (12, 14, 16):
             raise ValueError(f"DCA1000 layout: n_rx 1..4, n_samples >= 1, n_chirps >= 1, adc_bits 12 | 14 | 16; "
                              f"got {self}")
-        if self.complex and (self.n_samples * self.n_rx) % LANES:
-            raise ValueError(f"DCA1000 layout: complex samples travel in pairs over {LANES} lanes: n_samples x n_rx "
+        if self.lanes not in LANES:
+            raise ValueError(f"DCA1000 layout: lanes must be 2 (xWR16xx/18xx/68xx) or 4 (xWR12xx/14xx), "
+                             f"got {self.lanes}")
+        if self.encoding not in ENCODINGS:
+            raise ValueError(f"DCA1000 layout: encoding must be one of {', '.join(ENCODINGS)}, got {self.encoding!r}")
+        if self.lanes == 2 and self.complex and (self.n_samples * self.n_rx) % 2:
+            raise ValueError(f"DCA1000 layout: complex samples travel in pairs over 2 lanes: n_samples x n_rx "
                              f"must be even, got {self.n_samples} x {self.n_rx}")
 
     @property
+    def lanes_carried(self) -> int:
+        """Receiver slots in each chirp of the file: n_rx over 2 lanes, always 4 over 4 lanes."""
+        return 4 if self.lanes == 4 else self.n_rx
+
+    @property
     def words_per_chirp(self) -> int:
-        return self.n_rx * self.n_samples * (2 if self.complex else 1)
+        return self.lanes_carried * self.n_samples * (2 if self.complex else 1)
 
     @property
     def bytes_per_cycle(self) -> int:
         return 2 * self.words_per_chirp * self.n_chirps
+
+    def describe(self) -> str:
+        return (f"{self.n_chirps} chirps x {self.n_rx} receivers x {self.n_samples} "
+                f"{'complex' if self.complex else 'real'} {self.adc_bits}-bit samples, {self.lanes} lanes, "
+                f"{self.encoding.replace('_', ' ')}")
+
+
+def signed_codes(words: np.ndarray, adc_bits: int, encoding: str) -> np.ndarray:
+    """The ADC's codes as int16 from the file's words (int16, any shape): offset binary's top bit inverted back,
+    a 12- or 14-bit code's sign extended."""
+    if adc_bits == 16 and encoding == "twos_complement":
+        return words
+    wide = words.astype(np.int32) & (2 ** adc_bits - 1)
+    if encoding == "offset_binary":
+        wide ^= 2 ** (adc_bits - 1)
+    wide[wide > 2 ** (adc_bits - 1) - 1] -= 2 ** adc_bits
+    return wide.astype(np.int16)
 
 
 def decode(words: np.ndarray, layout: Layout) -> np.ndarray:
@@ -54,16 +99,18 @@ def decode(words: np.ndarray, layout: Layout) -> np.ndarray:
     if words.dtype != np.dtype("<i2") or words.ndim != 1 or words.size % (layout.words_per_chirp * layout.n_chirps):
         raise ValueError(f"DCA1000 words: expected little-endian int16 of whole cycles "
                          f"({layout.words_per_chirp * layout.n_chirps} words each), got {words.dtype} {words.shape}")
-    if layout.adc_bits < 16:   # codes of a 12- or 14-bit ADC come without their sign extended
-        wide = words.astype(np.int32)
-        wide[wide > 2 ** (layout.adc_bits - 1) - 1] -= 2 ** layout.adc_bits
-        words = wide.astype(np.int16)
+    words = signed_codes(words, layout.adc_bits, layout.encoding)
     chirps = words.size // layout.words_per_chirp
-    if not layout.complex:
-        out = words.reshape(chirps, layout.n_rx, layout.n_samples)
+    n_s, n_rx = layout.n_samples, layout.n_rx
+    if layout.lanes == 4 and not layout.complex:     # (sample, lane) -> (lane, sample)
+        out = words.reshape(chirps, n_s, 4).transpose(0, 2, 1)[:, :n_rx]
+    elif layout.lanes == 4:                          # (sample, I|Q, lane) -> (lane, sample, I|Q)
+        out = words.reshape(chirps, n_s, 2, 4).transpose(0, 3, 1, 2)[:, :n_rx]
+    elif not layout.complex:
+        out = words.reshape(chirps, n_rx, n_s)
     else:   # groups of four words I(n), I(n+1), Q(n), Q(n+1) -> (sample, I|Q)
-        quads = words.reshape(chirps, layout.n_rx * layout.n_samples // 2, 2, 2)   # (pair, I|Q, n|n+1)
-        out = quads.transpose(0, 1, 3, 2).reshape(chirps, layout.n_rx, layout.n_samples, 2)
+        quads = words.reshape(chirps, n_rx * n_s // 2, 2, 2)   # (pair, I|Q, n|n+1)
+        out = quads.transpose(0, 1, 3, 2).reshape(chirps, n_rx, n_s, 2)
     return np.ascontiguousarray(out.reshape(chirps // layout.n_chirps, layout.n_chirps, *out.shape[1:]))
 
 
@@ -73,8 +120,10 @@ def complete_cycles(path: str | Path, layout: Layout) -> tuple[int, int]:
     return size // layout.bytes_per_cycle, size % layout.bytes_per_cycle
 
 
-def read_cycles(path: str | Path, layout: Layout, first: int, count: int, rx: int) -> np.ndarray:
-    """Receiver `rx`'s samples of cycles [first, first + count): int16 (count, n_chirps, n_samples[, 2])."""
+def read_cycles(path: str | Path, layout: Layout, first: int, count: int, rx: int | None) -> np.ndarray:
+    """Receiver `rx`'s samples of cycles [first, first + count): int16 (count, n_chirps, n_samples[, 2]);
+    rx None: every receiver, int16 (count, n_chirps, n_rx, n_samples[, 2])."""
     words = np.fromfile(path, dtype="<i2", count=count * layout.bytes_per_cycle // 2,
                         offset=first * layout.bytes_per_cycle)
-    return np.ascontiguousarray(decode(words, layout)[:, :, rx])
+    codes = decode(words, layout)
+    return codes if rx is None else np.ascontiguousarray(codes[:, :, rx])

@@ -6,6 +6,8 @@
     carav validate GRAPH ...
     carav blocks [TYPE]
     carav scenes [NAME | FILE ...]   what a scene implies (resolution, max range and velocity, SNR, warnings)
+    carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml]   the scene of a TI mmWave CLI profile
+    carav capture inspect FILE --scene S [--lanes N] [--encoding E] [--json OUT]   what a DCA1000 capture holds
     carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
     carav sweep ...            PF/PM Monte Carlo and threshold design
     carav study STUDY.toml [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--plot]   sweeps on Dask
@@ -33,6 +35,7 @@ COMMANDS = {
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
     "scenes": ("carav_stream.cli.scenes", "what the presets or scene files imply: rates, resolution, SNR, warnings"),
+    "capture": ("carav_stream.cli.capture", "inspect a TI DCA1000 capture: cycles, noise, chirp spread, cells"),
     "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
     "stop": ("carav_stream.cli.stop", "stop a running graph in order (sources first, drain, sinks last)"),
     "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),

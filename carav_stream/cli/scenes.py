@@ -3,21 +3,31 @@
 Chirps and samples, sweep, slope, sampling rate, cycle rate, the targets, the per-sample SNR of the first target
 (radar equation), range resolution, maximum range, unambiguous velocity, the beat with Doppler (and where it folds
 to when the ADC cannot represent it), the ADC, and the scene's warnings. With no argument: every preset.
+
+`carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml] [--noise-codes X]`: the scene of a TI mmWave CLI profile
+(carav_stream/capture/ti_cfg.py), checked by the scene loader, written to --out (or printed), then its table.
 """
 from __future__ import annotations
 
 import argparse
 import math
+import tomllib
+from pathlib import Path
 
+from carav_stream.capture.ti_cfg import TiCfgError, profile_from_cfg, scene_toml
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.radar.scene import SceneError, fold_beat_hz
-from carav_stream.radar.scene_loader import load_scene, preset_names
+from carav_stream.radar.scene_loader import load_scene, preset_names, scene_from_dict
 
 __all__ = ["configure", "run", "scene_table"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenes", nargs="*", metavar="NAME|FILE", help="presets or scene files (default: every preset)")
+    parser.add_argument("--from-ti-cfg", type=Path, metavar="FILE.cfg", help="the scene of a TI mmWave CLI profile")
+    parser.add_argument("--out", type=Path, metavar="SCENE.toml", help="with --from-ti-cfg: write the scene here")
+    parser.add_argument("--noise-codes", type=float, help="with --from-ti-cfg: the capture's noise RMS in codes "
+                                                          "(carav capture inspect) for the scene's sigma_n")
 
 
 def _mhz(hz: float) -> str:
@@ -74,7 +84,39 @@ def scene_table(scenes) -> list[str]:
     return lines + (["", "Warnings:", "", *notes] if notes else [])
 
 
+def from_ti_cfg(args: argparse.Namespace) -> int:
+    if args.scenes:
+        raise CommandError("--from-ti-cfg: give the profile alone, not scene names as well")
+    if args.noise_codes is not None and not args.noise_codes > 0:
+        raise CommandError(f"--noise-codes: must be > 0, got {args.noise_codes}")
+    try:
+        text = args.from_ti_cfg.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CommandError(f"--from-ti-cfg: {args.from_ti_cfg}: cannot be read: {exc}") from None
+    try:
+        profile = profile_from_cfg(text, str(args.from_ti_cfg))
+        bits = profile.scene["adc_bits"]
+        toml = scene_toml(profile, None if args.noise_codes is None else args.noise_codes / 2 ** (bits - 1))
+        scene = scene_from_dict(tomllib.loads(toml), args.from_ti_cfg.name)
+    except (TiCfgError, SceneError) as exc:
+        raise CommandError(str(exc), Exit.INVALID) from None
+    if args.out is None:
+        print(toml, end="")
+        return 0
+    try:
+        args.out.write_text(toml)
+    except OSError as exc:
+        raise CommandError(f"--out: {args.out}: {exc.strerror}") from None
+    print(f"wrote {args.out}: {profile.n_rx} receivers, activation pattern {profile.pattern}")
+    print("\n".join(scene_table([scene])))
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.from_ti_cfg is not None:
+        return from_ti_cfg(args)
+    if args.out is not None or args.noise_codes is not None:
+        raise CommandError("--out and --noise-codes go with --from-ti-cfg")
     names = args.scenes or preset_names()
     try:
         scenes = [load_scene(n) for n in names]

@@ -1,0 +1,107 @@
+"""DCA1000 live source: the card's raw-data UDP stream, cycle by cycle, into the detector and estimator. Fail closed.
+
+    cycle c = bytes [c B, (c + 1) B) of the stream;   damaged(c)  =>  nonfinite(c) > 0  =>  the detector's verdict
+    is "invalid" and the gate refuses c
+
+Receives the datagrams the DCA1000 sends in raw mode (a 4-byte sequence number, a 6-byte byte count, up to 1456
+bytes of the capture's words) on `address`:`port`, reassembles cycles of the scene's chirps in the layout of
+dca1000_source (lanes, encoding, real or complex: carav_stream/capture/dca1000.py), keeps receiver `rx`, and
+sends them with their activation sequences. Every cycle touched by a lost, truncated, duplicated, reordered or
+overlapping packet, and the cycle the sender stops within, is sent with per_cycle `nonfinite` = its sample count
+(none of its samples is trusted: rms_detector judges it invalid, gate refuses it, never judged clean) and its
+reasons in `damage`; all are counted in the summary. The stream ends when no packet has come for idle_timeout_s.
+
+The socket: blocks never touch the runtime's sockets, files or processes; this one is the radar's data, as
+dca1000_source's .bin file is. It is opened in start(), inside the block's own process, by a capture-side helper
+(carav_stream/capture/dca1000_udp.py: UdpReceiver, whose thread drains the socket so that the kernel's buffer only
+has to cover its pauses), and all the stream logic is the helper's pure Reassembler, tested without sockets.
+
+Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's codes; per_cycle nonfinite and damage
+                     (its reasons, comma-separated; "" for a whole, clean cycle)
+        out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
+Params  declared below; activation and pattern: exactly one (as for dca1000_source)
+Graph   radar = { type = "dca1000_udp_source", port = 4098, n_rx = 4, pattern = "1010..." }
+"""
+import ipaddress
+
+import numpy as np
+
+from carav_stream.capture.activation_log import ActivationLogError, pattern_rho, read_log
+from carav_stream.capture.dca1000 import ENCODINGS, Layout, decode
+from carav_stream.capture.dca1000_udp import DATA_PORT, REASONS, Reassembler, UdpReceiver
+from carav_stream.radar.streams import SCENE, scene_of
+from carav_stream.runtime import Block, BlockError, Frame, Out, Param
+
+
+class Dca1000UdpSource(Block):
+    outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="one receiver's ADC codes per cycle"),
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
+    params = (Param("address", str, "127.0.0.1", "address to receive on (the host's address on the card's link)"),
+              Param("port", int, DATA_PORT, "UDP data port", low=1, high=65535),
+              Param("activation", str, "", "activation log of the capture ('' = use pattern)", file=True),
+              Param("pattern", str, "", "fixed activation pattern of every cycle, n_chirps digits 0 | 1"),
+              Param("n_rx", int, 4, "receivers enabled in the capture", low=1, high=4),
+              Param("rx", int, 0, "receiver to process", low=0, high=3),
+              Param("lanes", int, 2, "LVDS lanes: 2 (xWR16xx/18xx/68xx) or 4 (xWR12xx/14xx)", choices=(2, 4)),
+              Param("encoding", str, "twos_complement", "how the words hold the codes", choices=ENCODINGS),
+              Param("idle_timeout_s", float, 5.0, "the stream ends after this long without a packet", unit="s",
+                    low=0.0, strict=True),
+              SCENE,
+              Param("batch", int, 16, "cycles per frame", low=1, high=4096))
+
+    def check_params(self) -> None:
+        scene = scene_of(self.scene)
+        if self.rx >= self.n_rx:
+            raise ValueError(f"rx: receiver {self.rx} is not among the capture's n_rx = {self.n_rx}")
+        try:
+            ipaddress.ip_address(self.address)
+        except ValueError:
+            raise ValueError(f"address: {self.address!r} is not an IP address") from None
+        self.layout = Layout(self.n_rx, scene.n_samples, scene.n_chirps, scene.iq,
+                             scene.adc_bits if scene.adc_bits in (12, 14) else 16, self.lanes, self.encoding)
+        if bool(self.activation) == bool(self.pattern):
+            raise ValueError("activation, pattern: give exactly one (an activation log, or the fixed pattern of "
+                             "the radar's profile)")
+        self.fixed, self.log_rho = None, None
+        if self.pattern:
+            self.fixed = pattern_rho(self.pattern, scene.n_chirps)
+            return
+        try:
+            cycles, self.log_rho = read_log(self.activation, scene.n_chirps)
+        except ActivationLogError as exc:
+            raise ValueError(f"activation: {exc}") from None
+        if np.any(cycles != np.arange(len(cycles))):
+            raise ValueError(f"activation: {self.activation}: a capture's log lists cycles 0, 1, 2, ... in order")
+
+    def start(self) -> None:
+        self.receiver = UdpReceiver(self.address, self.port, Reassembler(self.layout.bytes_per_cycle))
+
+    def generate(self, seq: int) -> dict[str, Frame] | None:
+        want = min(self.batch, self.cycle_budget or self.batch)
+        got = self.receiver.take(want, want, self.idle_timeout_s)
+        if got is None:
+            return None
+        n = len(got.damage)
+        codes = np.ascontiguousarray(decode(np.frombuffer(got.data, "<i2"), self.layout)[:, :, self.rx])
+        cycles = np.arange(got.first_cycle, got.first_cycle + n)
+        if self.fixed is not None:
+            rho = np.tile(self.fixed, (n, 1))
+        elif cycles[-1] < len(self.log_rho):
+            rho = self.log_rho[cycles]
+        else:
+            raise BlockError(f"activation: {self.activation}: no sequence for cycle {cycles[-1]} of the stream")
+        samples = int(np.prod(codes.shape[1:-1] if self.layout.complex else codes.shape[1:]))
+        per = {"nonfinite": [samples if d else 0 for d in got.damage], "damage": [",".join(d) for d in got.damage]}
+        header = {"cycle": got.first_cycle, "cycles": n}
+        return {"frames": Frame.of(codes, per_cycle=per, **header), "rho": Frame.of(rho, **header)}
+
+    def finish(self) -> None:
+        self.receiver.close()
+
+    def summary(self) -> dict:
+        c = self.receiver.reassembler.counts
+        live = {"packets": c["packets"], "bytes": c["bytes"], "cycles": c["cycles"],
+                "damaged_cycles": c["damaged_cycles"], "late_packets": c["late"],
+                "bytes_before_first_cycle": c["skipped_bytes"], **{k: c[k] for k in REASONS},
+                "sender_stopped": self.receiver.stopped}
+        return {"run": {"live_capture": live}}
