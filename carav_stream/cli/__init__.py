@@ -14,6 +14,7 @@
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency ...
+    carav new block NAME [--kind filter|source|sink] [--dir DIR]   a block, its test and a graph to start from
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
 for is imported, which keeps a command's start-up short (the studies import scipy, Dask and matplotlib). Errors
@@ -43,6 +44,7 @@ COMMANDS = {
     "reproduce": ("carav_stream.cli.reproduce", "the paper's figures and claims beside ours, as markdown"),
     "study": ("carav_stream.cli.study", "a declarative grid of sweeps on Dask distributed: CSV, JSON, figures"),
     "design": ("carav_stream.cli.design", "detector thresholds of a scene for a target false-alarm rate"),
+    "new": ("carav_stream.cli.new", "a new block to start from, its test (with the test kit) and a graph wiring it"),
 }
 EXPERIMENTS = {
     "secondary-antenna": ("carav_stream.experiments.secondary_antenna", "the paper's Figures 6 to 8"),

@@ -7,22 +7,15 @@ from carav_blocks.adc_framer import AdcFramer
 from carav_blocks.attacker import AttackerBlock
 from carav_blocks.channel import Channel
 from carav_stream.runtime import Frame
-from carav_stream.runtime.frames import decode, encode
+from carav_stream.testing.harness import wire
 
 SCENE = "table1"
 RHO = np.zeros(64, bool)
 RHO[::2] = True
 
 
-def wire(frame: Frame, seq: int) -> Frame:
-    """What a block receives: the frame after a trip through the codec."""
-    return decode(encode(frame, seq=seq, stream="x.y"))
-
-
-
 def adc_frame(seq: int, value: float = 1e-4, cycles: int = 1) -> Frame:
     return wire(Frame.of(np.full((cycles, 64, 1100), value, np.float32), cycles=cycles), seq)
-
 
 
 def front_end(fidelity: str, seed: int = 4, **attack):

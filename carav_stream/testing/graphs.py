@@ -1,0 +1,234 @@
+"""Graph files run as real processes, for integration tests: `carav run` in a process group of its own, waits that
+follow progress, per-cycle records, swapping and killing a node, and teardown.
+
+    graphs = Graphs(tmp_path)                        # the pytest fixture `carav` gives one, torn down after the test
+    run = graphs.run("my_graph.toml", "--cycles", "200", sets={"seed": 3})
+    wait_for(lambda: len(read_jsonl(tmp_path / "verdicts.jsonl")) >= 5, "verdicts",
+             progress=run.progress)                  # the deadline restarts while the graph advances
+    graphs.kill_node("detector")                     # SIGKILL its process (a restart policy brings it back)
+    graphs.swap("attacker", "attacker", model="random", rarms=4.0)
+    assert run.wait() == 0 and run.summary()["lost"] == 0
+
+A wait never depends on the machine's speed: `wait_for` fails only when nothing it watches has moved for `stall_s`
+(default 120 s), or after the overall cap `cap_s` (default 1800 s), never because a loaded machine is slow. The
+progress a run shows is the CPU time of its process group and the size of the files in its working folder.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+__all__ = ["GraphRun", "Graphs", "wait_for", "read_jsonl", "by_cycle", "node_pids", "STALL_S", "CAP_S"]
+
+STALL_S = 120.0     # nothing moved for this long: stalled
+CAP_S = 1800.0      # an overall cap, whatever moves
+_TICK = os.sysconf("SC_CLK_TCK")
+
+
+def wait_for(predicate: Callable[[], Any], what: str, *, progress: Callable[[], Any] | None = None,
+             stall_s: float = STALL_S, cap_s: float = CAP_S, interval_s: float = 0.05) -> Any:
+    """Poll `predicate` until it returns something true (returned). The deadline restarts whenever the predicate's
+    value or `progress()` changes; AssertionError naming `what` after `stall_s` without change, or after `cap_s`."""
+    start = last_change = time.monotonic()
+    seen = None
+    while True:
+        value = predicate()
+        if value:
+            return value
+        now = time.monotonic()
+        state = (repr(value), progress() if progress else None)
+        if state != seen:
+            seen, last_change = state, now
+        if now - last_change > stall_s:
+            raise AssertionError(f"waiting for {what}: nothing moved for {stall_s:.0f} s (last: {state[0][:200]})")
+        if now - start > cap_s:
+            raise AssertionError(f"waiting for {what}: not there after {cap_s:.0f} s, although the graph moved")
+        time.sleep(interval_s)
+
+
+def read_jsonl(path: str | Path) -> list[dict]:
+    """The complete lines of a jsonl_sink's file (a last line still being written is left out)."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    out = []
+    for line in path.read_text().splitlines():
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:
+            break
+    return out
+
+
+def by_cycle(records: list[dict]) -> dict[int, dict]:
+    """{cycle: that cycle's record} from jsonl_sink records: the frame's header with its per_cycle columns taken at
+    the cycle. A cycle recorded twice is an error."""
+    out = {}
+    for r in records:
+        per = r.get("per_cycle") or {}
+        index = per.get("cycle_index", list(range(r["cycle"], r["cycle"] + r.get("cycles", 1))))
+        for i, c in enumerate(index):
+            assert c not in out, f"cycle {c} recorded twice"
+            out[c] = {**{k: v for k, v in r.items() if k != "per_cycle"}, **{k: v[i] for k, v in per.items()}}
+    return out
+
+
+def node_pids(run_root: Path, node: str = "*") -> list[int]:
+    """The pids of the node processes under a run folder (or of one node), from /proc: a node's command line names
+    its spec file in the run folder (no `carav status` process to start, which is slow on a loaded machine)."""
+    specs = {str(p) for p in Path(run_root).glob(f"carav-*/*/{node}.spec")}
+    pids = []
+    for proc in Path("/proc").iterdir():
+        try:
+            argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
+        except OSError:
+            continue
+        if argv[1:3] == ["-m", "carav_stream.runtime.node"] and argv[3:] and argv[3] in specs:
+            pids.append(int(proc.name))
+    return pids
+
+
+def _group_cpu_ticks(pgid: int) -> int:
+    """utime + stime of the live processes of a process group, in clock ticks."""
+    total = 0
+    for proc in Path("/proc").iterdir():
+        if not proc.name.isdigit():
+            continue
+        try:
+            fields = (proc / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid:
+            total += int(fields[11]) + int(fields[12])
+    return total
+
+
+class GraphRun:
+    """One `carav run GRAPH --json SUMMARY` in its own session (process group), with stdout and stderr in files."""
+
+    def __init__(self, workdir: Path, env: dict[str, str], graph: str | Path, args: list[str]) -> None:
+        tag = time.monotonic_ns()
+        self.workdir = workdir
+        self.summary_path = workdir / f"summary-{tag}.json"
+        self.out = open(workdir / f"stdout-{tag}.txt", "w+")
+        self.err = open(workdir / f"stderr-{tag}.txt", "w+")
+        self.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "run", str(graph),
+                                      "--json", str(self.summary_path), "--no-progress", *args],
+                                     cwd=workdir, env=env, stdout=self.out, stderr=self.err,
+                                     stdin=subprocess.DEVNULL, start_new_session=True)
+        self.pgid = self.proc.pid
+
+    def progress(self) -> tuple[int, int]:
+        """What moves while the graph works: its processes' CPU time and the bytes in its working folder."""
+        size = sum(f.stat().st_size for f in self.workdir.iterdir() if f.is_file())
+        return _group_cpu_ticks(self.pgid), size
+
+    def wait(self, *, stall_s: float = STALL_S, cap_s: float = CAP_S) -> int:
+        """The exit code of `carav run`, waiting while the run makes progress."""
+        wait_for(lambda: self.proc.poll() is not None, "the run to end", progress=self.progress,
+                 stall_s=stall_s, cap_s=cap_s, interval_s=0.1)
+        return self.proc.returncode
+
+    def stderr(self) -> str:
+        self.err.flush()
+        return Path(self.err.name).read_text()
+
+    def stdout(self) -> str:
+        return Path(self.out.name).read_text()
+
+    def summary(self) -> dict:
+        return json.loads(self.summary_path.read_text())
+
+    def group_alive(self) -> bool:
+        try:
+            os.killpg(self.pgid, 0)
+        except ProcessLookupError:
+            return False
+        return True
+
+    def kill(self) -> None:
+        """SIGKILL the whole process group (teardown)."""
+        try:
+            os.killpg(self.pgid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        try:
+            self.proc.wait(30)
+        except subprocess.TimeoutExpired:
+            pass
+        self.out.close()
+        self.err.close()
+
+
+class Graphs:
+    """Runs graphs in a working folder with a private run folder, and tears every one down in `close()`.
+
+    transport   "zmq" or "shm": every run carries its arrays over that data plane (run.transport), else the
+                graph's own
+    env         extra environment for the processes (CARAV_BLOCK_PATH for your block folders, say)
+    """
+
+    def __init__(self, workdir: str | Path, *, transport: str | None = None, env: dict[str, str] | None = None):
+        self.workdir = Path(workdir)
+        self.transport = transport or "zmq"
+        self._plane = transport
+        # ipc paths must stay short (Unix sockets hold 107 bytes): a short private run folder
+        self.run_root = Path(tempfile.mkdtemp(prefix="cr", dir="/tmp"))
+        self.env = {**os.environ, "CARAV_RUN_DIR": str(self.run_root), **(env or {})}
+        self.started: list[GraphRun] = []
+
+    def run(self, graph: str | Path, *args: str, sets: dict[str, Any] | None = None) -> GraphRun:
+        """Start `carav run GRAPH ARGS` (sets: --set key=value each); returns at once."""
+        plane = ["--set", f"run.transport={self._plane}"] if self._plane else []
+        more = [a for k, v in (sets or {}).items() for a in ("--set", f"{k}={_toml(v)}")]
+        p = GraphRun(self.workdir, self.env, graph, [*args, *more, *plane])
+        self.started.append(p)
+        return p
+
+    def cli(self, *args: str, timeout_s: float = 600) -> subprocess.CompletedProcess:
+        """A short carav command (status, stop, swap, validate ...) in the same environment."""
+        return subprocess.run([sys.executable, "-m", "carav_stream.cli", *args], env=self.env, cwd=self.workdir,
+                              capture_output=True, text=True, timeout=timeout_s)
+
+    def graph(self, body: str, name: str = "g.toml", block_paths: list[str | Path] = ()) -> Path:
+        """Write a graph file into the working folder (with `block_paths` to find your blocks)."""
+        path = self.workdir / name
+        head = f"block_paths = {json.dumps([str(p) for p in block_paths])}\n" if block_paths else ""
+        path.write_text(head + body)
+        return path
+
+    def swap(self, node: str, block: str, **params: Any) -> subprocess.CompletedProcess:
+        """`carav swap NODE BLOCK --set k=v ...` on the running graph; asserts it was applied."""
+        res = self.cli("swap", node, block, *[a for k, v in params.items() for a in ("--set", f"{k}={_toml(v)}")])
+        assert res.returncode == 0, f"swap of {node} to {block} refused: {res.stderr.strip()}"
+        return res
+
+    def kill_node(self, node: str, sig: int = signal.SIGKILL) -> int:
+        """Send `sig` to the process of one node of the running graph; returns its pid."""
+        pids = wait_for(lambda: node_pids(self.run_root, node), f"the process of node {node}")
+        assert len(pids) == 1, f"node {node}: {len(pids)} processes {pids}"
+        os.kill(pids[0], sig)
+        return pids[0]
+
+    def close(self) -> None:
+        for p in self.started:
+            p.kill()
+        shutil.rmtree(self.run_root, ignore_errors=True)
+
+
+def _toml(value: Any) -> str:
+    """A --set value as TOML writes it (strings quoted, booleans lower case)."""
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value)
