@@ -12,8 +12,8 @@ in (0, 1], and v = integer h + j, signed, as the angle theta = 2 pi v 2^-32 in [
     r = sqrt(-2 ln u1),   sample j = r cos(theta),   sample h + j = r sin(theta)
 
 with numpy's float32 ln, cos and sin, which are vectorised on AVX2 and AVX-512 alike (about 1.7 ns an element
-each here; numpy's float32 tan, which an earlier version used to replace the cosine and the sine, runs one
-element at a time without AVX-512: 12.6 ns). u1 >= 2^-33 bounds |z| at 6.8 (P(|N(0,1)| > 6.8) = 1e-11). Each
+each here; numpy's float32 tan, which could replace the cosine and the sine with one call, runs one element
+at a time without AVX-512: 12.6 ns). u1 >= 2^-33 bounds |z| at 6.8 (P(|N(0,1)| > 6.8) = 1e-11). Each
 row is filled from its own consecutive block of words, so drawing n rows at once gives exactly the rows that
 n one-row calls give, however the rows are chunked.
 

@@ -160,7 +160,7 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
 
 def test_a_swap_asked_while_the_node_is_still_starting_waits_for_it_instead_of_being_dropped(carav):
     # the swap goes out as soon as the run exists, the swapped node listed last so it starts last: a request sent
-    # before its control connection was up used to vanish, the swap refused after 30 s
+    # before its control connection is up must wait for it, not vanish (the swap would be refused after 30 s)
     body = """
 connections = ["src.out -> t.inp", "t.out -> log.inp"]
 [blocks]
