@@ -8,9 +8,13 @@ is written as its items joined by ";".
     150,alarms,True,attack,2.91,,
     151,estimates,False,,0.42,43.0012,-26.6701
 
+A restarted sink (or one swapped in) appends rows without a second header line: only the sink a run starts with
+creates or truncates the file, so a restart never erases what was written; each frame's rows leave for the
+file before the next frame is taken.
+
 Ports   in  estimates   any    frames to record (main stream), written with port "estimates"
         in  alarms      any    optional second stream, written with port "alarms"
-Params  path (str, required): output file, created or truncated at start; "-" for standard output
+Params  path (str, required): output file, created or truncated when the run starts; "-" for standard output
         columns (list, see above): the columns after "cycle" and "port"
 Graph   csv = { type = "csv_sink", path = "cycles.csv" }
 """
@@ -41,9 +45,11 @@ class CsvSink(Block):
             raise ValueError(f"columns must be a list of names, got {self.columns!r}")
 
     def start(self) -> None:
-        self.fh = sys.stdout if self.path == "-" else open(self.path, "w", newline="")
+        first = self.instance == (0, 0)              # the run's own sink, not a restarted or swapped-in one
+        self.fh = sys.stdout if self.path == "-" else open(self.path, "w" if first else "a", newline="")
         self.writer = csv.writer(self.fh)
-        self.writer.writerow(["cycle", "port", *self.columns])
+        if first:
+            self.writer.writerow(["cycle", "port", *self.columns])
         self.rows = self.malformed = 0
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
@@ -57,6 +63,7 @@ class CsvSink(Block):
             self.writer.writerow([cycle, port, *(_cell(per[c][i] if c in per else frame.header.get(c))
                                                  for c in self.columns)])
         self.rows += len(cycles)
+        self.fh.flush()                  # written, not buffered: a SIGKILL loses no row of a frame counted in
 
     def finish(self) -> None:
         self.fh.flush()

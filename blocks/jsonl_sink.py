@@ -2,9 +2,12 @@
 
     line = {"port": input port, **header, "data": payload as a list if it has at most `max_values` values}
 
+A restarted sink (or one swapped in) appends to the file: only the sink a run starts with creates or truncates
+it, so a restart never erases what was written (each line is written whole as it comes: line buffering).
+
 Ports   in  inp      any    frames to record (main stream)
         in  extra    any    optional second stream (e.g. alarms), recorded with "port": "extra"
-Params  path (str, required): output file, created or truncated at start; "-" for standard output
+Params  path (str, required): output file, created or truncated when the run starts; "-" for standard output
         max_values (int, 16): payloads up to this size are written as lists, larger ones only as dtype/shape
 Graph   log = { type = "jsonl_sink", path = "run.jsonl" }
 """
@@ -23,7 +26,8 @@ class JsonlSink(Block):
               Param("max_values", int, 16, "largest payload written in full", low=0))
 
     def start(self) -> None:
-        self.fh = sys.stdout if self.path == "-" else open(self.path, "w", buffering=1)
+        first = self.instance == (0, 0)              # the run's own sink, not a restarted or swapped-in one
+        self.fh = sys.stdout if self.path == "-" else open(self.path, "w" if first else "a", buffering=1)
         self.n = 0
 
     def _write(self, port: str, frame: Frame) -> None:

@@ -20,6 +20,9 @@ cycle's range migration and 1.5 Doppler bins, velocities modulo the ambiguity): 
 true target and the false targets per cycle, on cycles without an attack and, apart, on attacked cycles the
 detector missed (where a ghost shows up as a false target).
 
+The figures are those of this process: a restarted run_summary starts them afresh, and then says which cycles
+they cover (`figures_cover`: the first and last cycle counted, the restarts, and a sentence `carav run` prints).
+
 Ports   in  estimates   range_estimator records          (merged in arrival order with alarms)
         in  alarms      gate alarm records
 Params  scene (graph-wide): truth for the errors; every_s (float, 0): print a line every so many seconds
@@ -32,7 +35,7 @@ import time
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.firmware.target_list import KINDS, associate, gates
 from carav_stream.radar.streams import SCENE, scene_of
-from carav_stream.runtime import Block, Frame, In, Param, n_cycles, per_cycle
+from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, n_cycles, per_cycle
 
 
 class ErrorStats:
@@ -90,6 +93,8 @@ class RunSummary(Block):
         self.next_print = time.monotonic() + self.every_s
         self.listing: dict[str, dict] = {}         # CFAR lists scored against the truth, by attacked / clean
         self.detection: str | None = None
+        self.first_cycle: int | None = None       # the lowest and highest cycle index counted
+        self.last_cycle: int | None = None
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
         frame = estimates if estimates is not None else alarms
@@ -101,6 +106,7 @@ class RunSummary(Block):
             self.unreadable += n
         attacked = per.get("attack_active") or [False] * n
         self.cycles += n
+        self._covered(frame)
         self.attacked += sum(bool(a) for a in attacked)
         if alarms is not None:
             for i in range(n):
@@ -137,6 +143,27 @@ class RunSummary(Block):
                   f"{r['detected']}, false alarms {r['false_alarms']}, refused without a verdict "
                   f"{r['refused']['cycles']}; range RMSE {'n/a' if rmse is None else f'{rmse * 1e3:.3g} mm'}",
                   file=sys.stderr, flush=True)
+
+    def _covered(self, frame: Frame) -> None:
+        try:
+            index = [c for c in cycle_indices(frame) if type(c) is int]
+        except (TypeError, ValueError):   # an unreadable frame's cycles are counted as unreadable, not placed
+            index = []
+        if index:
+            lo, hi = min(index), max(index)
+            self.first_cycle = lo if self.first_cycle is None else min(self.first_cycle, lo)
+            self.last_cycle = hi if self.last_cycle is None else max(self.last_cycle, hi)
+
+    def coverage(self) -> dict | None:
+        """None for the run_summary a run started with; after a restart, which cycles these figures cover."""
+        restarts = self.instance[0]
+        if not restarts:
+            return None
+        span = "no cycle" if self.first_cycle is None else f"cycles {self.first_cycle}-{self.last_cycle}"
+        return {"first_cycle": self.first_cycle, "last_cycle": self.last_cycle, "cycles": self.cycles,
+                "restarts": restarts,
+                "text": f"figures cover {span} only ({self.cycles} cycles counted): run_summary restarted "
+                        f"{restarts} time{'s' if restarts != 1 else ''}"}
 
     def _score(self, ranges: list, velocities: list, kind: str) -> None:
         pairs = [(r, v) for r, v in zip(ranges, velocities) if r is not None and v is not None]
@@ -184,6 +211,7 @@ class RunSummary(Block):
             "unambiguous_velocity_mps": self.v_max,
             "velocity_error_modulo_ambiguity_mps": self.velocity_err_folded.figures(),
             "target_list": self.target_list_figures(),
+            "figures_cover": self.coverage(),
         }
 
     def summary(self) -> dict:

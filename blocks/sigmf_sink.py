@@ -7,8 +7,11 @@
     BASE.activation   the activation sequence of every cycle: firmware state, mode 0600, never in the two above
 
 The samples are written as they arrive; the metadata and the log when the stream ends (format: carav_stream/
-capture/sigmf_io.py). `carav record GRAPH --out DIR` adds this block to a graph and wires it; `carav replay DIR`
-runs the recording through detection and ranging again.
+capture/sigmf_io.py), from what the recorder holds in memory. A recorder is therefore never restarted: a graph
+that gives it a restart policy other than "never" is refused when it is validated (the run fails instead, and
+its recording has no metadata, which `carav replay` refuses). `carav record GRAPH --out DIR` adds this block to
+a graph and wires it, with restart "never"; `carav replay DIR` runs the recording through detection and ranging
+again.
 
 Ports   in  frames     ADC frames (int16 codes, or float32 | complex64 samples of an ideal ADC)
         in  rho        the activation sequences (the private edge the detector reads)
@@ -44,6 +47,8 @@ class SigmfSink(Block):
               In("estimates", kind="estimates", required=False),
               In("alarms", kind="alarm", required=False))
     merge_inputs = True
+    not_restartable = ("it writes the recording's metadata and activation log at the end from what it holds in "
+                       "memory: a restarted recorder would write a recording without the cycles before the restart")
     params = (Param("path", str, doc="base name of the recording (BASE.sigmf-meta, BASE.sigmf-data)", output=True),
               SCENE, SEED,
               Param("batch", int, 16, "cycles per frame of the recorded graph (metadata)", low=1),

@@ -63,7 +63,8 @@ def record_graph(graph: Graph, out: Path, overrides: list[str] = ()) -> Path:
     path = out / "record.toml"
     path.write_text(f"include = {json.dumps(str(Path(graph.path).resolve()))}\n"
                     f"connections = {json.dumps(wiring(graph))}\n\n[blocks]\n"
-                    f"{NODE} = {{ type = \"sigmf_sink\", path = {json.dumps(str((out / BASE).resolve()))}, "
+                    f"{NODE} = {{ type = \"sigmf_sink\", restart = \"never\", "
+                    f"path = {json.dumps(str((out / BASE).resolve()))}, "
                     f"graph = {json.dumps(json.dumps(described, default=str))} }}\n")
     return path
 

@@ -165,6 +165,8 @@ def _radar_lines(s: dict[str, Any]) -> list[str]:
     if "cycles_judged" not in s:
         return []
     lines = []
+    if s.get("figures_cover"):        # a restarted run_summary: its figures are not the whole run's
+        lines.append(f"  {s['figures_cover']['text']}")
     refused = s.get("refused") or {"cycles": 0, "by_reason": {}, "attacked_cycles": 0}
     judged_clean = s["cycles_judged"] - s["attacked_cycles"] - (refused["cycles"] - refused["attacked_cycles"])
     by = ", ".join(f"{k} {v}" for k, v in sorted(s["raised_by"].items()) if k in ("D0", "D1")) or "none"

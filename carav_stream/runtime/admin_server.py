@@ -123,8 +123,9 @@ class AdminServer:
                 "nodes": {n: {"pid": st.proc.pid if st.proc else None,
                               "alive": bool(st.proc and st.proc.poll() is None),
                               "restarts": st.restarts, "counters": st.counters,
-                              "rate_per_s": st.counters.get("processed", 0) / elapsed if elapsed else 0.0,
-                              "cycles_per_s": st.counters.get("cycles", 0) / elapsed if elapsed else 0.0,
+                              # over every incarnation: each counts only what it did itself (NodeState.total)
+                              "rate_per_s": st.total("processed") / elapsed if elapsed else 0.0,
+                              "cycles_per_s": st.total("cycles") / elapsed if elapsed else 0.0,
                               "block": st.spec.type, "params": st.spec.params}
                           for n, st in self.nodes.items()},
                 "edges": self.edge_queues(), "swaps": self.swaps}

@@ -83,6 +83,9 @@ class Block:
     # False: inputs are paired by seq (process gets one frame per input). True: inputs are independent
     # streams, merged in arrival order (process gets one frame, None for the other inputs).
     merge_inputs: ClassVar[bool] = False
+    # Why a restarted process of this block would leave its output wrong (say, a file whose end it writes from
+    # what it held in memory); when set, the graph validator refuses any restart policy but "never" for it.
+    not_restartable: ClassVar[str] = ""
     cycle_budget: int | None = None   # sources: set by the runtime before each generate()
     # (incarnation, generation), set by the runtime before start(): (0, 0) for the block a run starts with; a
     # restarted process counts incarnations, a block swapped in counts generations. A block drawing from a

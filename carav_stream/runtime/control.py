@@ -13,6 +13,7 @@ from carav_stream.runtime.protocol import Control
 class ControlState:
     def __init__(self, *, go: bool, recovering: bool = False, seq_lease: int = 0) -> None:
         self.go = go                                  # sources wait for it; other nodes start at once
+        self.told_go = False                          # Control.GO came (every node must get it, in time)
         self.stopping = False                         # sources: stop generating
         self.released = False                         # every node drained: exit
         self.recovering = recovering                  # an upstream node was restarted: partners may be lost
@@ -26,7 +27,7 @@ class ControlState:
         """Take one control message into the state; unknown kinds are ignored (a newer supervisor's)."""
         kind = msg.get("type")
         if kind == Control.GO:
-            self.go = True
+            self.go = self.told_go = True
         elif kind == Control.STOP:
             self.stopping = True
         elif kind == Control.EXIT:

@@ -1,4 +1,5 @@
-"""One node of a graph, in its own OS process: `python -m carav_stream.runtime.node SPEC_FILE`.
+"""One node of a graph, in its own OS process: `python -m carav_stream.runtime.node SPEC_FILE` (the supervisor starts
+it through carav_stream/node_start.py, which makes it die with the supervisor before any import).
 
 The node opens its sockets inside its own process, builds its block, says "ready" to the supervisor, and then
 receives, validates, pairs by seq (pairing.Pairing), processes and sends frames (outputs.Outputs) until every
@@ -11,6 +12,9 @@ counted and reported, and the node keeps running.
 Sequence leases: a source generates a seq only below the lease its supervisor granted and asks for more ahead of
 time, so a restarted source resumes beyond every seq its killed incarnation may have sent (from the lease, not
 from counters that a SIGKILL leaves stale): no consumer ever sees one seq with two contents.
+
+Start: a node that is not told to go (Control.GO) within its spec's start_timeout_s exits (status 1): its
+supervisor is gone or cannot run the graph, and nobody else could stop it.
 
 Restarts: when a node's consumer is restarted, the node connects afresh at once and first sends a resume marker
 (outputs.py); a pairing node releases a frame without its partner as soon as another input shows the partner can
@@ -28,6 +32,7 @@ from typing import Any
 
 import zmq
 
+from carav_stream import node_start
 from carav_stream.runtime import shm, transport
 from carav_stream.runtime.block import Block, BlockError
 from carav_stream.runtime.control import ControlState
@@ -42,16 +47,6 @@ CONTROL_S = 0.01         # while frames flow, the control socket is looked at no
 CRASH_FLUSH_S = 1.0      # after a crash: how long frames already sent get to leave before the process exits
 MAX_REPORTED_REJECTS = 20
 RECEIVE_BURST = 64       # messages taken from one input before looking at the others
-
-
-def _set_parent_death_signal() -> None:
-    """Die with the supervisor even if it is SIGKILLed (Linux prctl PR_SET_PDEATHSIG); no orphans."""
-    try:
-        import ctypes
-        libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        libc.prctl(1, signal.SIGKILL)   # PR_SET_PDEATHSIG = 1
-    except (OSError, AttributeError):
-        pass
 
 
 class NodeRunner:
@@ -93,13 +88,15 @@ class NodeRunner:
         self.n_reports = 0
         self.processed = 0
         self.consumed = 0                                # input frames handed to the block
-        self.cycles = spec.start_cycles                  # cycles those frames carried (header `cycles`)
+        self.cycles = 0                                  # cycles those frames carried (header `cycles`), this process's
+        self.cycles_before = spec.start_cycles           # sources: cycles earlier incarnations generated (the budget's)
         self.busy_s = 0.0                                # CPU time spent inside the block's own code
         self.cpu_at_first_s: float | None = None          # the process's CPU time when the first frame came
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
         self.next_hb = 0.0
         self.next_control = 0.0
+        self.go_by = time.monotonic() + spec.start_timeout_s if spec.start_timeout_s else None
         self.seq = spec.start_seq
         self.packer = header_packer()
 
@@ -184,6 +181,11 @@ class NodeRunner:
             self.next_hb = now + HEARTBEAT_S
         while self.control.get(zmq.EVENTS) & zmq.POLLIN:
             self.ctl.apply(unpack(self.control.recv()))
+        if self.go_by is not None and not self.ctl.told_go and now > self.go_by:
+            # no supervisor to report to or to be stopped by: leave at once, saying why in the node's log
+            print(f"{self.name}: not told to go within {self.spec.start_timeout_s:.0f} s of starting; its "
+                  "supervisor is gone or cannot start the graph; exiting", file=sys.stderr, flush=True)
+            os._exit(1)
         ctl, out = self.ctl, self.outputs
         for port in ctl.ended_ports:                     # an upstream node died for good: its input ends here
             self.pairing.eos.setdefault(port, None)
@@ -369,12 +371,12 @@ class NodeRunner:
         while not self.ctl.go:
             self.control.poll(100)
             self.serve_control()
-        while not self.ctl.stopping and (not max_cycles or self.cycles < max_cycles):
+        while not self.ctl.stopping and (not max_cycles or self.cycles_before + self.cycles < max_cycles):
             if self.ctl.pending_swap:
                 self.apply_swap()
             if not self.within_lease():
                 continue
-            self.block.cycle_budget = max_cycles - self.cycles if max_cycles else None
+            self.block.cycle_budget = max_cycles - self.cycles_before - self.cycles if max_cycles else None
             if self.cpu_at_first_s is None:
                 self.cpu_at_first_s = time.process_time()
             t0 = time.thread_time()
@@ -510,7 +512,7 @@ def _report_crash(spec: NodeSpec, runner: NodeRunner | None, exc: BaseException)
 
 
 def main(argv: list[str]) -> int:
-    _set_parent_death_signal()
+    node_start.die_with_parent()     # already done by the launcher; here for `python -m carav_stream.runtime.node`
     # Ctrl-C and a group-wide SIGTERM go to the supervisor too, which stops the nodes in order; a node dies
     # with its supervisor through the parent-death signal, and the supervisor kills with SIGKILL.
     signal.signal(signal.SIGINT, signal.SIG_IGN)

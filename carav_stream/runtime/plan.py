@@ -14,6 +14,10 @@ from carav_stream.runtime import shm, transport
 from carav_stream.runtime.graph import Graph
 from carav_stream.runtime.protocol import LEASE_FRAMES, NodeSpec, OutEdge
 
+# A node waits for its go this long past the graph's run.ready_timeout_s (the supervisor's own wait for every
+# node to be ready), then exits: the supervisor sends go at the latest when that wait ends.
+START_SLACK_S = 30.0
+
 ShmOut = dict[tuple[str, str], dict[str, Any]]   # (node, port) -> {fd, edges}: a producer's segment
 ShmIn = dict[tuple[str, str], list[int]]         # (node, port) -> [fd, edge index]: a consumer's
 
@@ -60,6 +64,7 @@ def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None
             inputs={e.dst_port: endpoints[(e.dst, e.dst_port)][0] for e in g.edges_into(name)},
             outputs={port: tuple(edges) for port, edges in outputs.items()},
             queue_frames=int(g.run["queue_frames"]), drain_timeout_s=float(g.run["drain_timeout_s"]),
+            start_timeout_s=float(g.run["ready_timeout_s"]) + START_SLACK_S,
             max_cycles=int(cycles or 0) if not g.edges_into(name) else 0,
             seq_lease=0 if g.edges_into(name) else LEASE_FRAMES,
             block_paths=tuple(str(p) for p in g.registry.paths[1:]),

@@ -108,7 +108,8 @@ class NodeSpec:
     incarnation: int = 0                               # restarts of this node before this process
     start_seq: int = 0                                 # a restarted source resumes its sequence here
     seq_lease: int = 0                                 # sources: seqs below this may be generated (more on request)
-    start_cycles: int = 0                              # ... and its cycle count here
+    start_cycles: int = 0                              # sources: cycles earlier incarnations generated (budget)
+    start_timeout_s: float = 0.0                       # exit if not told to go within this (0: wait for ever)
     recovering: bool = False                           # restarted, or fed by a restarted node
     shm_out: dict[str, dict[str, Any]] = field(default_factory=dict)   # output port -> {fd, edges}: its segment
     shm_in: dict[str, list[int]] = field(default_factory=dict)         # input port -> [fd, edge index]

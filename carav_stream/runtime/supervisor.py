@@ -24,6 +24,7 @@ from typing import Any
 
 import zmq
 
+from carav_stream import node_start
 from carav_stream.runtime import transport
 from carav_stream.runtime.admin_server import AdminServer
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
@@ -81,9 +82,10 @@ class Supervisor:
         spec_path.write_bytes(st.spec.to_wire())
         logf = open(self.run_dir / f"{st.name}.log", "ab")
         fds = [s["fd"] for s in st.spec.shm_out.values()] + [fd for fd, _ in st.spec.shm_in.values()]
-        st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.runtime.node", str(spec_path)],
+        st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.node_start", str(spec_path)],
                                    stdin=subprocess.DEVNULL, stdout=logf, stderr=logf, pass_fds=fds,
-                                   env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id})
+                                   env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id,
+                                        node_start.SUPERVISOR_PID_ENV: str(os.getpid())})
         logf.close()
         st.ready = st.done = st.failed = False
         st.last_seen = time.monotonic()

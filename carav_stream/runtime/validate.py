@@ -92,6 +92,9 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     for node in nodes.values():
         if node.name in classes:
             warnings.update(dict.fromkeys(_check_params(node, classes[node.name], bad_wide, where, problems)))
+        if node.name in classes and classes[node.name].not_restartable and node.restart.policy != "never":
+            problems.append(f"{where}: blocks.{node.name}.restart: a {node.type} cannot be restarted "
+                            f"({classes[node.name].not_restartable}); give it restart = \"never\"")
     edges = _edges(data.get("connections", []), nodes, classes, where, problems)
     _check_inputs(nodes, classes, edges, where, problems)
     _check_cycles(nodes, edges, where, problems)

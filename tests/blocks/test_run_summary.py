@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from carav_blocks.run_summary import ErrorStats, RunSummary
+from carav_stream.cli.run import _radar_lines
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime import Frame
 from tests.blocks.helpers import SCENE, wire
@@ -117,3 +118,19 @@ def test_a_cfar_list_is_scored_per_true_target_with_false_targets_counted_apart(
     assert listing["clean"]["targets"][0]["probability_of_detection"] == pytest.approx(1 / 3)
     ghost = listing["attacked_missed"]                                   # the ghost at 25 m of a missed attack
     assert ghost["cycles"] == 1 and ghost["false_targets"] == 1 and ghost["targets"][0]["detected_cycles"] == 1
+
+
+def test_a_restarted_summary_says_which_cycles_its_figures_cover_and_carav_run_prints_it():
+    first = RunSummary(scene=SCENE)
+    first.start()
+    assert first.summary()["run"]["figures_cover"] is None          # the run's own: the whole run
+    s = RunSummary(scene=SCENE)
+    s.instance = (2, 0)                                               # the node's third process
+    s.start()
+    for seq, cycles in enumerate(([1088, 1089], [1090, 5312])):
+        s.process(wire(Frame.of(None, cycles=2, per_cycle={"cycle_index": cycles, "attack_active": [False] * 2}),
+                       seq), None)
+    run = s.summary()["run"]
+    assert run["figures_cover"]["text"] == ("figures cover cycles 1088-5312 only (4 cycles counted): run_summary "
+                                            "restarted 2 times")
+    assert any(line.strip() == run["figures_cover"]["text"] for line in _radar_lines(run))

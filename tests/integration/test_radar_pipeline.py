@@ -271,7 +271,7 @@ def _node_pids(carav, node: str = "*") -> list[int]:
             argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
         except OSError:                     # not a process, or it ended meanwhile
             continue
-        if argv[1:3] == ["-m", "carav_stream.runtime.node"] and argv[3:] and argv[3] in specs:
+        if argv[1:3] == ["-m", "carav_stream.node_start"] and argv[3:] and argv[3] in specs:
             pids.append(int(proc.name))
     return pids
 

@@ -1,0 +1,44 @@
+"""How the supervisor starts a node: `python -m carav_stream.node_start SPEC_FILE`.
+
+A node dies with its supervisor from its first instruction on, even when the supervisor is SIGKILLed while the
+node is still importing numpy, ZeroMQ and its block (0.3-1 s). This module imports nothing of the package and
+nothing heavy, and before anything else:
+
+1. asks the kernel to SIGKILL it when its parent dies (Linux prctl PR_SET_PDEATHSIG);
+2. checks that its parent is still the supervisor that started it (CARAV_SUPERVISOR_PID, set by the supervisor):
+   a supervisor that died between the fork and step 1 left the node adopted by another process, which step 1
+   cannot notice; the node then exits at once (status 1, one line on standard error).
+
+Then it runs the node (`carav_stream.runtime.node`, whose own `python -m` entry point does the same two steps).
+"""
+import ctypes
+import os
+import runpy
+import signal
+import sys
+
+SUPERVISOR_PID_ENV = "CARAV_SUPERVISOR_PID"
+PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent() -> None:
+    """Steps 1 and 2 above; exits when the parent is not the supervisor named in CARAV_SUPERVISOR_PID."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):   # not Linux: no parent-death signal; the start deadline still holds
+        pass
+    expected = os.environ.get(SUPERVISOR_PID_ENV, "")
+    if expected.isdigit() and os.getppid() != int(expected):
+        sys.exit(f"carav node: its supervisor (pid {expected}) is gone (parent now pid {os.getppid()}); exiting")
+
+
+def main() -> None:
+    die_with_parent()
+    # run as a module, not imported: what it imports (numpy, ZeroMQ) comes only now, after the two steps, and the
+    # package's own modules keep no import of this launcher's in their graph of imports
+    runpy.run_module("carav_stream.runtime.node", run_name="__main__", alter_sys=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,111 @@
+"""Restarts never rewrite history: a SIGKILLed node restarted by policy is counted once, and a restarted sink keeps
+what it wrote. Real processes, SIGKILL of a node's own pid (found in /proc), restart policy on-failure."""
+import csv
+import json
+import os
+import signal
+from pathlib import Path
+
+import pytest
+
+from tests.integration.conftest import read_jsonl, wait_until
+
+pytestmark = pytest.mark.integration
+
+# a chain slowed by its tagger (5 ms a frame, queues of 2 frames): the source's counters at its last heartbeat
+# are at most about 0.5 s x 200 frames/s behind what it really did when it is killed
+CHAIN = """
+connections = ["src.out -> t.inp", "t.out -> log.inp", "t.out -> csv.estimates"]
+[run]
+cycles = 0
+queue_frames = 2
+[restart]
+policy = "on-failure"
+max_restarts = 5
+[blocks]
+src = { type = "counter_source" }
+t = { type = "tagger", delay_s = 0.005 }
+log = { type = "jsonl_sink", path = "out.jsonl" }
+csv = { type = "csv_sink", path = "out.csv", columns = ["value"] }
+"""
+STALE_FRAMES = 120     # what a killed node may have done after its last heartbeat, with a margin
+
+
+def node_pid(carav, node: str) -> int | None:
+    """The pid of the one live process of `node` (its command line names its spec file in the run folder)."""
+    specs = {str(p) for p in carav.run_root.glob(f"carav-*/*/{node}.spec")}
+    pids = []
+    for proc in Path("/proc").iterdir():
+        try:
+            argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
+            if (proc / "stat").read_text().rsplit(")", 1)[1].split()[0] == "Z":
+                continue
+        except (OSError, IndexError):       # not a process, or it ended meanwhile
+            continue
+        if argv[3:] and argv[1] == "-m" and argv[3] in specs:
+            pids.append(int(proc.name))
+    return pids[0] if len(pids) == 1 else None
+
+
+def kill_and_wait_for_restart(carav, run, node: str, n: int) -> None:
+    os.kill(int(wait_until(lambda: node_pid(carav, node), 30, f"{node}'s pid")), signal.SIGKILL)
+    wait_until(lambda: f"restarting {node!r} ({n}/5)" in run.stderr(), 60, f"the supervisor to restart {node}")
+
+
+def grow(path: Path, more_than: int, what: str) -> int:
+    """Wait while the sink's file grows (a deadline that restarts with every new line) until it has more lines."""
+    last, n = -1, 0
+    while n <= more_than:
+        n = wait_until(lambda: (k := len(read_jsonl(path))) > last and k, 30, what)
+        last = n
+    return n
+
+
+def test_a_restarted_source_counts_each_cycle_once_in_the_summary_and_status(carav):
+    run = carav.run(carav.graph(CHAIN))
+    out = carav.workdir / "out.jsonl"
+    for i in (1, 2):
+        n = grow(out, 300 * i, "frames before killing the source")
+        kill_and_wait_for_restart(carav, run, "src", i)
+    grow(out, n + 200, "frames after the restarts")
+    status = carav.cli("status", "--json")
+    assert status.returncode == 0, status.stderr
+    [live] = json.loads(status.stdout)
+    assert carav.cli("stop").returncode == 0
+    run.wait(60)
+    s = run.summary()
+    lines = read_jsonl(out)
+    seqs = [line["seq"] for line in lines]
+    assert seqs == sorted(set(seqs))                          # none judged twice or out of order
+    assert s["per_node"]["src"]["restarts"] == 2
+    # the source's cycles: what it generated, each once (not its dead incarnations' counters again): within what
+    # the killed incarnations did after their last heartbeats of the frames that reached the sink
+    assert abs(s["cycles"] - len(lines)) <= 2 * STALE_FRAMES + s["lost"], (s["cycles"], len(lines), s["lost"])
+    assert s["throughput_cycles_per_s"] == pytest.approx(s["cycles"] / s["wall_s"])
+    # carav status, asked while it ran: its count of cycles is no larger than what the run generated in all
+    assert live["cycles"] <= len(lines) + 2 * STALE_FRAMES + s["lost"], (live["cycles"], len(lines))
+    assert live["nodes"]["src"]["cycles_per_s"] * live["elapsed_s"] == pytest.approx(live["cycles"], rel=0.01)
+
+
+def test_restarted_jsonl_and_csv_sinks_append_and_keep_every_line_they_wrote(carav):
+    run = carav.run(carav.graph(CHAIN))
+    out, table = carav.workdir / "out.jsonl", carav.workdir / "out.csv"
+    grow(out, 150, "frames before killing the sinks")
+    before = read_jsonl(out)
+    rows_before = list(csv.reader(table.open()))
+    kill_and_wait_for_restart(carav, run, "log", 1)
+    kill_and_wait_for_restart(carav, run, "csv", 1)
+    grow(out, len(before) + 150, "frames after the sinks' restarts")
+    assert carav.cli("stop").returncode == 0
+    run.wait(60)
+    s = run.summary()
+    lines = read_jsonl(out)
+    rows = list(csv.reader(table.open()))
+    assert lines[:len(before)] == before                       # nothing it wrote before the kill is gone
+    assert rows[:len(rows_before)] == rows_before
+    assert rows[0] == ["cycle", "port", "value"] and rows.count(rows[0]) == 1
+    seqs = [line["seq"] for line in lines]
+    assert seqs == sorted(set(seqs)) and seqs[0] == 0
+    cycles = [int(r[0]) for r in rows[1:]]
+    assert cycles == sorted(set(cycles)) and cycles[0] == 0
+    assert s["per_node"]["log"]["restarts"] == 1 and s["per_node"]["csv"]["restarts"] == 1
