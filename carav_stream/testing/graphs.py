@@ -92,7 +92,8 @@ def node_pids(run_root: Path, node: str = "*") -> list[int]:
             argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
         except OSError:
             continue
-        if argv[1:3] == ["-m", "carav_stream.runtime.node"] and argv[3:] and argv[3] in specs:
+        if argv[1:2] == ["-m"] and argv[2:3] in (["carav_stream.node_start"], ["carav_stream.runtime.node"]) \
+                and argv[3:] and argv[3] in specs:
             pids.append(int(proc.name))
     return pids
 
