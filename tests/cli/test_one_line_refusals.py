@@ -31,3 +31,12 @@ def test_validate_refuses_an_integer_parameter_beyond_what_a_run_can_hold(capsys
     assert text in err, err
     assert len(err.strip().splitlines()) == 1, err
 
+
+
+def test_a_reader_that_closes_the_pipe_early_ends_the_command_quietly():
+    proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "blocks"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()             # the reader is gone before the first line: every write meets a closed pipe
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == Exit.INTERRUPTED
+    assert err == "", err
