@@ -168,7 +168,9 @@ class Supervisor:
 
     def node_failed(self, st: NodeState, reason: str) -> None:
         detail = st.error or self.log_tail(st.name)
-        self.log(f"carav: node {st.name!r} ({st.spec.type}) failed: {reason}\n{_indent(detail)}")
+        if st.error and "\n" not in st.error.strip():   # the block's own one-line statement: it is the reason
+            reason, detail = f"{reason}: {st.error.strip()}", ""
+        self.log(f"carav: node {st.name!r} ({st.spec.type}) failed: {reason}" + (f"\n{_indent(detail)}" * bool(detail)))
         st.grace = False
         st.unreported += st.error is None     # no last words: its counters are those of its last heartbeat
         st.dead_counters.append(st.counters)
