@@ -268,7 +268,8 @@ class Supervisor:
         return self.summary()
 
     def summary(self) -> dict[str, Any]:
-        return self.report.summary(failures=self.failures, swaps=self.admin.swaps, stopped_by=self.stop_requested)
+        return self.report.summary(failures=self.failures, swaps=self.admin.swaps, stopped_by=self.stop_requested,
+                                   refused_swaps=self.admin.refused_swaps)
 
     def loop(self) -> None:
         poller = zmq.Poller()
