@@ -32,7 +32,6 @@ def test_validate_refuses_an_integer_parameter_beyond_what_a_run_can_hold(capsys
     assert len(err.strip().splitlines()) == 1, err
 
 
-
 def test_a_reader_that_closes_the_pipe_early_ends_the_command_quietly():
     proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "blocks"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
