@@ -25,6 +25,7 @@ Graph   recorder = { type = "sigmf_sink", path = "rec/recording" }
 import hashlib
 import json
 import shutil
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -33,11 +34,20 @@ from carav_stream.capture.activation_log import log_path, write_log
 from carav_stream.capture.sigmf_io import NS, datatype_of, plain, write_meta
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import NO_SEED, SCENE, SEED, scene_of
-from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle
+from carav_stream.runtime import Block, BlockError, Frame, In, Param, cycle_indices, per_cycle
 
 VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by")   # k_max and rbar stay out: they speak of rho
 ADC_FIELDS = ("attack_active", "clipped", "nonfinite")
 ESTIMATE_FIELDS = ("range_m", "velocity_mps")
+
+
+@contextmanager
+def writing(path: str):
+    """A failed write (a full disk, a quota, a lost mount) as one line naming the file, not the sink's traceback."""
+    try:
+        yield
+    except OSError as exc:
+        raise BlockError(f"{exc.filename or path}: cannot write: {exc.strerror or exc}") from None
 
 
 class SigmfSink(Block):
@@ -110,7 +120,8 @@ class SigmfSink(Block):
                              f"{self.datatype or datatype} cycles of shape {shape}")
         self.datatype = datatype
         raw = np.ascontiguousarray(x.astype(x.dtype.newbyteorder("<"), copy=False))
-        self.data.write(raw.data)
+        with writing(self.data.name):
+            self.data.write(raw.data)
         self.hash.update(raw.data)             # hashed as written: no second pass over the file at the end
         self.bytes += raw.nbytes
         per = per_cycle(frames)
@@ -123,7 +134,8 @@ class SigmfSink(Block):
                 fields["attack_lost"] = True
 
     def finish(self) -> None:
-        self.data.close()
+        with writing(self.data.name):
+            self.data.close()
         scene, per_cycle_samples = self.scene_obj, self.scene_obj.n_chirps * self.scene_obj.n_samples
         annotations = []
         for i, c in enumerate(self.order):
@@ -134,7 +146,8 @@ class SigmfSink(Block):
         known = [c for c in self.order if c in self.rho]
         rho = np.array([np.unpackbits(np.frombuffer(self.rho[c], np.uint8))[:scene.n_chirps] for c in known],
                        dtype=bool).reshape(len(known), scene.n_chirps)
-        write_log(log_path(self.base), known, rho)
+        with writing(str(log_path(self.base))):
+            write_log(log_path(self.base), known, rho)
         self.without_rho = len(self.order) - len(known)
         preset = self.scene in preset_names()
         extra = {"cycles": len(self.order), "batch": self.batch, "activation_log": log_path(self.base).name,
@@ -144,10 +157,12 @@ class SigmfSink(Block):
             extra["seed"] = self.seed
         if not preset:                         # a scene file travels with the recording
             copy = Path(f"{self.base}.scene.toml")
-            shutil.copyfile(self.scene, copy)
+            with writing(str(copy)):
+                shutil.copyfile(self.scene, copy)
             extra["scene_file"] = copy.name
-        write_meta(self.base, self.datatype or datatype_of(np.zeros(0, np.int16), scene.iq), scene, annotations,
-                   extra, sha512=self.hash.hexdigest())
+        with writing(f"{self.base}.sigmf-meta"):
+            write_meta(self.base, self.datatype or datatype_of(np.zeros(0, np.int16), scene.iq), scene, annotations,
+                       extra, sha512=self.hash.hexdigest())
 
     def summary(self) -> dict:
         n = len(self.order)

@@ -10,10 +10,13 @@ detector on a real radar's capture whose firmware silenced chirps by a known seq
     0 0110100111010001...        one line per cycle: its index, then rho(0) .. rho(N_r - 1) as 0 and 1
 
 Lines starting with # are comments; cycles are in recording order (not necessarily consecutive).
+A log that its group or others may read, write or run is refused when read: whoever could read it may have read it,
+and a detector judging with a known sequence proves nothing (`chmod 600 FILE` if it was never exposed).
 """
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -45,7 +48,13 @@ def read_log(path: str | Path, n_chirps: int) -> tuple[np.ndarray, np.ndarray]:
     """(cycles int64 (n,), rho bool (n, n_chirps)) from a log; ActivationLogError naming the file and line."""
     path = Path(path)
     try:
-        text = path.read_text()
+        with open(path, "rb") as fh:
+            mode = os.fstat(fh.fileno()).st_mode
+            if mode & 0o077:
+                raise ActivationLogError(f"{path}: activation log has mode {stat.S_IMODE(mode):04o}: its group or "
+                                         "others have access to it, and the sequence is secret (chmod 600 it if it "
+                                         "was never exposed)")
+            text = fh.read().decode()
     except FileNotFoundError:
         raise ActivationLogError(f"{path}: activation log not found (it goes beside the recording, "
                                  f"named like it with {SUFFIX})") from None

@@ -135,16 +135,32 @@ class Recording:
         return str(self.scene_file) if self.scene_file else self.global_field("scene")
 
 
-def _field(meta_path: Path, glob: dict, key: str, kind: type) -> Any:
+def _field(meta_path: Path, glob: dict, key: str, kind: type, optional: bool = False) -> Any:
     value = glob.get(key)
+    if optional and key not in glob:
+        return None
     if type(value) is not kind:   # exactly: a bool is no count, an int no flag
-        raise RecordingError(f"{meta_path}: global {key}: expected {kind.__name__}, got {value!r}")
+        name = {dict: "table", list: "list"}.get(kind, kind.__name__)
+        raise RecordingError(f"{meta_path}: global {key}: expected {name}, got {value!r:.60}")
     return value
 
 
+def _carav_globals(meta_path: Path, glob: dict) -> None:
+    """The carav: global fields a replay reads, each of its type (RecordingError naming the field otherwise)."""
+    _field(meta_path, glob, f"{NS}:scene", str)
+    for key, kind in (("scene_file", str), ("batch", int), ("seed", int), ("cycles", int), ("graph", dict)):
+        _field(meta_path, glob, f"{NS}:{key}", kind, optional=True)
+    nodes = glob.get(f"{NS}:graph", {}).get("nodes", {})
+    if type(nodes) is not dict or not all(type(n) is dict for n in nodes.values()):
+        raise RecordingError(f"{meta_path}: global {NS}:graph: nodes: expected a table of tables (node: its "
+                             f"parameters), got {nodes!r:.60}")
+
+
 def open_recording(path: str | Path, activation: str | Path | None = None, *, with_log: bool = True,
-                   verify_hash: bool = True) -> Recording:
-    """Read and check a recording (and its activation log): RecordingError naming the file and field."""
+                   verify_hash: bool = True, require_hash: bool | None = None) -> Recording:
+    """Read and check a recording (and its activation log): RecordingError naming the file and field.
+    verify_hash  compare the data with core:sha512; require_hash  refuse a recording without core:sha512 (default:
+    as verify_hash; a caller that leaves the comparison to the player still refuses a recording it cannot check)."""
     import sigmf
     from jsonschema.exceptions import ValidationError
     from sigmf.error import SigMFError
@@ -170,6 +186,10 @@ def open_recording(path: str | Path, activation: str | Path | None = None, *, wi
     if datatype not in DATATYPES:
         raise RecordingError(f"{meta_path}: global core:datatype: {datatype!r} is not what an ADC of this project "
                              f"writes ({', '.join(DATATYPES)})")
+    if (verify_hash if require_hash is None else require_hash) and "core:sha512" not in glob:
+        raise RecordingError(f"{meta_path}: global core:sha512: missing, so the samples cannot be checked "
+                             "(verify = false on the player replays them unchecked)")
+    _carav_globals(meta_path, glob)
     n_chirps = _field(meta_path, glob, f"{NS}:n_chirps", int)
     n_samples = _field(meta_path, glob, f"{NS}:n_samples", int)
     iq = _field(meta_path, glob, f"{NS}:iq", bool)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from carav_stream.console.errors import EXIT_CODES_HELP, CommandError, Exit
@@ -108,7 +109,12 @@ def main(argv: list[str] | None = None, **tables) -> int:
     args.argv = argv                # the command as given, for records that say how they were made
     name = " ".join(w for w in (args.command, getattr(args, args.command, None)) if isinstance(w, str))
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()          # a closed pipe shows here, not in the interpreter's last flush
+        return code
+    except BrokenPipeError:         # the reader went away (`carav blocks | head`): stop quietly
+        _silence_stdout()
+        return Exit.INTERRUPTED
     except CommandError as exc:
         print(f"{prog} {name}: {exc}", file=sys.stderr)
         return int(exc.code)
@@ -120,3 +126,10 @@ def main(argv: list[str] | None = None, **tables) -> int:
             raise
         print(f"{prog} {name}: failed: {type(exc).__name__}: {exc} (--debug shows the traceback)", file=sys.stderr)
         return Exit.FAILED
+
+
+def _silence_stdout() -> None:
+    """Point standard output at /dev/null, so that the interpreter's flush at exit meets no closed pipe."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)

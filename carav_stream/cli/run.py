@@ -156,8 +156,8 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
               "refused_by_estimator", "unreadable_cycles"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
-                "failures", "swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node", "estimated_counts",
-                "skipped_by_taps", "transport", "shared_memory"}
+                "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
+                "estimated_counts", "skipped_by_taps", "transport", "shared_memory"}
 
 
 def _radar_lines(s: dict[str, Any]) -> list[str]:
@@ -233,6 +233,8 @@ def print_summary(s: dict[str, Any]) -> None:
               f"{sum(p['rejected'].values()):<9} {p['restarts']}")
     for sw in s["swaps"]:
         print(f"  {swap_words(sw)}")
+    for sw in s.get("refused_swaps", []):
+        print(f"  {refused_swap_words(sw)}")
     for f in s["failures"]:
         print(f"  FAILURE: {f}")
 
@@ -250,6 +252,26 @@ def _shared_memory_words(ports: dict[str, dict[str, int]]) -> str:
 
 
 def swap_words(sw: dict[str, Any]) -> str:
-    """A live swap in words: node, block and its version, which swap of the node it was, from which frame."""
-    return (f"swap: node {sw['node']} runs block {sw['block']} (version {sw['version']}) from frame seq "
-            f"{sw['first_seq']} on, its swap number {sw['generation']}")
+    """A live swap in words: node, block and its version with its model and the parameters the swap set, which
+    swap of the node it was, from which frame, when."""
+    what = params_words(sw.get("params", {}), sw.get("asked", {}))
+    return (f"swap: node {sw['node']} runs block {sw['block']} (version {sw['version']}){' ' + what if what else ''} "
+            f"from frame seq {sw['first_seq']} on, its swap number {sw['generation']}{_when(sw)}")
+
+
+def refused_swap_words(sw: dict[str, Any]) -> str:
+    """A refused swap in words: node, block and parameters asked, when, and why it was refused."""
+    what = params_words({}, sw.get("asked", {}))
+    return (f"swap refused: node {sw['node']} to block {sw['block']}{' ' + what if what else ''}{_when(sw)}: "
+            f"{sw['error']}")
+
+
+def params_words(applied: dict[str, Any], asked: dict[str, Any]) -> str:
+    """'(smart, rarms=3.0)': the model a block runs (applied, or asked) first, then the other parameters asked."""
+    model = asked.get("model", applied.get("model"))
+    words = ([str(model)] if model is not None else []) + [f"{k}={v}" for k, v in asked.items() if k != "model"]
+    return f"({', '.join(words)})" if words else ""
+
+
+def _when(sw: dict[str, Any]) -> str:
+    return f" at {sw['at_s']:.1f} s" if isinstance(sw.get("at_s"), (int, float)) else ""

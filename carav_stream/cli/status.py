@@ -5,7 +5,7 @@ import argparse
 import json
 
 from carav_stream.cli.common import ask, running_graphs
-from carav_stream.cli.run import swap_words
+from carav_stream.cli.run import refused_swap_words, swap_words
 from carav_stream.runtime.protocol import Admin
 
 
@@ -32,4 +32,6 @@ def run(args: argparse.Namespace) -> int:
                   f"{st.get('cycles_per_s', 0.0):9.1f} cycles/s  restarts {st['restarts']}")
         for sw in s.get("swaps", []):
             print(f"  {swap_words(sw)}")
+        for sw in s.get("refused_swaps", []):
+            print(f"  {refused_swap_words(sw)}")
     return 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from carav_stream.cli.common import ask, pick_run
+from carav_stream.cli.run import params_words
 from carav_stream.console.errors import Exit, fail
 from carav_stream.runtime.graph import parse_value
 from carav_stream.runtime.protocol import Admin
@@ -27,5 +28,7 @@ def run(args: argparse.Namespace) -> int:
     reply = ask(target, Admin.SWAP, node=args.node, block=args.block, params=params)
     if not reply.get("ok"):
         return fail(f"swap refused: {reply.get('error')}", Exit.INVALID)
-    print(f"{args.node}: now {reply['block']}@{reply['version']}#{reply['generation']} from seq {reply['next_seq']}")
+    what = params_words(reply.get("params", {}), params)
+    print(f"{args.node}: now {reply['block']}@{reply['version']}#{reply['generation']}{' ' + what if what else ''} "
+          f"from seq {reply['next_seq']}")
     return Exit.OK

@@ -15,7 +15,7 @@ class Exit(IntEnum):
     FAILED = 1          # the work failed: a node crashed, frames were lost, a benchmark run broke, a swap refused
     USAGE = 2           # a bad command line: unknown option, bad value, output path that cannot be written
     INVALID = 3         # an invalid graph, scene or block parameter
-    INTERRUPTED = 130   # stopped by Ctrl-C or SIGTERM before it finished
+    INTERRUPTED = 130   # stopped by Ctrl-C or SIGTERM, or its reader closed the output pipe, before it finished
 
 
 EXIT_CODES_HELP = "exit codes: " + ", ".join(f"{int(c)} {c.name.lower()}" for c in Exit)

@@ -6,7 +6,9 @@
 
 `check` converts and validates one value; `problems` checks a whole set of values against declarations and
 names every problem (unknown names with a suggestion, missing required values, wrong types, ranges, choices).
-Floats must be finite: NaN and infinity are refused everywhere a float is declared.
+Floats must be finite: NaN and infinity are refused everywhere a float is declared. Integers must fit in 64 signed
+bits (INT_LOW to INT_HIGH) besides their declared range: every parameter travels in msgpack node specs and is used in
+numpy int64 arithmetic, where a larger value fails only once the run has started.
 """
 from __future__ import annotations
 
@@ -17,6 +19,8 @@ from dataclasses import dataclass
 from typing import Any
 
 REQUIRED = object()   # default of a parameter that must be given
+
+INT_LOW, INT_HIGH = -2 ** 63, 2 ** 63 - 1   # what an int parameter can hold wherever it goes (module docstring)
 
 _TYPE_NAMES = {int: "int", float: "float", str: "str", bool: "bool", list: "list", dict: "table"}
 
@@ -70,6 +74,10 @@ class Param:
             return value, f"must be {self.type_name}, got {type(value).__name__} {value!r}"
         if self.type is float and not math.isfinite(value):
             return value, f"must be a finite number, got {value!r}"
+        if self.type is int and value > INT_HIGH:
+            return value, f"must be <= {INT_HIGH} (64 signed bits), got {value}"
+        if self.type is int and value < INT_LOW:
+            return value, f"must be >= {INT_LOW} (64 signed bits), got {value}"
         if self.choices is not None and value not in self.choices:
             return value, f"must be one of {list(self.choices)}, got {value!r}"
         if self.low is not None and (value < self.low or (self.strict and value == self.low)):

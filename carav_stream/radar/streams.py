@@ -37,7 +37,7 @@ def scene_of(name_or_path: str) -> Scene:
 
 SCENE = Param("scene", str, REQUIRED, "preset name or scene file", file=True, graph_wide=True, validate=scene_of)
 SEED = Param("seed", int, NO_SEED, "simulation seed; -1: the activation sequence from the OS's secure generator",
-             graph_wide=True)
+             low=NO_SEED, graph_wide=True)
 FIDELITY = Param("fidelity", str, "beat", "beat: closed-form dechirped samples; waveform: chirps mixed and "
                  "filtered on a finer grid", choices=("beat", "waveform"), graph_wide=True)
 

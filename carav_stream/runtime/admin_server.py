@@ -1,8 +1,8 @@
 """The supervisor's side of the admin requests (protocol.Admin) that `carav status | stop | swap` and the live
 view send (admin.request), on a REP socket: one answer for every request, a bad one included.
 
-    status   the run, its nodes (pid, alive, restarts, counters, rates, block and parameters), its edges' queues
-             and the swaps so far
+    status   the run, its nodes (pid, alive, restarts, counters, rates, block and parameters), its edges' queues,
+             the swaps so far and the swaps refused
     stop     the supervisor stops the run in order (its request_stop), answered at once
     swap     checked like the graph file (validate.swap_problems), sent to the node once the node is ready, and
              answered when the node confirms or refuses it, or after SWAP_TIMEOUT_S; one swap at a time
@@ -28,7 +28,8 @@ SWAP_TIMEOUT_S = 30
 class AdminServer:
     """Answers admin requests for the nodes `nodes` (the supervisor's own dict) of a run of `graph`. `send(node,
     kind, **fields)` sends a control message to a node, `request_stop(why)` stops the run, `log(text)` tells the
-    user. `swaps` lists every swap a node confirmed."""
+    user. `swaps` lists every swap a node confirmed (with the parameters it applied), `refused_swaps` every swap
+    refused (by the checks, the node or the deadline) with its reason; both say when, in seconds from go (`at_s`)."""
 
     def __init__(self, graph: Graph, nodes: dict[str, NodeState], report: RunReport, *,
                  send: Callable[..., None], request_stop: Callable[[str], None], log: Callable[[str], None]) -> None:
@@ -41,6 +42,7 @@ class AdminServer:
         self.sock: zmq.Socket | None = None
         self.pending: dict[str, Any] | None = None      # the swap under way: its request, deadline, sent or not
         self.swaps: list[dict[str, Any]] = []
+        self.refused_swaps: list[dict[str, Any]] = []
 
     def bind(self, ctx: zmq.Context, endpoint: str) -> zmq.Socket:
         self.sock = ctx.socket(zmq.REP)
@@ -77,12 +79,18 @@ class AdminServer:
             if not problems and node not in self.nodes:
                 problems = [f"node {node!r} does not run on this host"]
             if problems:
+                self.refuse(req, "; ".join(problems))
                 self.sock.send(pack("swap", ok=False, error="; ".join(problems)))
                 return
-            self.pending = {**req, "params": params, "deadline": time.monotonic() + SWAP_TIMEOUT_S, "sent": False}
+            self.pending = {**req, "params": params, "asked": req.get("params", {}),
+                            "deadline": time.monotonic() + SWAP_TIMEOUT_S, "sent": False}
             self.deliver_swap()
+        elif cmd == Admin.SWAP:
+            error = f"another swap (of {self.pending['node']}) is under way"
+            self.refuse(req, error)
+            self.sock.send(pack("swap", ok=False, error=error))
         else:
-            self.sock.send(pack(str(cmd), ok=False, error=f"unknown or busy command {cmd!r}"))
+            self.sock.send(pack(str(cmd), ok=False, error=f"unknown command {cmd!r}"))
 
     def deliver_swap(self) -> None:
         """Send the pending swap to its node once the node is ready: a node still starting (or restarting) has no
@@ -106,14 +114,31 @@ class AdminServer:
             st.spec = st.spec.with_(type=msg["block"], generation=msg["generation"],
                                     params=(self.pending or {}).get("params", st.spec.params))
             self.swaps.append({"node": st.name, "block": msg["block"], "version": msg["version"],
-                               "generation": msg["generation"], "first_seq": msg["next_seq"]})
+                               "generation": msg["generation"], "first_seq": msg["next_seq"],
+                               "params": st.spec.params, "asked": (self.pending or {}).get("asked", {}),
+                               "at_s": self.since_go()})
             self.log(f"carav: swapped {st.name} to {msg['block']} from seq {msg['next_seq']}")
-        self.reply_admin({"ok": kind == Report.SWAPPED, **{k: v for k, v in msg.items() if k != "type"}})
+        self.reply_admin({"ok": kind == Report.SWAPPED, **{k: v for k, v in msg.items() if k != "type"},
+                          **({"params": st.spec.params} if kind == Report.SWAPPED else {})})
 
     def reply_admin(self, reply: dict[str, Any]) -> None:
         if self.pending is not None:
+            if not reply.get("ok"):
+                self.refuse(self.pending, str(reply.get("error")))
             self.pending = None
             self.sock.send(pack("swap", **reply))
+
+    def refuse(self, req: dict[str, Any], error: str) -> None:
+        """Keep a refused swap (node, block, the parameters asked, the reason) for the summary and the status."""
+        asked = req.get("asked", req.get("params"))
+        self.refused_swaps.append({"node": req.get("node"), "block": req.get("block"),
+                                   "asked": asked if isinstance(asked, dict) else {}, "error": error,
+                                   "at_s": self.since_go()})
+        self.log(f"carav: swap of {req.get('node')} to {req.get('block')} refused: {error}")
+
+    def since_go(self) -> float | None:
+        """Seconds since every node was told to go (None before)."""
+        return time.monotonic() - self.report.t_go if self.report.t_go else None
 
     def status(self) -> dict[str, Any]:
         t_go = self.report.t_go
@@ -128,7 +153,7 @@ class AdminServer:
                               "cycles_per_s": st.total("cycles") / elapsed if elapsed else 0.0,
                               "block": st.spec.type, "params": st.spec.params}
                           for n, st in self.nodes.items()},
-                "edges": self.edge_queues(), "swaps": self.swaps}
+                "edges": self.edge_queues(), "swaps": self.swaps, "refused_swaps": self.refused_swaps}
 
     def edge_queues(self) -> dict[str, dict[str, Any]]:
         """Per edge between local nodes, from the last heartbeats (up to HEARTBEAT_S old): frames in flight (sent

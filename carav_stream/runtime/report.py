@@ -55,9 +55,11 @@ class RunReport:
                 out[f"{n}.{port}"] = c
         return out
 
-    def summary(self, *, failures: list[str], swaps: list[dict[str, Any]], stopped_by: str | None) -> dict[str, Any]:
+    def summary(self, *, failures: list[str], swaps: list[dict[str, Any]], stopped_by: str | None,
+                refused_swaps: list[dict[str, Any]] = ()) -> dict[str, Any]:
         """The run's summary: counts per node and for the whole run, frames lost (by edge), restarts, failures,
-        swaps, why it stopped, wall time and throughput from go to the end; blocks' "run" figures merged in."""
+        swaps applied and refused, why it stopped, wall time and throughput from go to the end; blocks' "run"
+        figures merged in."""
         wall = max(self.t_end - self.t_go, 1e-9) if self.t_go else 0.0
         per_node: dict[str, Any] = {}
         for n, st in self.nodes.items():
@@ -95,7 +97,7 @@ class RunReport:
             # frames a tap edge skipped because its observer was busy (block.In.tap): by design, not lost
             "skipped_by_taps": {e: n for p in per_node.values() for e, n in p["skipped"].items() if n},
             "restarts": sum(st.restarts for st in self.nodes.values()),
-            "failures": failures, "swaps": swaps, "stopped_by": stopped_by,
+            "failures": failures, "swaps": swaps, "refused_swaps": list(refused_swaps), "stopped_by": stopped_by,
             "wall_s": wall, "throughput_cycles_per_s": cycles / wall if wall else 0.0, "per_node": per_node,
             "transport": self.graph.run["transport"], "shared_memory": self.shared_memory(),
         }

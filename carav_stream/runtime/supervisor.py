@@ -170,7 +170,9 @@ class Supervisor:
 
     def node_failed(self, st: NodeState, reason: str) -> None:
         detail = st.error or self.log_tail(st.name)
-        self.log(f"carav: node {st.name!r} ({st.spec.type}) failed: {reason}\n{_indent(detail)}")
+        if st.error and "\n" not in st.error.strip():   # the block's own one-line statement: it is the reason
+            reason, detail = f"{reason}: {st.error.strip()}", ""
+        self.log(f"carav: node {st.name!r} ({st.spec.type}) failed: {reason}" + (f"\n{_indent(detail)}" * bool(detail)))
         st.grace = False
         st.unreported += st.error is None     # no last words: its counters are those of its last heartbeat
         st.dead_counters.append(st.counters)
@@ -268,7 +270,8 @@ class Supervisor:
         return self.summary()
 
     def summary(self) -> dict[str, Any]:
-        return self.report.summary(failures=self.failures, swaps=self.admin.swaps, stopped_by=self.stop_requested)
+        return self.report.summary(failures=self.failures, swaps=self.admin.swaps, stopped_by=self.stop_requested,
+                                   refused_swaps=self.admin.refused_swaps)
 
     def loop(self) -> None:
         poller = zmq.Poller()

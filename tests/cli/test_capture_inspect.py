@@ -42,6 +42,7 @@ def written_capture(tmp_path, sigma, k, l, lanes, encoding, cycles=6, n_rx=2):
     path.write_bytes(capture_bytes(codes, True, 16, lanes, encoding))
     log = tmp_path / "adc_data.activation"
     log.write_text("".join(f"{c} {''.join('1' if b else '0' for b in row)}\n" for c, row in enumerate(rho)))
+    log.chmod(0o600)                                 # the sequence is private: a shared log is refused
     scene = tmp_path / "bench.toml"
     scene.write_text(SCENE)
     return path, log, scene

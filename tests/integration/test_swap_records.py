@@ -1,0 +1,41 @@
+"""Swaps on a running radar graph leave a record a reader can follow: the reply names the model and the parameters
+set, `carav status` and the run's summary list every applied swap with its model, parameters and time, and every
+refused swap with the parameters asked and the reason."""
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.integration.conftest import wait_until
+
+pytestmark = pytest.mark.integration
+TAPS = Path(__file__).resolve().parent / "graphs" / "radar_taps.toml"
+
+
+def status_of(carav) -> dict:
+    done = carav.cli("status", "--json")
+    assert done.returncode == 0, done.stderr
+    runs = json.loads(done.stdout)
+    return runs[0] if runs else {}
+
+
+def test_applied_and_refused_swaps_are_named_with_their_model_in_reply_status_and_summary(carav):
+    run = carav.run(TAPS, "--cycles", "0", "--set", "batch=4")
+    wait_until(lambda: status_of(carav).get("cycles", 0) > 40, 90, "cycles before the swaps")
+    refused = carav.cli("swap", "attacker", "attacker", "--set", "model=smart", "--set", "rarms=-3", timeout_s=60)
+    assert refused.returncode == 3 and "rarms" in refused.stderr, refused.stderr
+    done = carav.cli("swap", "attacker", "attacker", "--set", "model=smart", "--set", "rarms=3", timeout_s=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("attacker: now attacker@1#1 (smart, rarms=3) from seq "), done.stdout
+    s = status_of(carav)
+    (applied,), (no,) = s["swaps"], s["refused_swaps"]
+    assert applied["params"]["model"] == "smart" and applied["params"]["rarms"] == 3 and applied["at_s"] > 0
+    assert no["node"] == "attacker" and no["asked"] == {"model": "smart", "rarms": -3} and "rarms" in no["error"]
+    text = carav.cli("status").stdout
+    assert "swap: node attacker runs block attacker (version 1) (smart, rarms=3) from frame seq" in text, text
+    assert "swap refused: node attacker to block attacker (smart, rarms=-3) at " in text, text
+    assert carav.cli("stop").returncode == 0
+    assert run.wait(90) == 0, run.stderr()
+    summary = run.summary()
+    assert summary["swaps"] == [applied] and summary["refused_swaps"] == [no]
+    assert "swap refused: node attacker to block attacker (smart, rarms=-3) at " in run.stdout()
