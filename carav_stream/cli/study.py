@@ -33,7 +33,8 @@ Execution. Dask distributed: with no option an embedded local cluster of one sin
 core (`--workers N` sets how many); `--scheduler tcp://HOST:PORT` sends the tasks to an existing cluster whose
 workers import this package (the same version). A worker that dies loses nothing: Dask runs its tasks again
 elsewhere, and the results are the same numbers. Dask's own protocol moves task arguments and results with its
-serialisers (task functions by reference): run it on a cluster you trust, or with Dask's TLS security.
+serialisers (task functions by reference): the embedded cluster listens on loopback with TLS and a key of its own
+(montecarlo.study.local_cluster); an existing cluster must be one you trust, or use tls:// with Dask's TLS config.
 
 Results, in --out DIR (default study-<name>/): points/<hash>.npz, one file per finished point (its Q draws;
 an interrupted study run again reads them and computes only the missing points), study.csv (one row per point:

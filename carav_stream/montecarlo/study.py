@@ -311,6 +311,19 @@ def _stored(folder: Path, point: Point, trials: int) -> tuple[np.ndarray, np.nda
     return (q, by_d1) if q.shape == (trials,) and by_d1.shape == (trials,) else None
 
 
+def local_cluster(workers: int):
+    """The embedded Dask cluster of `carav study`: `workers` single-threaded worker processes on loopback, speaking
+    TLS with a key and certificate made for this cluster alone (Dask's Security.temporary): another local process
+    can neither join it nor submit tasks to it. Returns (cluster, security), the security for the client."""
+    from dask.distributed import LocalCluster  # the study extra: imported when used
+    from distributed.security import Security
+
+    security = Security.temporary()
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           host="127.0.0.1", protocol="tls://", security=security)
+    return cluster, security
+
+
 def execute(study: Study, out: Path, *, workers: int | None = None, scheduler: str | None = None,
             progress: bool = False, log=print) -> dict[tuple[int, int], tuple[np.ndarray, np.ndarray]]:
     """Draws of every point: read back from out/points when stored, computed on Dask otherwise."""
@@ -328,12 +341,9 @@ def execute(study: Study, out: Path, *, workers: int | None = None, scheduler: s
     log(f"carav study: {len(points)} points, {len(points) - len(todo)} read back from {store}, {len(todo)} to draw")
     if not todo:
         return draws
-    from dask.distributed import Client, LocalCluster, as_completed  # the study extra: imported when used
-    cluster = None
-    if scheduler is None:
-        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                               dashboard_address=None, host="127.0.0.1")
-    client = Client(cluster if cluster is not None else scheduler, timeout="30s")
+    from dask.distributed import Client, as_completed  # the study extra: imported when used
+    cluster, security = (None, None) if scheduler is not None else local_cluster(workers or os.cpu_count() or 1)
+    client = Client(cluster if cluster is not None else scheduler, security=security, timeout="30s")
     try:
         futures, owner, parts = [], {}, {}
         for pt in todo:
