@@ -29,7 +29,9 @@ class Control(StrEnum):
     CUT = "cut"                # a downstream node died for good: stop feeding these edges (edges)
     RECONNECT = "reconnect"    # a downstream node was restarted: connect afresh to these edges (edges)
     RECOVER = "recover"        # an upstream node was restarted: partners of buffered frames may be lost
-    LEASE = "lease"            # sources: you may generate every seq below `upto`
+    LEASE = "lease"            # sources: you may generate every seq below `upto`; consumers: `inputs`
+                               # {port: highest seq its producer can send}
+    PEERS = "peers"            # consumers: `inputs` {port: pid of the process that feeds it}
 
 
 class Report(StrEnum):
@@ -108,6 +110,9 @@ class NodeSpec:
     incarnation: int = 0                               # restarts of this node before this process
     start_seq: int = 0                                 # a restarted source resumes its sequence here
     seq_lease: int = 0                                 # sources: seqs below this may be generated (more on request)
+    input_bounds: dict[str, int] = field(default_factory=dict)   # input port -> highest seq its producer can send
+    producers: dict[str, list[int]] = field(default_factory=dict)   # input port -> pids of its producer (local
+                                                                    # edges), the current incarnation last
     start_cycles: int = 0                              # ... and its cycle count here
     recovering: bool = False                           # restarted, or fed by a restarted node
     shm_out: dict[str, dict[str, Any]] = field(default_factory=dict)   # output port -> {fd, edges}: its segment
