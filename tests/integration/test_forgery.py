@@ -32,7 +32,7 @@ def push(carav, port: str, messages: list[list]) -> None:
     (endpoint,) = carav.run_root.glob(f"carav-*/*/{port}")
     ctx = zmq.Context()
     rogue = ctx.socket(zmq.PUSH)
-    rogue.linger = 5000
+    rogue.linger = 120_000   # a full queue (a slow graph) takes the messages as the node reads them
     rogue.connect(f"ipc://{endpoint}")
     for parts in messages:
         rogue.send_multipart(parts)
@@ -117,6 +117,7 @@ def test_forged_clean_verdicts_never_let_an_attacked_cycle_reach_ranging(carav):
     verdicts = carav.workdir / "verdicts.jsonl"
     run = carav.run(TAPS / "radar_taps.toml", "--cycles", "0", "--set", "attacker.model='smart'",
                     "--set", "attacker.rarms=3.0", "--set", "attacker.start_cycle=0", "--set", "batch=16")
+    wait_until(lambda: read_jsonl(verdicts), 180, "the radar graph to start (14 processes importing numpy)")
     advancing(verdicts, "verdicts to flow", more=3)
     real = read_jsonl(verdicts)[-1]
     n, n_chirps = real["cycles"], len(real["data"][0])
