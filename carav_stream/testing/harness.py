@@ -125,7 +125,8 @@ class BlockHarness:
                 assert ok, f"input {port}: frame {i} refused: {why}"
                 pairing.push(port, received)
             if end:
-                pairing.admit(port, end_of_stream(self.seq + len(frames[port]), count=len(frames[port])))
+                last = self.seq + len(frames[port])
+                pairing.admit(port, wire(end_of_stream(last, count=len(frames[port])), last, f"src.{port}"))
         self.seq += max((len(f) for f in frames.values()), default=0)
         while (nxt := pairing.next_set(merge)) is not None:
             what, got, port = nxt
