@@ -91,15 +91,12 @@ class Pairing:
         return self.accept(port, frame, sender), None
 
     def check(self, port: str, frame: Frame, sender: int | None = None) -> str | None:
-        """Why the message from `port` must be refused, or None; changes nothing. The message's own fields are
-        judged first (their reason is the more telling), then who sent it."""
-        reason = self.check_stream(port, frame, sender)
-        if reason is not None:
-            return reason
+        """Why the message from `port` must be refused, or None; changes nothing. Who sent it is judged first
+        (a message from another process is refused whatever it says), then its fields against the stream."""
         producers = self.producers.get(port)
         if sender is not None and producers is not None and sender not in producers:
             return f"sent by process {sender}, not by this input's producer (process {producers[-1]})"
-        return None
+        return self.check_stream(port, frame, sender)
 
     def check_stream(self, port: str, frame: Frame, sender: int | None) -> str | None:
         """Why the message's header cannot belong to the stream on `port` as far as it got, or None."""
