@@ -11,7 +11,8 @@ from carav_stream.runtime.protocol import Control
 
 
 class ControlState:
-    def __init__(self, *, go: bool, recovering: bool = False, seq_lease: int = 0) -> None:
+    def __init__(self, *, go: bool, recovering: bool = False, seq_lease: int = 0,
+                 input_bounds: dict[str, int] | None = None, producers: dict[str, list[int]] | None = None) -> None:
         self.go = go                                  # sources wait for it; other nodes start at once
         self.told_go = False                          # Control.GO came (every node must get it, in time)
         self.stopping = False                         # sources: stop generating
@@ -22,6 +23,10 @@ class ControlState:
         self.cut_edges: set[str] = set()              # outputs whose consumer died for good
         self.reconnect_edges: set[str] = set()        # outputs whose consumer was restarted
         self.seq_lease = seq_lease                    # sources: seqs below this may be generated
+        self.input_bounds = dict(input_bounds or {})  # input port -> highest seq its producer can send (grows)
+        # input port -> pids of the processes that fed it, the current producer last (a dead one's frames may
+        # still be queued)
+        self.producers = {port: list(pids) for port, pids in (producers or {}).items()}
 
     def apply(self, msg: dict[str, Any]) -> None:
         """Take one control message into the state; unknown kinds are ignored (a newer supervisor's)."""
@@ -42,8 +47,17 @@ class ControlState:
             self.reconnect_edges.update(_names(msg, "edges"))
         elif kind == Control.RECOVER:
             self.recovering = True
-        elif kind == Control.LEASE and isinstance(msg.get("upto"), int):
-            self.seq_lease = max(self.seq_lease, msg["upto"])
+        elif kind == Control.LEASE:
+            if type(msg.get("upto")) is int:
+                self.seq_lease = max(self.seq_lease, msg["upto"])
+            for port, bound in _ints(msg, "inputs").items():
+                self.input_bounds[port] = max(self.input_bounds.get(port, bound), bound)
+        elif kind == Control.PEERS:
+            for port, pid in _ints(msg, "inputs").items():
+                pids = self.producers.setdefault(port, [])
+                if pid in pids:
+                    pids.remove(pid)
+                pids.append(pid)
 
     def take_swap(self) -> dict[str, Any] | None:
         msg, self.pending_swap = self.pending_swap, None
@@ -53,3 +67,8 @@ class ControlState:
 def _names(msg: dict[str, Any], key: str) -> list[str]:
     value = msg.get(key, [])
     return [v for v in value if isinstance(v, str)] if isinstance(value, list) else []
+
+
+def _ints(msg: dict[str, Any], key: str) -> dict[str, int]:
+    value = msg.get(key, {})
+    return {k: v for k, v in value.items() if isinstance(k, str) and type(v) is int} if isinstance(value, dict) else {}

@@ -12,7 +12,8 @@ Reserved header keys (the runtime stamps them; blocks set their own fields besid
     seq            int    sequence number on the stream (>= 0); outputs inherit the seq of their inputs
     cycle          int    cycle index (the source's count; carried unchanged through the graph)
     cycles         int    how many consecutive cycles the frame carries, from `cycle` on (absent = 1); the
-                          runtime counts cycles with it, blocks set it (a source batching cycles, say)
+                          runtime counts cycles with it, blocks set it (a source batching cycles, say); a
+                          frame stating it carries that many rows (a consumer refuses it otherwise, pairing.py)
     t_created_s    float  wall-clock time the source created the cycle (Unix seconds)
     t_sent_s       float  wall-clock time of this hop's send
     arrays         list   [[name, dtype, shape], ...] describing parts 1..n

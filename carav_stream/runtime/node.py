@@ -49,6 +49,20 @@ MAX_REPORTED_REJECTS = 20
 RECEIVE_BURST = 64       # messages taken from one input before looking at the others
 
 
+def _sender(part: Any) -> int | None:
+    """The pid of the process that sent a message received over ipc: ZeroMQ's Peer-Address of a Unix socket
+    ends in ":uid:gid:pid", taken by the kernel (SO_PEERCRED) when that process connected. None over tcp or for
+    a part that is not a received zmq.Frame."""
+    try:
+        address = part.get("Peer-Address")
+    except (AttributeError, zmq.ZMQError):
+        return None
+    fields = address.rsplit(":", 3)
+    if len(fields) != 4 or not fields[3].isdigit():
+        return None
+    return int(fields[3])
+
+
 class NodeRunner:
     def __init__(self, spec: NodeSpec) -> None:
         self.spec = spec
@@ -74,12 +88,15 @@ class NodeRunner:
         self.inputs = {p: transport.bind_input(self.ctx, spec.inputs[p], spec.queue_frames, self.curve,
                                                header_only=p in spec.shm_in)
                        for p in self.in_ports}
+        self.ipc_inputs = {p for p in self.in_ports if spec.inputs[p].startswith("ipc://")}
         self.shm_endpoints = {e.connect for port in spec.shm_out for e in spec.outputs.get(port, ())}
         self.outputs = Outputs(spec.outputs, self.connect, self.idle)
         self.readers = {port: shm.SlotReader(fd, edge) for port, (fd, edge) in spec.shm_in.items()
                         if port in self.inputs}
-        self.pairing = Pairing(self.in_ports, max(4, 4 * spec.queue_frames), recovering=spec.recovering)
-        self.ctl = ControlState(go=not self.cls.is_source(), recovering=spec.recovering, seq_lease=spec.seq_lease)
+        self.ctl = ControlState(go=not self.cls.is_source(), recovering=spec.recovering, seq_lease=spec.seq_lease,
+                                input_bounds=spec.input_bounds, producers=spec.producers)
+        self.pairing = Pairing(self.in_ports, max(4, 4 * spec.queue_frames), recovering=spec.recovering,
+                               bounds=self.ctl.input_bounds, producers=self.ctl.producers)
         self.lease_asked = 0
         self.c_in = collections.Counter()
         self.c_out = collections.Counter()
@@ -259,14 +276,21 @@ class NodeRunner:
         except FrameError as exc:
             self.reject(port, str(exc))
             return None
+        sender = _sender(parts[0]) if port in self.ipc_inputs else None
+        reason = self.pairing.check(port, frame, sender)
+        if reason is not None:
+            # a producer's pid or lease the supervisor sent may still be queued on the control socket: take it
+            # and judge again before refusing
+            self.serve_control()
+            reason = self.pairing.check(port, frame, sender)
+        if reason is not None:
+            self.reject(port, reason)
+            return None
         if reader is not None and frame.header.get("resume") is True:
             gen = frame.header.get("shm_gen")
             if type(gen) is int:
                 reader.resume(gen)
-        ok, reason = self.pairing.admit(port, frame)
-        if reason is not None:
-            self.reject(port, reason)
-        if not ok:
+        if not self.pairing.accept(port, frame, sender):
             return None
         self.c_in[port] += 1
         return frame

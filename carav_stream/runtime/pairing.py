@@ -8,23 +8,66 @@ order. A block that merges its inputs gets every frame alone, in arrival order p
 
 After a crash, frames lost with the dead node mean some partners never come: a node restarted, or fed by a
 restarted node (`recovering`), gives up on a partner once a full buffer has waited `stall_s`.
+
+Every header field the pairing acts on is checked against what the node already knows before any state moves
+(`check`, then `accept`): a refused message leaves the stream as it was.
+
+- sender: on a local edge the kernel names the process that connected (ZeroMQ's `Peer-Address` over ipc ends
+  in its pid); a message from any process but the port's producer, whose pid the supervisor tells the node
+  (`producers`), is refused, so no other process on the host can speak for a producer.
+- seq: every seq in a graph comes from a source, which generates a seq only below the lease its supervisor
+  granted; a frame inherits the seq of its inputs, and a node adds at most 1 to the last seq it handled (the
+  frames its block returns at the end, the resume marker). So no seq on a port can exceed the largest lease of
+  the sources upstream plus the graph's depth. The supervisor tells each consumer that bound per port
+  (`bounds`: lease + LEASE_FRAMES + the number of nodes); the extra lease covers a grant the consumer has not
+  read yet (a source asks for the next lease half a lease ahead, so a consumer lags by at most one grant). A
+  seq beyond the bound is refused; a port without a bound (fed from another host) is not checked.
+- end of stream: `count` must be an int >= 0 and, on a local edge, at least the data frames received from the
+  process that sends it (`count` is what that incarnation of the producer sent).
+- resume: `resume = true`, no arrays, a seq within the bound.
+- cycles: `frame_cycles_problem` (a frame that states `cycles` must carry that many rows of payload or of a
+  per-cycle column).
 """
 from __future__ import annotations
 
 import collections
 import time
 from collections.abc import Callable
+from typing import Any
 
 from carav_stream.runtime.frames import Frame
 
 RECOVERY_STALL_S = 2.0   # after a crash: how long a full input buffer waits for a partner before giving up
 
 
+def frame_cycles_problem(header: dict[str, Any]) -> str | None:
+    """Why a decoded frame's `cycles` cannot be believed, or None. A frame stating `cycles` = n carries n rows:
+    its "data" array's leading dimension is n, or a per_cycle column lists n values; the runtime and blocks then
+    size per-cycle work by n, bounded by what actually arrived. A frame without `cycles` carries 1."""
+    if "cycles" not in header:
+        return None
+    n = header["cycles"]
+    data = next((spec for spec in header["arrays"] if spec[0] == "data"), None)
+    if data is not None and data[2] and data[2][0] == n:
+        return None
+    per = header.get("per_cycle")
+    if isinstance(per, dict) and any(isinstance(v, list) and len(v) == n for v in per.values()):
+        return None
+    rows = f"a payload of shape {tuple(data[2])}" if data is not None else "no payload"
+    return (f"cycles = {n} with {rows} and no per_cycle column of {n} values: a frame carries as many rows as "
+            "the cycles it states")
+
+
 class Pairing:
-    """The input side of a node: per-port buffers, end-of-stream marks and the last seq seen per port."""
+    """The input side of a node: per-port buffers, end-of-stream marks and the last seq seen per port.
+
+    `bounds` (port -> highest seq its producer can send) and `producers` (port -> the pids of its producer's
+    incarnations, the current one last: frames a dead one sent may still be queued) are the node's dicts, kept
+    up to date by its control messages; a port missing from either is not checked on it."""
 
     def __init__(self, ports: list[str], limit: int, *, recovering: bool = False,
-                 stall_s: float = RECOVERY_STALL_S, clock: Callable[[], float] = time.monotonic) -> None:
+                 stall_s: float = RECOVERY_STALL_S, clock: Callable[[], float] = time.monotonic,
+                 bounds: dict[str, int] | None = None, producers: dict[str, list[int]] | None = None) -> None:
         self.ports = list(ports)
         self.limit = limit                         # frames buffered per input while pairing
         self.recovering = recovering
@@ -34,29 +77,77 @@ class Pairing:
         self.eos: dict[str, int | None] = {}       # port -> frames its producer announced (None: upstream gone)
         self.last_seq: dict[str, int] = {}
         self.handled = -1                          # last seq handed to the block (a later partner is late)
+        self.bounds = {} if bounds is None else bounds
+        self.producers = {} if producers is None else producers
+        self.received: dict[tuple[str, int], int] = {}   # (port, sender pid) -> data frames taken
 
-    def admit(self, port: str, frame: Frame) -> tuple[bool, str | None]:
-        """Judge a decoded message from `port`: (True, None) for a data frame to hand on; (False, None) for an
-        end of stream or a resume marker (noted); (False, reason) for a message to refuse."""
+    def admit(self, port: str, frame: Frame, sender: int | None = None) -> tuple[bool, str | None]:
+        """Judge a decoded message from `port` (sent by process `sender`, when the transport names it):
+        (True, None) for a data frame to hand on; (False, None) for an end of stream or a resume marker
+        (noted); (False, reason) for a message refused, which changes nothing."""
+        reason = self.check(port, frame, sender)
+        if reason is not None:
+            return False, reason
+        return self.accept(port, frame, sender), None
+
+    def check(self, port: str, frame: Frame, sender: int | None = None) -> str | None:
+        """Why the message from `port` must be refused, or None; changes nothing. Who sent it is judged first
+        (a message from another process is refused whatever it says), then its fields against the stream."""
+        producers = self.producers.get(port)
+        if sender is not None and producers is not None and sender not in producers:
+            return f"sent by process {sender}, not by this input's producer (process {producers[-1]})"
+        return self.check_stream(port, frame, sender)
+
+    def check_stream(self, port: str, frame: Frame, sender: int | None) -> str | None:
+        """Why the message's header cannot belong to the stream on `port` as far as it got, or None."""
         h = frame.header
         seq = h["seq"]
-        if h["eos"]:                            # decode guarantees the key
-            self.eos[port] = h.get("count")
-            return False, None
         last = self.last_seq.get(port)
-        if "resume" in h:                       # a producer's fresh connection: nothing before seq comes
+        bound = self.bounds.get(port)
+        if bound is not None and seq > bound:
+            return (f"seq {seq} is beyond every seq this input's producer can have been granted (at most "
+                    f"{bound})")
+        if h["eos"]:                             # decode guarantees the key
+            count = h.get("count")
+            if type(count) is not int or count < 0:
+                return f"end of stream: count must be an int >= 0, got {count!r}"
+            if h["arrays"] or "resume" in h:
+                return "an end of stream carries no arrays and no resume"
+            received = self.received.get((port, sender), 0)
+            if sender is not None and count < received:
+                return f"end of stream announces {count} frames, but {received} came from its sender"
+            return None
+        if "resume" in h:
             if h["resume"] is not True or h["arrays"]:
-                return False, "a resume marker must say resume = true and carry no arrays"
+                return "a resume marker must say resume = true and carry no arrays"
+            return None
+        cycles = frame_cycles_problem(h)
+        if cycles is not None:
+            return cycles
+        if last is not None and seq <= last:
+            return f"seq {seq} after {last}: duplicate or out of order"
+        if seq <= self.handled:
+            return (f"seq {seq} came after the node handled seq {self.handled} without it "
+                    "(its partner was given up)")
+        return None
+
+    def accept(self, port: str, frame: Frame, sender: int | None = None) -> bool:
+        """Note a message `check` passed: True for a data frame to hand on, False for an end of stream or a
+        resume marker (nothing before its seq comes on this stream)."""
+        h = frame.header
+        seq = h["seq"]
+        if h["eos"]:
+            self.eos[port] = h["count"]
+            return False
+        last = self.last_seq.get(port)
+        if "resume" in h:
             if last is None or seq - 1 > last:
                 self.last_seq[port] = seq - 1
-            return False, None
-        if last is not None and seq <= last:
-            return False, f"seq {seq} after {last}: duplicate or out of order"
-        if seq <= self.handled:
-            return False, (f"seq {seq} came after the node handled seq {self.handled} without it "
-                           "(its partner was given up)")
+            return False
         self.last_seq[port] = seq
-        return True, None
+        key = (port, sender)
+        self.received[key] = self.received.get(key, 0) + 1
+        return True
 
     def push(self, port: str, frame: Frame) -> None:
         self.buffers[port].append(frame)

@@ -29,7 +29,9 @@ class Control(StrEnum):
     CUT = "cut"                # a downstream node died for good: stop feeding these edges (edges)
     RECONNECT = "reconnect"    # a downstream node was restarted: connect afresh to these edges (edges)
     RECOVER = "recover"        # an upstream node was restarted: partners of buffered frames may be lost
-    LEASE = "lease"            # sources: you may generate every seq below `upto`
+    LEASE = "lease"            # sources: you may generate every seq below `upto`; consumers: `inputs`
+                               # {port: highest seq its producer can send}
+    PEERS = "peers"            # consumers: `inputs` {port: pid of the process that feeds it}
 
 
 class Report(StrEnum):
@@ -110,6 +112,9 @@ class NodeSpec:
     seq_lease: int = 0                                 # sources: seqs below this may be generated (more on request)
     start_cycles: int = 0                              # sources: cycles earlier incarnations generated (budget)
     start_timeout_s: float = 0.0                       # exit if not told to go within this (0: wait for ever)
+    input_bounds: dict[str, int] = field(default_factory=dict)   # input port -> highest seq its producer can send
+    producers: dict[str, list[int]] = field(default_factory=dict)   # input port -> pids of its producer (local
+                                                                    # edges), the current incarnation last
     recovering: bool = False                           # restarted, or fed by a restarted node
     shm_out: dict[str, dict[str, Any]] = field(default_factory=dict)   # output port -> {fd, edges}: its segment
     shm_in: dict[str, list[int]] = field(default_factory=dict)         # input port -> [fd, edge index]

@@ -2,7 +2,9 @@
 shared-memory segments, and the summary `carav run` prints (and writes with --json).
 
 A node's counters are summed over its incarnations (NodeState.total). Frames lost are counted edge by edge (sent
-minus taken, plus what the producer could not deliver) and inside crashed consumers (received, not finished).
+minus taken, plus what the producer could not deliver) and inside crashed consumers (received, not finished). A
+refused message is rejected, never taken; an edge on which a consumer took more than its producer sent is a
+failure of the run (unless the producer died without a final report, when its counts are estimates).
 """
 from __future__ import annotations
 
@@ -69,14 +71,20 @@ class RunReport:
                            "restarts": st.restarts, "failed": st.failed, "history": st.history}
         lost = 0
         edge_loss = {}
+        failures = list(failures)
         for e in self.graph.edges:
             if e.src in per_node and e.dst in per_node:
                 sent = per_node[e.src]["sent"].get(str(e), 0)
-                got = per_node[e.dst]["in"].get(e.dst_port, 0) + per_node[e.dst]["rejected"].get(e.dst_port, 0)
+                # taken: frames the consumer accepted; a refused message is counted rejected, never taken, so
+                # messages from elsewhere cannot hide a real loss
+                got = per_node[e.dst]["in"].get(e.dst_port, 0)
                 missed = sent - got + per_node[e.src]["undeliverable"].get(str(e), 0)
                 if missed:
                     edge_loss[str(e)] = missed
                     lost += max(0, missed)
+                if got > sent and not self.nodes[e.src].unreported:
+                    failures.append(f"edge '{e}': {e.dst} took {got} frames but {e.src} sent {sent}: frames "
+                                    "that its producer never sent were accepted")
         # frames a crashed incarnation had received but not finished died with it
         for n, st in self.nodes.items():
             if self.graph.edges_into(n):

@@ -75,6 +75,53 @@ class Supervisor:
         specs = plan_specs(self.graph, self.host, self.run_dir, self.cycles, self.segments)
         for name, spec in specs.items():
             self.nodes[name] = NodeState(name, spec)
+        # the sources whose seqs reach each local input; None when one of them runs on another host
+        self.input_sources: dict[tuple[str, str], frozenset[str] | None] = {
+            (e.dst, e.dst_port): self.sources_upstream(e.src) for e in self.graph.edges if e.dst in self.nodes}
+        for st in self.nodes.values():
+            st.spec = st.spec.with_(input_bounds=self.input_bounds(st.name))
+
+    def sources_upstream(self, name: str) -> frozenset[str] | None:
+        """The sources whose seqs reach node `name`'s outputs (itself if a source); None if one is not local."""
+        seen, todo, found = {name}, [name], set()
+        while todo:
+            n = todo.pop()
+            if n not in self.nodes:
+                return None
+            into = self.graph.edges_into(n)
+            if not into:
+                found.add(n)
+            for e in into:
+                if e.src not in seen:
+                    seen.add(e.src)
+                    todo.append(e.src)
+        return frozenset(found)
+
+    def input_bounds(self, name: str) -> dict[str, int]:
+        """The highest seq each input of node `name` can carry (pairing.py argues the bound): the largest lease
+        of its sources, one lease more for a grant not read yet, plus the graph's depth; inputs fed from another
+        host are left out."""
+        slack = LEASE_FRAMES + len(self.graph.nodes)
+        return {port: max(self.nodes[s].spec.seq_lease for s in srcs) + slack
+                for (dst, port), srcs in self.input_sources.items() if dst == name and srcs}
+
+    def raise_bounds(self, source: str) -> None:
+        """After a lease of `source` grew: every consumer its seqs reach learns its new bound first."""
+        for dst in {d for (d, _), srcs in self.input_sources.items() if srcs and source in srcs}:
+            st = self.nodes[dst]
+            st.spec = st.spec.with_(input_bounds=self.input_bounds(dst))
+            if st.proc is not None:
+                self.send(dst, Control.LEASE, inputs=st.spec.input_bounds)
+
+    def tell_peers(self, name: str) -> None:
+        """Tell node `name` the pid of the process feeding each of its local inputs, and their seq bounds."""
+        st = self.nodes[name]
+        pids = {e.dst_port: self.nodes[e.src].proc.pid for e in self.graph.edges_into(name)
+                if e.src in self.nodes and self.nodes[e.src].proc is not None}
+        if pids:
+            self.send(name, Control.PEERS, inputs=pids)
+        if st.spec.input_bounds:
+            self.send(name, Control.LEASE, inputs=st.spec.input_bounds)
 
     # -- process management --------------------------------------------------------------------------------
     def spawn(self, st: NodeState) -> None:
@@ -87,6 +134,13 @@ class Supervisor:
                                    env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id,
                                         node_start.SUPERVISOR_PID_ENV: str(os.getpid())})
         logf.close()
+        for e in self.graph.edges_from(st.name):   # its consumers accept frames from this process from now on
+            if e.dst in self.nodes:
+                dst = self.nodes[e.dst]
+                pids = [*dst.spec.producers.get(e.dst_port, ()), st.proc.pid]
+                dst.spec = dst.spec.with_(producers={**dst.spec.producers, e.dst_port: pids})
+                if dst.proc is not None:
+                    self.send(e.dst, Control.PEERS, inputs={e.dst_port: st.proc.pid})
         st.ready = st.done = st.failed = False
         st.last_seen = time.monotonic()
 
@@ -126,6 +180,7 @@ class Supervisor:
             st.counters = msg["counters"]
         if kind == Report.READY:
             st.ready = True
+            self.tell_peers(name)   # before GO, on the same connection: known before any frame comes
         elif kind == Report.DONE:
             st.done = True
             st.history = msg.get("history", [])
@@ -138,7 +193,8 @@ class Supervisor:
             self.log(f"carav: {text}")
         elif kind == Report.LEASE and isinstance(msg.get("upto"), int):
             st.spec = st.spec.with_(seq_lease=max(st.spec.seq_lease, msg["upto"]))   # granted: remembered first
-            self.send(name, Control.LEASE, upto=st.spec.seq_lease)
+            self.raise_bounds(name)                                                   # consumers know it before
+            self.send(name, Control.LEASE, upto=st.spec.seq_lease)                   # the source may use it
         elif kind in (Report.SWAPPED, Report.SWAP_FAILED):
             self.admin.on_swap_report(st, msg)
 
@@ -185,6 +241,7 @@ class Supervisor:
                 start = max(st.spec.seq_lease, st.total("processed"))
                 st.spec = st.spec.with_(start_seq=start, seq_lease=start + LEASE_FRAMES,
                                         start_cycles=st.total("cycles"))
+                self.raise_bounds(st.name)
             # its blocks' seeded streams must not replay the last ones: a new incarnation
             st.spec = st.spec.with_(recovering=True, incarnation=st.restarts)
             self.log(f"carav: restarting {st.name!r} ({st.restarts}/{policy.max_restarts})")
