@@ -58,14 +58,14 @@ pattern = "{'10' * 64}"
 idle_timeout_s = 2.0
 """, "live_graph.toml")
     run = carav.run(graph)
-    wait_until(lambda: bound(port) or run.proc.poll() is not None, 60, "the source to bind its port")
+    wait_until(lambda: bound(port) or run.proc.poll() is not None, "the source to bind its port", run)
     assert run.proc.poll() is None, run.stderr()
     stream = np.rint(np.random.default_rng(2).standard_normal(CYCLES * B // 2) * 30).astype("<i2").tobytes()
     packets = packetize(stream)
     tx = Replayer("127.0.0.1", port)
     tx.send(apply_faults(packets, Faults(lose=frozenset({100}), duplicate=frozenset({2000}))), B / 40e-3)
     tx.close()
-    assert run.wait(120) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     summary = run.summary()
     hit = set()
     for i in (100, 2000):     # the cycles holding the lost and the duplicated packet's bytes
