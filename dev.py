@@ -55,7 +55,7 @@ def main(argv: list[str]) -> int:
         if "--quick" in rest:
             rest = [*(a for a in rest if a != "--quick"), "-m", QUICK]
         if os.environ.get("CI") == "true":
-            rest = ["--durations=20", *rest]     # CI's log names the slowest tests, so a slow one shows the day it lands
+            rest = ["--durations=20", *rest]     # CI's log names the 20 slowest: a slow test shows the day it lands
         cmd = [str(BIN / "python"), "-m", "pytest", *rest]
     elif command == "bench":
         cmd = [str(BIN / "python"), "-m", "bench", *rest]
