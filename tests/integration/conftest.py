@@ -94,14 +94,15 @@ def carav(tmp_path, request):
 
         @staticmethod
         def cli(*args: str) -> subprocess.CompletedProcess:
-            """A short `carav` command in its own process group, waited on by progress; its group killed after."""
+            """A `carav` command in its own process group, waited on by progress; its group killed after."""
             with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
                 proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", *args], env=env, cwd=tmp_path,
                                         stdout=out, stderr=err, stdin=subprocess.DEVNULL, text=True,
                                         start_new_session=True)
                 try:
+                    # a command may wait on a running graph (swap, stop): that graph's work is its progress too
                     wait_on_progress(lambda: proc.poll() is not None, f"carav {' '.join(args)}",
-                                     lambda: group_cpu_s(proc.pid))
+                                     lambda: group_cpu_s(proc.pid, *(p.pgid for p in started)))
                 finally:
                     _kill_group(proc.pid)
                     proc.wait()
