@@ -74,7 +74,7 @@ def test_a_worker_killed_mid_study_loses_nothing_and_changes_nothing(carav, tmp_
         from distributed import Client
         cluster_cpu_s = lambda: group_cpu_s(*(p.pid for p in procs))  # noqa: E731
         wait_until(lambda: port_open(port), "the scheduler", cluster_cpu_s)
-        with Client(address, timeout="30s") as client:
+        with Client(address, timeout="300s") as client:      # connecting: generous, the waits below are by progress
             wait_until(lambda: len(client.scheduler_info()["workers"]) >= 2, "two workers", cluster_cpu_s)
         out = tmp_path / "cluster"
         with open(tmp_path / "study.out", "w") as run_out, open(tmp_path / "study.err", "w") as run_err:
