@@ -2,8 +2,9 @@
 """Set-up-free entry point: creates (and reuses) ./.venv, installs the project into it, then runs.
 
     python3 dev.py demo [carav run options]   run the default graph graphs/demo.toml and print its summary
-    python3 dev.py test [pytest options]      run the whole test suite
-                                              (a quick loop without processes: -m "not integration")
+    python3 dev.py test [pytest options]      run the whole test suite (under CI=true: the 20 slowest are listed)
+    python3 dev.py test --quick [options]     the quick loop: every test that starts no process and takes no
+                                              noticeable time (-m "not integration and not slow")
     python3 dev.py bench NAME [options]       a benchmark of bench/ (`python3 dev.py bench --help` lists them)
     python3 dev.py lint                       ruff: lint and import order of the whole tree
     python3 dev.py carav ARGS...              any carav command inside the project's environment
@@ -23,6 +24,7 @@ ROOT = Path(__file__).resolve().parent
 VENV = ROOT / ".venv"
 BIN = VENV / ("Scripts" if os.name == "nt" else "bin")
 STAMP = VENV / ".carav-install-stamp"
+QUICK = "not integration and not slow"     # the markers of pyproject.toml: starts processes, takes noticeable time
 
 
 def _fingerprint() -> str:
@@ -50,6 +52,10 @@ def main(argv: list[str]) -> int:
     if command == "demo":
         cmd = [str(BIN / "carav"), "run", str(ROOT / "graphs" / "demo.toml"), *rest]
     elif command == "test":
+        if "--quick" in rest:
+            rest = [*(a for a in rest if a != "--quick"), "-m", QUICK]
+        if os.environ.get("CI") == "true":
+            rest = ["--durations=20", *rest]     # CI's log names the 20 slowest: a slow test shows the day it lands
         cmd = [str(BIN / "python"), "-m", "pytest", *rest]
     elif command == "bench":
         cmd = [str(BIN / "python"), "-m", "bench", *rest]

@@ -10,7 +10,8 @@ from typing import Any
 from carav_stream.runtime.block import Block
 from carav_stream.runtime.registry import Registry
 
-TOP_KEYS = {"include", "description", "connections", "blocks", "run", "restart", "hosts", "security", "block_paths"}
+TOP_KEYS = {"include", "description", "connections", "blocks", "run", "restart", "hosts", "security", "block_paths",
+            "template"}
 NODE_KEYS = {"type", "host", "restart"}
 RUN_DEFAULTS: dict[str, Any] = {"cycles": 0, "queue_frames": 8, "heartbeat_timeout_s": 15.0,
                                 "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": "zmq"}
@@ -72,6 +73,7 @@ class Graph:
     registry: Registry
     params: dict[str, Any] = field(default_factory=dict)   # graph-wide parameters
     warnings: list[str] = field(default_factory=list)      # the blocks' param_warnings(), each once
+    open_params: list[str] = field(default_factory=list)   # a template's `node.param`s still without a value
 
     def params_for(self, block_type: str, explicit: dict[str, Any]) -> dict[str, Any]:
         """A block's parameters: the graph-wide ones it declares, overridden by `explicit`."""

@@ -5,6 +5,7 @@
     seed = 7                          # any other top-level value is a graph-wide parameter, given to every
     scene = "table1"                  # block that declares a parameter of that name and does not set it
     block_paths = ["./my_blocks"]     # extra folders of block files, relative to the graph file
+    template = ["source.path"]        # optional: parameters left for whoever runs the graph (validate.py)
     connections = ["source.out -> sink.in", ...]
 
     [blocks]
@@ -146,14 +147,16 @@ def _compose(base: Source, own: Source, where: str, problems: list[str]) -> Sour
     return Source(data, folders, [*own.files, *base.files])
 
 
-def load_graph(path: str | Path, overrides: list[str] = (), extra_block_paths: list[str | Path] = ()) -> Graph:
+def load_graph(path: str | Path, overrides: list[str] = (), extra_block_paths: list[str | Path] = (),
+               open_ok: bool = False) -> Graph:
     """Read, compose and fully validate a graph file; raises GraphError listing every problem.
 
     `overrides`: `node.param=value` sets one node's parameter, `param=value` a graph-wide one (both are checked
-    like the file's own values)."""
+    like the file's own values). `open_ok`: check a template as one, its listed parameters allowed to stay open
+    (Graph.open_params names those still without a value); a graph to run leaves none open."""
     path = Path(path)
     problems: list[str] = []
     source = read_graph_file(path, problems)
     if source is None:
         raise GraphError(problems)
-    return build_graph(path, source, list(overrides), list(extra_block_paths), problems)
+    return build_graph(path, source, list(overrides), list(extra_block_paths), problems, open_ok)

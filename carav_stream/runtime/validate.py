@@ -5,6 +5,12 @@ folders), parameters (type, range, NaN and infinity, required values, cross-para
 graph-wide parameters (one value for the whole graph, checked once: a scene error is reported once, not once per
 block), connections (unknown nodes and ports, port kinds and dtypes), inputs connected twice or not at all, cycles
 (naming their blocks), CURVE key files.
+
+Templates: a graph that leaves parameters for whoever runs it to give says so, `template = ["source.path"]`
+(`node.param` each, of a node of the graph and a parameter its block declares). Checked as a template
+(`carav validate`, `open_ok=True`), a listed parameter may stay without a value and the block's cross-parameter
+checks wait for it; run (`carav run`), it is a missing required parameter like any other, and the message says how
+to give it.
 """
 from __future__ import annotations
 
@@ -41,8 +47,10 @@ CHOICES = {"transport": TRANSPORTS}      # settings of [run] with a fixed set of
 
 
 def build_graph(path: Path, source: Source, overrides: list[str], extra_block_paths: list[str | Path],
-                problems: list[str]) -> Graph:
-    """The validated Graph of a composed graph file; raises GraphError listing every problem."""
+                problems: list[str], open_ok: bool = False) -> Graph:
+    """The validated Graph of a composed graph file; raises GraphError listing every problem.
+
+    `open_ok`: a template's listed parameters may stay without a value (module docstring)."""
     data, where = source.data, path.name
     block_paths = [Path(p).resolve() for p in _list_of_str(data.get("block_paths", []), where, "block_paths",
                                                            problems)]
@@ -88,10 +96,12 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     for n, cls in classes.items():
         nodes[n].params = with_graph_params(cls, graph_params, nodes[n].params)
     bad_wide = _check_graph_wide(nodes, classes, where, problems)
+    left_open = _template(data.get("template", []), nodes, classes, where, problems)
     warnings: dict[str, None] = {}     # ordered, each text once (a scene shared by several blocks warns once)
     for node in nodes.values():
         if node.name in classes:
-            warnings.update(dict.fromkeys(_check_params(node, classes[node.name], bad_wide, where, problems)))
+            warnings.update(dict.fromkeys(_check_params(node, classes[node.name], bad_wide, where, problems,
+                                                        left_open.get(node.name, set()), open_ok)))
         if node.name in classes and classes[node.name].not_restartable and node.restart.policy != "never":
             problems.append(f"{where}: blocks.{node.name}.restart: a {node.type} cannot be restarted "
                             f"({classes[node.name].not_restartable}); give it restart = \"never\"")
@@ -101,8 +111,9 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     security = _security(data.get("security", {}), where, problems)
     if problems:
         raise GraphError(problems)
+    still_open = [f"{n}.{p}" for n, params in left_open.items() for p in sorted(params) if p not in nodes[n].params]
     return Graph(path, str(data.get("description", "")), nodes, edges, run, hosts, security, block_paths, registry,
-                 graph_params, list(warnings))
+                 graph_params, list(warnings), still_open)
 
 
 def _list_of_str(value: Any, where: str, key: str, problems: list[str]) -> list[str]:
@@ -282,11 +293,39 @@ def _check_graph_wide(nodes: dict[str, Node], classes: dict[str, type[Block]], w
     return bad
 
 
-def _check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, problems: list[str]) -> list[str]:
-    """Adds the node's parameter problems to `problems`; returns its warnings."""
+def _template(spec: Any, nodes: dict[str, Node], classes: dict[str, type[Block]], where: str,
+              problems: list[str]) -> dict[str, set[str]]:
+    """The parameters a template leaves open, by node (`template = ["source.path"]`); {} for a graph that is not one."""
+    if spec == []:
+        return {}
+    entries = _list_of_str(spec, where, "template", problems)
+    left_open: dict[str, set[str]] = {}
+    for item in entries:
+        node, _, param = item.partition(".")
+        if node not in nodes or not param:
+            problems.append(f"{where}: template: {item!r}: expected NODE.PARAM with one of the nodes {sorted(nodes)}")
+        elif node in classes and param not in {p.name for p in classes[node].params}:
+            problems.append(f"{where}: template: {item!r}: block type {nodes[node].type!r} has no parameter "
+                            f"{param!r}; its parameters are {sorted(p.name for p in classes[node].params)}")
+        else:
+            left_open.setdefault(node, set()).add(param)
+    return left_open
+
+
+def _check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, problems: list[str],
+                  left_open: set[str] = frozenset(), open_ok: bool = False) -> list[str]:
+    """Adds the node's parameter problems to `problems`; returns its warnings.
+
+    `left_open`: the node's parameters its template leaves open; with `open_ok` they may stay without a value."""
     wide = {p.name for p in cls.params if p.graph_wide}
-    found = [(p, t) for p, t in cls.param_problems(node.params) if p not in wide]
-    problems += [f"{where}: blocks.{node.name}.{p}: {text}" for p, text in found]
+    unset = {p for p in left_open if p not in node.params}
+    found = [(p, t) for p, t in cls.param_problems(node.params) if p not in wide and not (open_ok and p in unset)]
+    problems += [f"{where}: blocks.{node.name}.{p}: {text}" + (f"; the graph is a template that leaves it open: give "
+                                                               f"it with --set {node.name}.{p}=VALUE" if p in unset
+                                                               else "")
+                 for p, text in found]
+    if unset and open_ok:
+        return []       # the block's cross-parameter checks need the values still to come
     for p in cls.params:
         value = node.params.get(p.name)
         if p.output and isinstance(value, str) and value != "-" and (text := _output_problem(Path(value))):

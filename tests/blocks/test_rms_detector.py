@@ -48,6 +48,7 @@ def rho_rows(draw_bits: list[int]) -> np.ndarray:
     return rho
 
 
+@pytest.mark.slow
 @settings(max_examples=25)
 @given(code=st.integers(1, 2047), signs=st.lists(st.booleans(), min_size=1100, max_size=1100),
        keys=st.lists(st.integers(0, 2 ** 16), min_size=64, max_size=64), eta=st.floats(0.5, 3.0))

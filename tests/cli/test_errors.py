@@ -104,3 +104,14 @@ def test_validate_warns_once_about_a_velocity_beyond_the_unambiguous_interval(ca
     assert err.count("beyond the unambiguous") == 1 and "awr1642_smart.toml: warning:" in err
     assert carav(["validate", DEMO]) == Exit.OK                      # table1's car: no warning
     assert "warning" not in error_of(capsys)
+
+
+def test_validate_passes_every_shipped_graph_and_names_what_a_template_leaves_open(capsys):
+    graphs = sorted(str(p) for p in (ROOT / "graphs").glob("*.toml"))
+    assert carav(["validate", *graphs]) == Exit.OK
+    out = capsys.readouterr().out
+    assert out.count(": ok (") == len(graphs)
+    assert "replay.toml: ok (5 nodes, 7 connections; a template leaving source.path open)" in out
+    assert "a template" not in out.replace("replay.toml: ok (5 nodes, 7 connections; a template", "")
+    assert carav(["run", str(ROOT / "graphs" / "replay.toml")]) == Exit.INVALID     # run, it needs its recording
+    assert "give it with --set source.path=VALUE" in capsys.readouterr().err

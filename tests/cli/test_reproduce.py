@@ -47,6 +47,7 @@ def test_the_committed_reproduction_document_is_what_the_code_produces(monkeypat
     assert code == 0, err[-3000:]
 
 
+@pytest.mark.slow
 def test_check_fails_naming_the_document_when_it_was_edited_by_hand(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     doc = tmp_path / "R.md"

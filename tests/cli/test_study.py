@@ -88,6 +88,7 @@ def test_the_study_draws_are_those_of_carav_sweep_with_the_same_seed(tmp_path):
     assert all(0 <= r["rate_lo"] <= r["rate"] <= r["rate_hi"] <= 1 for r in rows)
 
 
+@pytest.mark.slow
 def test_grouping_batches_into_tasks_changes_no_number(tmp_path):
     text = GOOD.replace("trials = 300", "trials = 50000\ntask_cycles = 40000").replace("[0.5, 1.2, 3.0]", "[1.2]")
     study = load_study(write(tmp_path, text))

@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 import json
 
+import pytest
+
 from carav_stream.cli import main as carav
 from carav_stream.cli import sweep as sweep_cli
 
@@ -14,6 +16,7 @@ def _run(argv):
     return sweep_cli.run(parser.parse_args(argv))
 
 
+@pytest.mark.slow
 def test_sweep_cli_writes_json_curves_thresholds_and_plot(tmp_path, capsys):
     out, png = tmp_path / "s.json", tmp_path / "s.png"
     code = _run(["--model", "paper", "--preset", "table1", "--nr", "16", "--ns", "64", "--attack", "random,smart",
@@ -30,6 +33,7 @@ def test_sweep_cli_writes_json_curves_thresholds_and_plot(tmp_path, capsys):
     assert "minimax" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_sweep_cli_is_reproducible_with_seed(tmp_path):
     args = ["--model", "paper", "--nr", "8", "--ns", "16", "--rarms", "1", "--trials", "50", "--eta", "1:2:0.5",
             "--seed", "4", "--quiet", "--method", "samples"]

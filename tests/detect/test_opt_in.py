@@ -49,6 +49,7 @@ def test_spectral_test_catches_coherent_ghost_that_d0_misses():
     assert res.alarm.all() and np.all(np.abs(res.peak_bin - 36) <= 1)   # rfft bin 37 minus the dropped DC
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("iq", [False, True])
 def test_integrated_test_false_alarm_rate_matches_exact_threshold(iq):
     rng = np.random.default_rng(3)

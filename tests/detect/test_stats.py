@@ -39,6 +39,7 @@ def test_pf_d0_part_is_the_chi_square_product_formula():
     assert cf["p_alarm_d0"] == pytest.approx(1 - p_one ** m, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_closed_form_pf_and_pm_agree_with_monte_carlo():
     scene = paper_scene("table1", n_samples=64)
     rng = np.random.default_rng(12)

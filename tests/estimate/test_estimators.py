@@ -10,6 +10,9 @@ from carav_stream.estimate import METHODS, Geometry, estimate
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.tones import random_rho, synth_beat
 
+# the subspace methods take seconds on the wide cases, the others milliseconds: only their cases leave --quick
+METHODS_SLOW_MARKED = [pytest.param(m, marks=pytest.mark.slow) if m in ("music", "root_music") else m for m in METHODS]
+
 # a small waveform keeps the tests fast: 32 chirps of 128 samples, 1.17 m bins, +-19 m/s
 SMALL = Geometry(fs_hz=20e6, slope_hz_per_s=20e6 / 1e-6 * 0.2, fc_hz=77e9, t_chirp_s=50e-6, n_samples=128, iq=True)
 SMALL_REAL = dataclasses.replace(SMALL, iq=False)
@@ -21,6 +24,7 @@ def _data(g, n_cycles, ranges, vels, snr_db, seed, amps=1.0, all_chirps=False):
     return synth_beat(g, rho, ranges, vels, amplitudes=amps, snr_sample_db=snr_db, rng=rng), rho
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(method=st.sampled_from(METHODS), iq=st.booleans(), range_m=st.floats(5.0, 60.0),
        velocity=st.floats(-15.0, 15.0), seed=st.integers(0, 2**31))
@@ -113,7 +117,7 @@ def test_order_estimation_finds_zero_one_and_two_targets():
     np.testing.assert_allclose(np.sort(e2.range_m, axis=1), [[20.0, 45.0]] * 3, atol=0.3)  # ~4 sigma
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", METHODS_SLOW_MARKED)
 def test_closely_spaced_targets_give_finite_answers_near_the_pair(method):
     x, rho = _data(SMALL, 3, [[30.0, 30.7]], [[2.0, 2.0]], 20.0, 10)
     e = estimate(x, rho, SMALL, method=method, n_targets=2)
@@ -132,6 +136,7 @@ def test_empty_and_broken_cycles_give_nan_without_touching_others():
     assert abs(e.range_m[3, 0] - 30.0) < 0.1
 
 
+@pytest.mark.slow
 def test_random_silencing_costs_what_the_bound_predicts():
     rng = np.random.default_rng(12)
     n = 300
@@ -195,7 +200,7 @@ def _uneven_rho(rng, n_cycles, n_chirps):
     return rho
 
 
-@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("method", METHODS_SLOW_MARKED)
 @pytest.mark.parametrize("iq", [True, False])
 @pytest.mark.parametrize("n_targets", [1, 2, None])
 def test_batch_with_uneven_active_counts_equals_cycle_by_cycle(method, iq, n_targets):

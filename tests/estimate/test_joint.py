@@ -79,6 +79,7 @@ def test_a_beat_three_bins_from_dc_is_estimated_at_the_bound(iq):
     assert 0.8 < r_ratio < 1.25 and 0.8 < v_ratio < 1.25
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("preset", ["awr1642", "table1"])
 def test_the_louder_of_two_targets_is_estimated_at_its_bound_on_either_preset_with_iq_samples(preset):
     g = dataclasses.replace(Geometry.from_scene(load_scene(preset)), iq=True)

@@ -2,10 +2,13 @@
 what the command prints (a second, independent route to the claims of tests/detect/test_cfar.py)."""
 from __future__ import annotations
 
+import pytest
+
 from carav_stream.cli import main as carav
 from carav_stream.detect.stats import clopper_pearson
 
 
+@pytest.mark.slow
 def test_cfar_experiment_meets_its_design_and_the_textbook_curve(capsys):
     n = 300
     assert carav(["experiment", "cfar", "--preset", "awr1642", "--trials", str(n), "--seed", "9"]) == 0

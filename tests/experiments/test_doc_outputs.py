@@ -17,6 +17,7 @@ def _repo(tmp_path, body: str, fenced: bool = True):
     return doc
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fenced", [True, False])
 def test_a_quote_is_regenerated_in_place_and_then_checks_clean(tmp_path, fenced):
     doc = _repo(tmp_path, "stale text\n", fenced)
@@ -31,6 +32,7 @@ def test_a_quote_is_regenerated_in_place_and_then_checks_clean(tmp_path, fenced)
     assert doc_outputs.regenerate(tmp_path) == []               # nothing to change the second time
 
 
+@pytest.mark.slow
 def test_a_hand_edit_of_a_quoted_number_is_caught(tmp_path):
     doc = _repo(tmp_path, "")
     doc_outputs.regenerate(tmp_path)
@@ -39,6 +41,7 @@ def test_a_hand_edit_of_a_quoted_number_is_caught(tmp_path):
     assert "eta = 1.1172" in now and "eta = 1.1173" in q.body
 
 
+@pytest.mark.slow
 def test_a_quoted_command_that_fails_names_the_document_and_the_command(tmp_path):
     (tmp_path / "docs").mkdir()
     (tmp_path / "docs" / "Y.md").write_text("<!-- output of: carav design --pf 7 -->\n```\n```\n"
@@ -47,6 +50,7 @@ def test_a_quoted_command_that_fails_names_the_document_and_the_command(tmp_path
         doc_outputs.stale(tmp_path)
 
 
+@pytest.mark.slow
 def test_a_check_writes_no_file_a_quoted_command_would_write(tmp_path):
     (tmp_path / "docs").mkdir()
     (tmp_path / "docs" / "Z.md").write_text(

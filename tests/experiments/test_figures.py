@@ -57,6 +57,7 @@ def test_the_threshold_sweep_figure(drawn, tmp_path):
     check(drawn[0])
 
 
+@pytest.mark.slow
 def test_the_error_against_time_figure(drawn, tmp_path):
     assert run_bench(["estimators", "--quick", "--presets", "table1", "--estimators", "fft_peak,fft_interp,ml",
                   "--plot", str(tmp_path / "e.png")]) == 0

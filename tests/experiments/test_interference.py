@@ -4,6 +4,8 @@ from __future__ import annotations
 import argparse
 import json
 
+import pytest
+
 from carav_stream.experiments import interference
 
 
@@ -13,6 +15,7 @@ def _run(argv):
     return interference.run(parser.parse_args(argv))
 
 
+@pytest.mark.slow
 def test_a_matched_interferer_is_flagged_like_an_attack_and_a_faint_one_is_not(tmp_path, capsys):
     out = tmp_path / "i.json"
     assert _run(["--trials", "40", "--rarms", "0.05,0.3,3", "--slopes", "1", "--seed", "2", "--json", str(out)]) == 0

@@ -7,6 +7,7 @@ from carav_stream.detect.stats import clopper_pearson
 from carav_stream.experiments import latency
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("preset, fidelity", [("table1", "beat"), ("table1", "waveform")])
 def test_spill_test_false_alarms_do_not_follow_the_echo_power(preset, fidelity):
     n = 150

@@ -39,6 +39,7 @@ def test_a_listed_target_is_refined_exactly_as_the_single_target_estimator_refin
     np.testing.assert_allclose(tl.velocity_mps[one, 0], ref.velocity_mps[one, 0], rtol=1e-13)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("preset", ["table1", "awr1642"])
 def test_two_targets_one_20_db_louder_are_both_listed_by_os_cfar_and_measured_near_their_bounds(preset):
     g0 = Geometry.from_scene(load_scene(preset))
@@ -60,6 +61,7 @@ def test_two_targets_one_20_db_louder_are_both_listed_by_os_cfar_and_measured_ne
     assert np.mean(tl.n_found - 2) < 0.2                               # sidelobes of the loud one are not listed
 
 
+@pytest.mark.slow
 def test_ca_cfar_masks_a_weak_target_whose_training_cells_hold_a_loud_ones_slow_time_sidelobes():
     # half-silent cycles spread a target over every Doppler bin of its range bin at about 1/A of its power: a
     # target 20 dB louder 12 range bins away sits in the weak one's training cells and raises its CA threshold

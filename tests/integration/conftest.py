@@ -1,4 +1,5 @@
-"""Fixtures that run real `carav` processes: every wait has a deadline, every process group is killed."""
+"""Fixtures that run real `carav` processes: every wait waits on progress (tests/waiting.py), every process group
+is killed."""
 from __future__ import annotations
 
 import json
@@ -12,6 +13,9 @@ import time
 from pathlib import Path
 
 import pytest
+
+from tests.waiting import group_cpu_s
+from tests.waiting import wait_until as wait_on_progress
 
 ROOT = Path(__file__).resolve().parents[2]
 TOYS = ROOT / "tests" / "toy_blocks"
@@ -31,8 +35,14 @@ class CaravProcess:
                                      stdin=subprocess.DEVNULL, start_new_session=True)
         self.pgid = self.proc.pid
 
-    def wait(self, timeout_s: float = 60) -> int:
-        return self.proc.wait(timeout_s)
+    def progress(self) -> float:
+        """CPU seconds used by the run's process group: it rises while the graph works (tests/waiting.py)."""
+        return group_cpu_s(self.pgid)
+
+    def wait(self) -> int:
+        """The exit code, once the run ends; fails when the run stops making progress (tests/waiting.py)."""
+        wait_on_progress(lambda: self.proc.poll() is not None, "the run to end", self.progress)
+        return self.proc.returncode
 
     def stderr(self) -> str:
         self.err.flush()
@@ -53,14 +63,8 @@ class CaravProcess:
         return True
 
     def kill(self) -> None:
-        try:
-            os.killpg(self.pgid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        try:
-            self.proc.wait(10)
-        except subprocess.TimeoutExpired:
-            pass
+        _kill_group(self.pgid)
+        self.proc.wait()          # SIGKILL cannot be refused: the direct child ends and is reaped
         self.out.close()
         self.err.close()
 
@@ -89,9 +93,22 @@ def carav(tmp_path, request):
             return p
 
         @staticmethod
-        def cli(*args: str, timeout_s: float = 60) -> subprocess.CompletedProcess:
-            return subprocess.run([sys.executable, "-m", "carav_stream.cli", *args], env=env, cwd=tmp_path,
-                                  capture_output=True, text=True, timeout=timeout_s)
+        def cli(*args: str) -> subprocess.CompletedProcess:
+            """A `carav` command in its own process group, waited on by progress; its group killed after."""
+            with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+                proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", *args], env=env, cwd=tmp_path,
+                                        stdout=out, stderr=err, stdin=subprocess.DEVNULL, text=True,
+                                        start_new_session=True)
+                try:
+                    # a command may wait on a running graph (swap, stop): that graph's work is its progress too
+                    wait_on_progress(lambda: proc.poll() is not None, f"carav {' '.join(args)}",
+                                     lambda: group_cpu_s(proc.pid, *(p.pgid for p in started)))
+                finally:
+                    _kill_group(proc.pid)
+                    proc.wait()
+                out.seek(0)
+                err.seek(0)
+                return subprocess.CompletedProcess(proc.args, proc.returncode, out.read(), err.read())
 
         @staticmethod
         def graph(body: str, name: str = "g.toml") -> Path:
@@ -106,14 +123,16 @@ def carav(tmp_path, request):
     shutil.rmtree(run_dir, ignore_errors=True)
 
 
-def wait_until(predicate, timeout_s: float, what: str, interval_s: float = 0.05):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(interval_s)
-    raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+def _kill_group(pgid: int) -> None:
+    try:
+        os.killpg(pgid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+
+
+def wait_until(predicate, what: str, *runs: CaravProcess, interval_s: float = 0.05):
+    """The predicate's first true value, waiting while `runs` make progress (tests/waiting.py)."""
+    return wait_on_progress(predicate, what, lambda: sum(r.progress() for r in runs), interval_s=interval_s)
 
 
 def read_jsonl(path: Path) -> list[dict]:

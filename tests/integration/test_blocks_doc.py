@@ -38,6 +38,6 @@ p = {{ type = "passthrough", label = "tap" }}
 log = {{ type = "jsonl_sink", path = "out.jsonl" }}
 """)
     run = carav.run(graph)
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     history = run.summary()["per_node"]["p"]["history"]
     assert [h["summary"] for h in history] == [{"label": "tap", "frames": 4, "cycles": 12}]

@@ -39,7 +39,7 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
         except OSError:
             assert run.proc.poll() is None, run.stderr()
             return False
-    wait_until(page_up, 60, "the live view page", interval_s=0.2)
+    wait_until(page_up, "the live view page", run, interval_s=0.2)
     assert f"live view at {url}" in run.stderr()
     driver = browser()
     try:
@@ -47,35 +47,35 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
         data = lambda name, col: model(driver, name, f"data[{json.dumps(col)}]") or []  # noqa: E731
         text = lambda name: model(driver, name, "text") or ""  # noqa: E731
         # the smart attacker (RARMS 3 from cycle 100) raises D0 alarms; cycles 0-99 are clean, estimated, mapped
-        wait_until(lambda: len(data("q_D0", "cycle")) > 50 and len(data("estimates", "range_m")) > 10, 60,
-                   "alarm and estimate points on the page")
+        wait_until(lambda: len(data("q_D0", "cycle")) > 50 and len(data("estimates", "range_m")) > 10,
+                   "alarm and estimate points on the page", run)
         assert all(abs(r - 43.0) < 1.0 for r in data("estimates", "range_m"))        # the car at 43 m
-        wait_until(lambda: "peak" in text("rd_text"), 30, "the range-Doppler map")
+        wait_until(lambda: "peak" in text("rd_text"), "the range-Doppler map", run)
         assert "RARMS <b>3.0</b>" in text("attacker") and "model <b>smart</b>" in text("attacker")
         first = max(data("q_D0", "cycle"))
-        wait_until(lambda: max(data("q_D0", "cycle")) > first + 10 * BATCH, 30, "the Q plot moving on")
+        wait_until(lambda: max(data("q_D0", "cycle")) > first + 10 * BATCH, "the Q plot moving on", run)
 
         # swap from the page: the model select, the RARMS field, the button, as a user would
         Select(driver.execute_script(DEEP_FIND, "select")).select_by_value("none")
         driver.execute_script(DEEP_FIND, "button.bk-btn").click()
-        wait_until(lambda: "swapped attacker" in text("swap_log"), 60, "the page's swap answer")
+        wait_until(lambda: "swapped attacker" in text("swap_log"), "the page's swap answer", run)
         assert "{'model': 'none'}" in text("swap_log"), text("swap_log")
         status = json.loads(carav.cli("status", "--json").stdout)[0]
         swaps = [s for s in status["swaps"] if s["node"] == "attacker"]
         assert len(swaps) == 1 and status["nodes"]["attacker"]["params"]["model"] == "none"
         after = swaps[0]["first_seq"] * BATCH
         # the alarms follow: clean cycles after the swap, no alarm from a cycle the silent attacker produced
-        wait_until(lambda: max(data("q_clean", "cycle"), default=0) > after + 10 * BATCH, 60,
-                   "clean cycles after the swap")
+        wait_until(lambda: max(data("q_clean", "cycle"), default=0) > after + 10 * BATCH,
+                   "clean cycles after the swap", run)
         assert max(data("q_D0", "cycle")) < after + BATCH
-        wait_until(lambda: "model <b>none</b>" in text("attacker"), 10, "the attacker panel following the swap")
+        wait_until(lambda: "model <b>none</b>" in text("attacker"), "the attacker panel following the swap", run)
     except BaseException:
         driver.save_screenshot(str(carav.workdir / "live_view.png"))
         raise
     finally:
         driver.quit()
     assert carav.cli("stop").returncode == 0
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()
     assert s["lost"] == 0 and [w["node"] for w in s["swaps"]] == ["attacker"]
     assert "swap: node attacker runs block attacker (version 1) from frame seq" in run.stdout()

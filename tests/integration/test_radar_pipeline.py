@@ -78,7 +78,7 @@ def assert_data_plane(carav, s: dict) -> None:
 def test_pipeline_equals_the_in_process_library_bit_for_bit(carav):
     n = 120   # 7 frames of 16 cycles and a last one of 8
     run = radar(carav, n, model="smart", rarms=3.0, start_cycle=60)
-    assert run.wait(120) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     lib = run_algorithm1(scene_of("table1"), n, seed=21, attack="smart",
                          attack_params={"rarms": 3.0, "start_cycle": 60})
     s = assert_equals_the_library(carav, run, lib, n)
@@ -107,7 +107,7 @@ def assert_attacker_heard_only_the_past_emission(carav, run, n: int, batch: int)
 def test_attacker_receives_no_activation_sequence_only_the_past_emission(carav):
     n = 40
     run = radar(carav, n, model="lfsr_predictor", rarms=3.0, batch=8)
-    assert run.wait(120) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     assert_attacker_heard_only_the_past_emission(carav, run, n, batch=8)
 
 
@@ -116,7 +116,7 @@ def test_reactive_repeater_gated_at_the_receiver_equals_the_library_and_never_he
     n = 40   # frames of 16, 16 and 8 cycles: on from cycle 8 to 31, silent throughout the last frame
     params = {"rarms": 3.0, "distance_m": 20.0, "latency_s": 2e-7, "start_cycle": 8, "n_active_cycles": 24}
     run = radar(carav, n, seed=25, fidelity=fidelity, model="reactive", **params)
-    assert run.wait(120) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     lib = run_algorithm1(scene_of("table1"), n, seed=25, attack="reactive", attack_params=params, fidelity=fidelity)
     assert lib.attack_active.tolist() == [8 <= c < 32 for c in range(n)]
     s = assert_equals_the_library(carav, run, lib, n)
@@ -132,7 +132,7 @@ def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector
     run = radar(carav, 0, "radar_taps_detector_restarts.toml", seed=22, batch=4)
     judged = carav.workdir / "judged.jsonl"
     _kill_mid_run_and_stop(carav, run, "detector", judged)
-    run.wait(60)
+    run.wait()
     err = run.stderr()
     assert "node 'detector' (rms_detector) failed: exited with signal SIGKILL" in err
     verdicts = by_cycle(read_jsonl(carav.workdir / "verdicts.jsonl"))
@@ -156,7 +156,7 @@ def test_a_crashed_detector_reads_as_refusals_never_as_detections_or_false_alarm
     n, batch = 64, 8
     params = {"rarms": 3.0, "start_cycle": 8, "n_active_cycles": 24}
     run = radar(carav, n, "radar_taps_detector_crashes.toml", seed=26, batch=batch, model="smart", **params)
-    assert run.wait(120) == 1, run.stderr()                                  # a node failed: the run fails
+    assert run.wait() == 1, run.stderr()                                  # a node failed: the run fails
     assert "RuntimeError: deliberate detector crash at seq 3" in run.stderr()
     lib = run_algorithm1(scene_of("table1"), n, seed=26, attack="smart", attack_params=params)
     judged = 3 * batch                                                       # the detector's verdicts: seq 0-2
@@ -185,11 +185,16 @@ def test_a_crashed_detector_reads_as_refusals_never_as_detections_or_false_alarm
 def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without_stalling(carav, victim):
     """SIGKILL one node mid-run: after its restart every later cycle is judged once, in order (no sink rejects a
     duplicate or out-of-order frame), what died with it is counted, and `carav stop` drains well within its
-    deadline (the nodes pairing inputs get told where each stream resumes instead of waiting for lost frames)."""
+    deadline (the nodes pairing inputs get told where each stream resumes instead of waiting for lost frames).
+
+    Every case takes a different resume path, so none is left out: the source resumes beyond its lease; channel's
+    loss reaches adc's pairing on both its inputs, the attacker's on one; adc's fans out to two nodes that pair
+    with each other downstream (detector and gate); the gate's loss reaches the summary's pairing on both its
+    inputs, ranging's on one; the summary is the sink. The shared-memory cases are the comment's above."""
     run = radar(carav, 0, "radar_taps_restart.toml", seed=24, batch=4)
     judged = carav.workdir / "judged.jsonl"
     n_at_restart = _kill_mid_run_and_stop(carav, run, victim, judged)
-    assert run.wait(60) in (0, 1), run.stderr()          # 1: frames died with the killed node (counted lost)
+    assert run.wait() in (0, 1), run.stderr()          # 1: frames died with the killed node (counted lost)
     s = run.summary()
     assert s["restarts"] == 1 and s["estimated_counts"] == [victim] and not s["failures"], s["failures"]
     rejects = [line for line in run.stderr().splitlines() if "rejected frame" in line]
@@ -209,24 +214,31 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
 
 
 @pytest.mark.parametrize("victim,carav", [
-    *((v, "zmq") for v in ("source", "channel", "attacker", "adc", "detector", "gate", "ranging", "summary")),
-    ("gate", "shm")], indirect=["carav"])
+    *((v, "zmq") for v in ("source", "attacker", "gate", "summary")), ("gate", "shm")], indirect=["carav"])
 def test_a_node_stopped_and_continued_costs_nothing(carav, victim):
     """SIGSTOP one node for a second (shorter than the heartbeat timeout), then SIGCONT: the graph waits for it
-    (bounded queues), nothing is restarted, lost or judged twice, and every cycle is judged in order."""
+    (bounded queues), nothing is restarted, lost or judged twice, and every cycle is judged in order.
+
+    A stopped node runs no code; what differs between victims is which queues fill and which pairing waits. One
+    victim per such position: the source (the generator and its cycle lease; both its outputs starve), the
+    attacker (one branch of a fan-out: the other branch fills while adc's pairing waits), the gate (a node pairing
+    two inputs: both producers back up) and the summary (the sink: the whole chain backs up), and the gate again
+    on shared memory (its slots stay held while it is stopped). Left out as the same position again: channel (one
+    input, a fan-out like the source's), adc and detector (pairing two inputs, like the gate), ranging (one input,
+    one output, like the attacker)."""
     run = radar(carav, 0, seed=26, batch=4)
     judged = carav.workdir / "judged.jsonl"
-    wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
-    pid = int(wait_until(lambda: _pid_of(carav, run, victim), 20, f"{victim} pid"))
+    wait_until(lambda: len(read_jsonl(judged)) > 30, "cycles to be judged", run)
+    pid = int(wait_until(lambda: _pid_of(carav, run, victim), f"{victim} pid", run))
     os.kill(pid, signal.SIGSTOP)
     try:
         time.sleep(1.0)
     finally:
         os.kill(pid, signal.SIGCONT)
     n = len(read_jsonl(judged))
-    wait_until(lambda: len(read_jsonl(judged)) > n + 30, 60, "cycles after SIGCONT")
+    wait_until(lambda: len(read_jsonl(judged)) > n + 30, "cycles after SIGCONT", run)
     assert carav.cli("stop").returncode == 0
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()
     assert s["restarts"] == 0 and s["lost"] == 0 and s["rejected"] == 0 and not s["failures"]
     records = by_cycle(read_jsonl(judged))
@@ -242,7 +254,7 @@ def test_a_killed_supervisor_takes_its_nodes_and_leaves_nothing_behind(carav):
     shm_before = set(os.listdir("/dev/shm"))
     run = radar(carav, 0, seed=27, batch=4)
     judged = carav.workdir / "judged.jsonl"
-    wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
+    wait_until(lambda: len(read_jsonl(judged)) > 30, "cycles to be judged", run)
     [folder] = list(carav.run_root.glob("carav-*/*"))
     nodes = _node_pids(carav)
     assert len(nodes) == len(list(folder.glob("*.spec"))) > 1   # every node's process
@@ -250,8 +262,8 @@ def test_a_killed_supervisor_takes_its_nodes_and_leaves_nothing_behind(carav):
     if carav.transport == "shm":
         assert _segments_held_by(pids) >= 1                       # the run's data does travel in segments
     os.kill(run.proc.pid, signal.SIGKILL)
-    run.proc.wait(10)
-    wait_until(lambda: not run.group_alive(), 15, "every node of the killed supervisor to exit")
+    run.proc.wait()                    # SIGKILL: it ends and is reaped
+    wait_until(lambda: not run.group_alive(), "every node of the killed supervisor to exit", run)
     assert set(os.listdir("/dev/shm")) <= shm_before
     assert all(not Path(f"/proc/{pid}").exists() for pid in pids)   # ... so no process holds a segment
     assert folder.exists()                                        # nobody could clean up yet ...
@@ -293,11 +305,11 @@ def _segments_held_by(pids: list[int]) -> int:
 def _kill_mid_run_and_stop(carav, run, victim: str, judged) -> int:
     """Once 30 records are judged, SIGKILL `victim`; once the supervisor has restarted it and 30 more records are
     judged, `carav stop`. Returns the number of records judged when the restart was reported."""
-    wait_until(lambda: len(read_jsonl(judged)) > 30, 60, "cycles to be judged")
-    os.kill(int(wait_until(lambda: _pid_of(carav, run, victim), 20, f"{victim} pid")), signal.SIGKILL)
-    wait_until(lambda: f"restarting {victim!r}" in run.stderr(), 30, f"the supervisor to restart {victim}")
+    wait_until(lambda: len(read_jsonl(judged)) > 30, "cycles to be judged", run)
+    os.kill(int(wait_until(lambda: _pid_of(carav, run, victim), f"{victim} pid", run)), signal.SIGKILL)
+    wait_until(lambda: f"restarting {victim!r}" in run.stderr(), f"the supervisor to restart {victim}", run)
     n_at_restart = len(read_jsonl(judged))
-    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 30, 60, "cycles after the restart")
+    wait_until(lambda: len(read_jsonl(judged)) > n_at_restart + 30, "cycles after the restart", run)
     assert carav.cli("stop").returncode == 0
     return n_at_restart
 
@@ -314,13 +326,13 @@ def test_live_attacker_swaps_keep_every_cycle_and_change_the_verdicts(carav):
     swaps = [("smart", ["rarms=4.0"]),
              ("secondary_antenna", ["range_m=30.0", "velocity_mps=13.89", "tx_power_w=0.1"])]
     for i, (model, sets) in enumerate(swaps):
-        wait_until(lambda: len(by_cycle(read_jsonl(judged))) > 30 * (i + 1), 90, f"cycles before swap {i}")
+        wait_until(lambda: len(by_cycle(read_jsonl(judged))) > 30 * (i + 1), f"cycles before swap {i}", run)
         res = carav.cli("swap", "attacker", "attacker", "--set", f"model={model}",
-                        *sum((["--set", s] for s in sets), []), timeout_s=60)
+                        *sum((["--set", s] for s in sets), []))
         assert res.returncode == 0, res.stderr
-    wait_until(lambda: len(by_cycle(read_jsonl(judged))) > 100, 90, "cycles after the last swap")
+    wait_until(lambda: len(by_cycle(read_jsonl(judged))) > 100, "cycles after the last swap", run)
     assert carav.cli("stop").returncode == 0
-    assert run.wait(90) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()
     records = by_cycle(read_jsonl(judged))
     assert sorted(records) == list(range(s["cycles"]))     # none lost, duplicated or reordered
@@ -336,7 +348,7 @@ def test_live_attacker_swaps_keep_every_cycle_and_change_the_verdicts(carav):
 
 def test_demo_graph_runs_and_reports_detection_figures(carav):
     run = carav.run(GRAPHS / "demo.toml", "--cycles", "200")
-    assert run.wait(120) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()
     assert s["cycles"] == 200 and s["lost"] == 0 and s["cycles_judged"] == 200
     assert s["attacked_cycles"] == 50 and s["detected"] == 50 and s["false_alarms"] == 0
@@ -371,8 +383,8 @@ def test_two_hosts_over_tcp_as_two_supervisors(carav):
                     f'[hosts.back]\nport_base = {_free_port_base()}\n')
     back = carav.run(path, "--host", "back", "--cycles", "200")
     front = carav.run(path, "--host", "front", "--cycles", "200")
-    assert front.wait(120) == 0, front.stderr()
-    assert back.wait(120) == 0, back.stderr()
+    assert front.wait() == 0, front.stderr()
+    assert back.wait() == 0, back.stderr()
     sb, sf = back.summary(), front.summary()
     assert sf["cycles"] == 200 and set(sf["per_node"]) == {"source", "channel", "attacker", "adc"}
     assert sb["cycles"] == 200 and sb["cycles_judged"] == 200 and sb["lost"] == 0

@@ -27,7 +27,7 @@ def recorded(carav):
     """The demo graph (smart attacker, RARMS 1.2 from cycle 20: some attacked cycles pass, some alarm) recorded."""
     out = carav.workdir / "live"
     done = carav.cli("record", str(ROOT / "graphs" / "demo.toml"), "--out", str(out), "--json",
-                     str(carav.workdir / "live.json"), *LIVE, timeout_s=120)
+                     str(carav.workdir / "live.json"), *LIVE)
     assert done.returncode == 0, done.stderr
     return out, json.loads((carav.workdir / "live.json").read_text())
 
@@ -41,14 +41,13 @@ def test_a_replay_gives_the_live_verdicts_q_and_estimates_bit_for_bit(carav, rec
     # the replay, itself recorded: every annotation (verdict, Q, estimates, cycle fields) and every sample equal
     again = carav.workdir / "again"
     done = carav.cli("record", str(ROOT / "graphs" / "replay.toml"), "--out", str(again), "--no-progress",
-                     "--set", f"source.path={live_dir}", timeout_s=120)
+                     "--set", f"source.path={live_dir}")
     assert done.returncode == 0, done.stderr
     assert annotations(again) == ann
     assert (again / "recording.sigmf-data").read_bytes() == (live_dir / "recording.sigmf-data").read_bytes()
     assert (again / "recording.activation").read_text() == (live_dir / "recording.activation").read_text()
     # carav replay: the run summary of the live run
-    done = carav.cli("replay", str(live_dir), "--json", str(carav.workdir / "replay.json"), "--no-progress",
-                     timeout_s=120)
+    done = carav.cli("replay", str(live_dir), "--json", str(carav.workdir / "replay.json"), "--no-progress")
     assert done.returncode == 0, done.stderr
     replay = json.loads((carav.workdir / "replay.json").read_text())
     assert {k: replay[k] for k in SAME} == {k: live[k] for k in SAME}
@@ -92,7 +91,7 @@ def test_a_ti_capture_of_the_recorded_samples_is_judged_alike_and_a_truncated_on
     capture.write_bytes(capture_bytes(chirps, complex_data=False, adc_bits=12))
     log = live_dir / "recording.activation"
     done = carav.cli("run", str(dca_graph(carav, capture, log)), "--json", str(carav.workdir / "dca.json"),
-                     "--no-progress", timeout_s=120)
+                     "--no-progress")
     assert done.returncode == 0, done.stderr
     dca = json.loads((carav.workdir / "dca.json").read_text())
     assert dca["alarms"] == live["alarms"] and dca["alarm_reasons"] == live["alarm_reasons"]
@@ -101,7 +100,7 @@ def test_a_ti_capture_of_the_recorded_samples_is_judged_alike_and_a_truncated_on
     cut = carav.workdir / "cut.bin"
     cut.write_bytes(capture.read_bytes()[:capture.stat().st_size * 40 // CYCLES + 1000])
     done = carav.cli("run", str(dca_graph(carav, cut, log)), "--json", str(carav.workdir / "cut.json"),
-                     "--no-progress", timeout_s=120)
+                     "--no-progress")
     assert done.returncode == 1, done.stderr
     assert "cut.bin is truncated: 1000 bytes after its 40 whole cycles" in done.stderr + done.stdout
     assert "Traceback" not in done.stderr + done.stdout          # a data error, stated in one line

@@ -41,7 +41,7 @@ log = {{ type = "jsonl_sink", path = "out.jsonl", max_values = 0 }}
 def test_fan_out_and_pairing_deliver_every_frame_once_in_order(carav):
     n = 3000
     run = carav.run(carav.graph(CHAIN.format(cycles=n, delay=0.0)))
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     lines = read_jsonl(carav.workdir / "out.jsonl")
     assert [l["seq"] for l in lines] == list(range(n))
     assert all(l["data"] == [2.0 * l["seq"] + 1.0] * 4 for l in lines)
@@ -64,7 +64,7 @@ src = { type = "counter_source", batch = 4, n_values = 2 }
 log = { type = "jsonl_sink", path = "out.jsonl" }
 """
     run = carav.run(carav.graph(body), "--cycles", "10")
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     lines = read_jsonl(carav.workdir / "out.jsonl")
     assert [(l["seq"], l["cycle"], l["cycles"]) for l in lines] == [(0, 0, 4), (1, 4, 4), (2, 8, 2)]
     assert [row[0] for l in lines for row in l["data"]] == list(range(10))
@@ -81,7 +81,7 @@ def test_slow_consumer_slows_the_producer_and_nothing_is_dropped(carav):
     gaps = []
 
     def sample():
-        st = carav.cli("status", "--json", timeout_s=10)
+        st = carav.cli("status", "--json")
         if st.returncode == 0 and st.stdout.strip().startswith("["):
             for s in json.loads(st.stdout):
                 nodes = s["nodes"]
@@ -90,8 +90,8 @@ def test_slow_consumer_slows_the_producer_and_nothing_is_dropped(carav):
                 if made:
                     gaps.append(made - done)
         return run.proc.poll() is not None or len(gaps) >= 5
-    wait_until(sample, 30, "status samples")
-    assert run.wait(60) == 0, run.stderr()
+    wait_until(sample, "status samples", run)
+    assert run.wait() == 0, run.stderr()
     assert len(read_jsonl(carav.workdir / "out.jsonl")) == n and run.summary()["lost"] == 0
     # 300 frames at >= 10 ms each take >= 3 s; a producer without back-pressure would be done at once.
     # With queues of 2 frames the source stays within a bounded distance of the sink.
@@ -106,7 +106,7 @@ def test_a_slow_tap_never_slows_the_chain_and_what_it_skips_is_counted_skipped_n
     body = LARGE_FRAME_CHAIN.format(edges=', "src.out -> view.inp"', run=f"cycles = {n}", delay=0.0,
                                     blocks='view = { type = "slow_tap", delay_s = 0.02, path = "seen.txt" }')
     run = carav.run(carav.graph(body))
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()
     seen = [int(x) for x in (carav.workdir / "seen.txt").read_text().split()]
     assert len(read_jsonl(carav.workdir / "out.jsonl")) == n and s["lost"] == 0 and s["rejected"] == 0
@@ -130,18 +130,18 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
     swaps = [("tagger_b", ["factor=3.0", "delay_s=0.001"]), ("tagger", ["tag=again", "offset=7", "delay_s=0.001"]),
              ("tagger_b", ["factor=-1"])]
     for i, (block, sets) in enumerate(swaps):
-        wait_until(lambda: len(read_jsonl(out)) > (i + 1) * 500, 30, f"frames before swap {i}")
-        res = carav.cli("swap", "t", block, *sum((["--set", s] for s in sets), []), timeout_s=40)
+        wait_until(lambda: len(read_jsonl(out)) > (i + 1) * 500, f"frames before swap {i}", run)
+        res = carav.cli("swap", "t", block, *sum((["--set", s] for s in sets), []))
         assert res.returncode == 0, res.stderr
         assert f"now {block}" in res.stdout
     refused = carav.cli("swap", "t", "adder")
     assert refused.returncode == 3 and "has no input 'inp'" in refused.stderr
-    wait_until(lambda: len(read_jsonl(out)) > 2500, 30, "frames after the last swap")
+    wait_until(lambda: len(read_jsonl(out)) > 2500, "frames after the last swap", run)
     status = carav.cli("status").stdout                            # the swaps in words, not @1#1
     assert "swap: node t runs block tagger (version 1) from frame seq" in status and "its swap number 2" in status
     assert "frames/s" in status and "cycles/s" in status
     assert carav.cli("stop").returncode == 0
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     lines = read_jsonl(out)
     n = run.summary()["cycles"]
     assert [l["seq"] for l in lines] == list(range(n))          # none lost, duplicated or reordered
@@ -171,11 +171,11 @@ t = { type = "tagger", tag = "first", offset = 0.5 }
     run = carav.run(carav.graph(body), "--cycles", "2000")
     res = None
     for _ in range(200):
-        res = carav.cli("swap", "t", "tagger_b", "--set", "factor=3.0", timeout_s=40)
+        res = carav.cli("swap", "t", "tagger_b", "--set", "factor=3.0")
         if "no running graph" not in res.stderr:
             break
     assert res.returncode == 0 and "now tagger_b" in res.stdout, res.stderr
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()
     assert [sw["block"] for sw in s["swaps"]] == ["tagger_b"] and s["lost"] == 0
 
@@ -193,7 +193,7 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
 
 def test_crashed_block_is_named_with_its_traceback_and_the_run_fails(carav):
     run = carav.run(carav.graph(CRASH % ("", "")))
-    assert run.wait(60) == 1
+    assert run.wait() == 1
     err = run.stderr()
     assert "node 'c' (crasher) failed" in err and "Traceback" in err
     assert "RuntimeError: deliberate crash at seq 50" in err
@@ -203,13 +203,13 @@ def test_crashed_block_is_named_with_its_traceback_and_the_run_fails(carav):
     assert got == list(range(len(got))) and len(got) <= 50
     # c sent seq 0..49 before it raised; whatever did not reach the sink is counted lost on that edge
     assert s["lost_by_edge"].get("c.out -> log.inp", 0) == 50 - len(got)
-    wait_until(lambda: not run.group_alive() or run.proc.poll() is not None, 10, "process group to end")
+    wait_until(lambda: not run.group_alive() or run.proc.poll() is not None, "process group to end", run)
 
 
 def test_crashed_block_restarts_by_policy_and_the_loss_is_accounted(carav):
     marker = carav.workdir / "crashed-once"
     run = carav.run(carav.graph(CRASH % (marker, ', restart = "on-failure"')))
-    code = run.wait(60)
+    code = run.wait()
     err = run.stderr()
     assert "node 'c' (crasher) failed" in err and "restarting 'c' (1/3)" in err
     s = run.summary()
@@ -224,22 +224,22 @@ def test_crashed_block_restarts_by_policy_and_the_loss_is_accounted(carav):
 
 def test_sigint_drains_in_order_and_leaves_no_process_or_endpoint(carav):
     run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 200, 30, "frames to flow")
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 200, "frames to flow", run)
     run_dirs = list(carav.run_root.glob("carav-*/*"))
     assert len(run_dirs) == 1 and oct(run_dirs[0].stat().st_mode & 0o777) == "0o700"
     run.proc.send_signal(signal.SIGINT)
-    assert run.wait(30) == 130, run.stderr()                        # interrupted: drained, but not finished
+    assert run.wait() == 130, run.stderr()                        # interrupted: drained, but not finished
     s = run.summary()
     lines = read_jsonl(carav.workdir / "out.jsonl")
     assert s["lost"] == 0 and s["stopped_by"] == "signal"
     assert [l["seq"] for l in lines] == list(range(s["cycles"]))   # sources stopped first, all drained
     assert not run_dirs[0].exists()
-    wait_until(lambda: not run.group_alive(), 10, "no orphan in the process group")
+    wait_until(lambda: not run.group_alive(), "no orphan in the process group", run)
 
 
 def test_status_and_stop_commands_reach_the_running_graph(carav):
     run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, "frames to flow", run)
     st = carav.cli("status")
     assert st.returncode == 0 and "add" in st.stdout and "tagger" in st.stdout and "/s" in st.stdout
     (admin,) = carav.run_root.glob("carav-*/*/admin")
@@ -255,7 +255,7 @@ def test_status_and_stop_commands_reach_the_running_graph(carav):
     req.close()
     ctx.term()
     assert carav.cli("stop").returncode == 0
-    assert run.wait(30) == 0
+    assert run.wait() == 0
     assert run.summary()["lost"] == 0 and run.summary()["stopped_by"] == "carav stop"
     assert "no running graphs" in carav.cli("status").stdout
 
@@ -269,13 +269,13 @@ def test_a_run_that_cannot_drain_is_killed_at_its_deadline_and_says_where_each_n
     run = carav.run(carav.graph(body))
 
     def blocked():
-        st = carav.cli("status", "--json", timeout_s=10)
+        st = carav.cli("status", "--json")
         if st.returncode != 0 or not st.stdout.strip().startswith("["):
             return False
         return any("queue full" in s["nodes"]["src"]["counters"].get("state", "") for s in json.loads(st.stdout))
-    wait_until(blocked, 30, "the source to block on t's full queue")
+    wait_until(blocked, "the source to block on t's full queue", run)
     assert carav.cli("stop").returncode == 0
-    assert run.wait(60) == 1, run.stderr()
+    assert run.wait() == 1, run.stderr()
     (failure,) = [f for f in run.summary()["failures"] if "drain deadline" in f]
     assert failure.startswith("drain deadline of 2 s passed; killed ['src', 't', 'log']"), failure
     states = dict(line.strip().split(": ", 1) for line in failure.splitlines()[1:])
@@ -296,17 +296,17 @@ def inject_into_t_then_stop(carav, run, bad: list[list]) -> str:
         rogue.send_multipart(parts)
     rogue.close()
     ctx.term()
-    wait_until(lambda: f"rejected frame #{len(bad)}" in run.stderr(), 20, f"{len(bad)} rejections reported")
+    wait_until(lambda: f"rejected frame #{len(bad)}" in run.stderr(), f"{len(bad)} rejections reported", run)
     n_before = len(read_jsonl(carav.workdir / "out.jsonl"))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > n_before + 100, 20, "graph still running")
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > n_before + 100, "graph still running", run)
     assert carav.cli("stop").returncode == 0
-    assert run.wait(30) == 0
+    assert run.wait() == 0
     return run.stderr()
 
 
 def test_bad_messages_are_rejected_counted_and_named_while_the_graph_runs_on(carav):
     run = carav.run(carav.graph(CHAIN.format(cycles=0, delay=0.0)))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, "frames to flow", run)
     bad = [
         [b"\xc1not msgpack"],
         [msgpack.packb({"v": 1, "stream": "x.y", "seq": 10**9, "cycle": 0, "eos": False,
@@ -339,7 +339,7 @@ def test_bad_slot_references_are_rejected_counted_and_named_while_the_graph_runs
     """Over shared memory: headers naming a slot outside the segment, more bytes than a slot holds, a generation
     the slot does not hold, or carrying buffer parts besides are refused with the reason; the graph runs on."""
     run = carav.run(carav.graph(BIG_CHAIN))
-    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, 30, "frames to flow")
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 50, "frames to flow", run)
     head = {"v": 1, "stream": "x.y", "seq": 10**9, "cycle": 0, "eos": False}
     data = [["data", "float64", [64, 1100]]]
     bad = [
@@ -363,6 +363,6 @@ def test_bad_slot_references_are_rejected_counted_and_named_while_the_graph_runs
 
 def test_invalid_graph_starts_nothing_and_names_the_problem(carav):
     run = carav.run(carav.graph(CHAIN.format(cycles=5, delay=0.0).replace('"adder"', '"addr"')))
-    assert run.wait(30) == 3
+    assert run.wait() == 3
     assert "blocks.add.type: unknown block type 'addr'" in run.stderr()
     assert not list(carav.run_root.glob("carav-*/*"))

@@ -9,7 +9,8 @@ import sys
 
 import pytest
 
-from tests.integration.conftest import ROOT, wait_until
+from tests.integration.conftest import ROOT
+from tests.waiting import group_cpu_s, wait_until
 
 pytestmark = pytest.mark.integration
 pytest.importorskip("distributed")
@@ -55,7 +56,7 @@ def kill(proc: subprocess.Popen) -> None:
         os.killpg(proc.pid, signal.SIGKILL)
     except ProcessLookupError:
         pass
-    proc.wait(10)
+    proc.wait()                 # SIGKILL cannot be refused: it ends and is reaped
 
 
 def test_a_worker_killed_mid_study_loses_nothing_and_changes_nothing(carav, tmp_path):
@@ -71,24 +72,28 @@ def test_a_worker_killed_mid_study_loses_nothing_and_changes_nothing(carav, tmp_
             procs.append(start(["worker", address, "--nthreads", "1", "--nworkers", "1", "--no-dashboard",
                                 "--name", f"w{i}", "--host", "127.0.0.1"], env, log))
         from distributed import Client
-        wait_until(lambda: port_open(port), 30, "the scheduler")
-        with Client(address, timeout="30s") as client:
-            client.wait_for_workers(2, timeout=60)
+        cluster_cpu_s = lambda: group_cpu_s(*(p.pid for p in procs))  # noqa: E731
+        wait_until(lambda: port_open(port), "the scheduler", cluster_cpu_s)
+        with Client(address, timeout="300s") as client:      # connecting: generous, the waits below are by progress
+            wait_until(lambda: len(client.scheduler_info()["workers"]) >= 2, "two workers", cluster_cpu_s)
         out = tmp_path / "cluster"
-        run = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "study", str(study), "--scheduler", address,
-                                "--out", str(out), "--quiet"], env=env, cwd=tmp_path, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True, start_new_session=True)
+        with open(tmp_path / "study.out", "w") as run_out, open(tmp_path / "study.err", "w") as run_err:
+            run = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "study", str(study), "--scheduler",
+                                    address, "--out", str(out), "--quiet"], env=env, cwd=tmp_path, stdout=run_out,
+                                   stderr=run_err, stdin=subprocess.DEVNULL, start_new_session=True)
+        study_cpu_s = lambda: cluster_cpu_s() + group_cpu_s(run.pid)  # noqa: E731
         try:
-            wait_until(lambda: len(list((out / "points").glob("*.npz"))) >= 1, 90, "the first finished point")
+            wait_until(lambda: len(list((out / "points").glob("*.npz"))) >= 1, "the first finished point",
+                       study_cpu_s)
             assert len(list((out / "points").glob("*.npz"))) < 9, "the study ended before a worker could be killed"
             kill(procs[1])                                            # worker 0, mid-study, with its nanny
-            stdout, stderr = run.communicate(timeout=180)
+            wait_until(lambda: run.poll() is not None, "the study to end", study_cpu_s)
         finally:
             if run.poll() is None:
                 os.killpg(run.pid, signal.SIGKILL)
+        stdout, stderr = (tmp_path / "study.out").read_text(), (tmp_path / "study.err").read_text()
         assert run.returncode == 0, stderr
-        alone = carav.cli("study", str(study), "--workers", "1", "--out", str(tmp_path / "alone"), "--quiet",
-                          timeout_s=240)
+        alone = carav.cli("study", str(study), "--workers", "1", "--out", str(tmp_path / "alone"), "--quiet")
         assert alone.returncode == 0, alone.stderr
         a = json.loads((out / "study.json").read_text())
         b = json.loads((tmp_path / "alone" / "study.json").read_text())
@@ -99,7 +104,7 @@ def test_a_worker_killed_mid_study_loses_nothing_and_changes_nothing(carav, tmp_
         sweep = ["sweep", "--preset", "table1", "--attack", "random", "--rarms", "1,3", "--trials", "200",
                  "--seed", "4", "--eta", "0.5:3:0.05", "--quiet"]
         for name, extra in (("dask", ["--scheduler", address]), ("threads", [])):
-            done = carav.cli(*sweep, *extra, "--json", str(tmp_path / f"{name}.json"), timeout_s=120)
+            done = carav.cli(*sweep, *extra, "--json", str(tmp_path / f"{name}.json"))
             assert done.returncode == 0, done.stderr
         dask_curves, thread_curves = (json.loads((tmp_path / f"{n}.json").read_text())["curves"]
                                       for n in ("dask", "threads"))
@@ -113,7 +118,7 @@ def test_a_worker_killed_mid_study_loses_nothing_and_changes_nothing(carav, tmp_
 def test_an_interrupted_study_resumes_from_its_points(carav, tmp_path):
     study = tmp_path / "s.toml"
     study.write_text(STUDY.replace("trials = 600", "trials = 100"))
-    first = carav.cli("study", str(study), "--workers", "1", "--out", str(tmp_path / "r"), "--quiet", timeout_s=120)
+    first = carav.cli("study", str(study), "--workers", "1", "--out", str(tmp_path / "r"), "--quiet")
     assert first.returncode == 0, first.stderr
     points = sorted((tmp_path / "r" / "points").glob("*.npz"))
     assert len(points) == 9
@@ -121,7 +126,7 @@ def test_an_interrupted_study_resumes_from_its_points(carav, tmp_path):
         p.unlink()
     kept = {p.name: p.stat().st_mtime_ns for p in points[4:]}
     before = (tmp_path / "r" / "study.json").read_text()
-    again = carav.cli("study", str(study), "--workers", "1", "--out", str(tmp_path / "r"), "--quiet", timeout_s=120)
+    again = carav.cli("study", str(study), "--workers", "1", "--out", str(tmp_path / "r"), "--quiet")
     assert again.returncode == 0, again.stderr
     assert "5 read back" in again.stderr and "4 to draw" in again.stderr
     assert {p: (tmp_path / "r" / "points" / p).stat().st_mtime_ns for p in kept} == kept   # not drawn again

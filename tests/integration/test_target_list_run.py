@@ -12,7 +12,7 @@ pytestmark = pytest.mark.integration
 def test_the_demo_graph_with_a_cfar_list_reports_the_car_in_every_clean_cycle(carav):
     out = carav.workdir / "s.json"
     done = carav.cli("run", str(ROOT / "graphs" / "demo.toml"), "--cycles", "64", "--set", "ranging.detection=ca_cfar",
-                     "--no-progress", "--json", str(out), timeout_s=120)
+                     "--no-progress", "--json", str(out))
     assert done.returncode == 0, done.stderr
     listing = json.loads(out.read_text())["target_list"]
     clean = listing["clean"]
@@ -29,7 +29,7 @@ def test_the_awr1642_car_is_listed_in_every_clean_cycle_only_with_its_range_walk
     out = carav.workdir / "s.json"
     done = carav.cli("run", str(ROOT / "graphs" / "awr1642_smart.toml"), "--cycles", "48", "--set",
                      "ranging.detection=os_cfar", "--set", f"ranging.max_speed_mps={max_speed}", "--no-progress",
-                     "--json", str(out), timeout_s=120)
+                     "--json", str(out))
     assert done.returncode == 0, done.stderr
     s = json.loads(out.read_text())
     clean = s["target_list"]["clean"]

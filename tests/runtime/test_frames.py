@@ -30,6 +30,7 @@ user_headers = st.dictionaries(st.from_regex(r"[a-z][a-z_]{0,10}", fullmatch=Tru
 dtypes = st.sampled_from(sorted(ALLOWED_DTYPES))
 
 
+@pytest.mark.slow
 @settings(max_examples=60)
 @given(dtype=dtypes, shape=hnp.array_shapes(min_dims=0, max_dims=4, min_side=0, max_side=6), header=user_headers,
        seq=st.integers(0, 2**40), data=st.data())

@@ -107,7 +107,10 @@ def test_every_shipped_graph_loads_and_includes_the_radar_chain_unchanged(graph)
 
 def test_the_replay_graph_asks_for_its_recording_and_keeps_detection_ahead_of_ranging():
     assert problems_of(GRAPHS / "replay.toml") == ("replay.toml: blocks.source.path: missing required parameter "
-                                                  "(the recording (BASE, BASE.sigmf-meta or a folder))")
+                                                  "(the recording (BASE, BASE.sigmf-meta or a folder)); the graph is "
+                                                  "a template that leaves it open: give it with --set "
+                                                  "source.path=VALUE")
+    assert load_graph(GRAPHS / "replay.toml", open_ok=True).open_params == ["source.path"]
     chain, replay = load_graph(GRAPHS / "radar_chain.toml"), (GRAPHS / "replay.toml").read_text()
     for edge in chain.edges:   # every edge of the chain from the ADC's frames on, the player in the ADC's place
         if edge.src not in ("source", "channel", "attacker"):
@@ -127,3 +130,41 @@ def test_graph_wide_radar_parameters_are_checked_once_and_must_agree_across_bloc
     assert g.nodes["source"].params["batch"] == 4 and g.params["seed"] == 3
     assert "batch: must be >= 1, got 0" in problems_of(demo, ["batch=0"])
     assert "blocks.detector.eta: must be a finite number, got nan" in problems_of(demo, ["detector.eta=nan"])
+
+
+TEMPLATE = f"""
+block_paths = ["{TOYS}"]
+template = ["log.path"]
+connections = ["src.out -> log.inp"]
+[blocks]
+src = {{ type = "counter_source", n_values = 3 }}
+log = {{ type = "jsonl_sink" }}
+"""
+
+
+def test_a_template_checked_as_one_may_leave_its_listed_parameters_open_and_nothing_else(tmp_path):
+    g = load_graph(write(tmp_path, "t.toml", TEMPLATE), open_ok=True)
+    assert g.open_params == ["log.path"]
+    assert load_graph(tmp_path / "t.toml", ["log.path=out.jsonl"], open_ok=True).open_params == []
+    assert load_graph(tmp_path / "t.toml", ["log.path=out.jsonl"]).nodes["log"].params["path"] == "out.jsonl"
+    # run as it stands, the open parameter is missing, and the message says how to give it
+    (problem,) = problems_of(tmp_path / "t.toml").splitlines()
+    assert problem.startswith("t.toml: blocks.log.path: missing required parameter (")
+    assert problem.endswith("); the graph is a template that leaves it open: give it with --set log.path=VALUE")
+    # a template's other problems are still problems, checked as a template or not
+    with pytest.raises(GraphError) as info:
+        load_graph(write(tmp_path, "t2.toml", TEMPLATE.replace("n_values = 3", "n_values = -3")), open_ok=True)
+    assert info.value.problems == ["t2.toml: blocks.src.n_values: must be >= 1, got -3"]
+
+
+@pytest.mark.parametrize("entry, text", [
+    ('["nosuch.path"]', "t.toml: template: 'nosuch.path': expected NODE.PARAM with one of the nodes ['log', 'src']"),
+    ('["log"]', "t.toml: template: 'log': expected NODE.PARAM with one of the nodes ['log', 'src']"),
+    ('["log.pth"]', "t.toml: template: 'log.pth': block type 'jsonl_sink' has no parameter 'pth'"),
+    ('"log.path"', "t.toml: template: must be a list of strings, got 'log.path'"),
+])
+def test_a_template_names_only_parameters_its_nodes_declare(tmp_path, entry, text):
+    path = write(tmp_path, "t.toml", TEMPLATE.replace('["log.path"]', entry))
+    with pytest.raises(GraphError) as info:
+        load_graph(path, open_ok=True)
+    assert text in "\n".join(info.value.problems)
