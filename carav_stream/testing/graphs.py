@@ -3,15 +3,14 @@ follow progress, per-cycle records, swapping and killing a node, and teardown.
 
     graphs = Graphs(tmp_path)                        # the pytest fixture `carav` gives one, torn down after the test
     run = graphs.run("my_graph.toml", "--cycles", "200", sets={"seed": 3})
-    wait_for(lambda: len(read_jsonl(tmp_path / "verdicts.jsonl")) >= 5, "verdicts",
-             progress=run.progress)                  # the deadline restarts while the graph advances
+    wait_for(lambda: len(read_jsonl(tmp_path / "verdicts.jsonl")) >= 5, "verdicts", run)
     graphs.kill_node("detector")                     # SIGKILL its process (a restart policy brings it back)
     graphs.swap("attacker", "attacker", model="random", rarms=4.0)
     assert run.wait() == 0 and run.summary()["lost"] == 0
 
-A wait never depends on the machine's speed: `wait_for` fails only when nothing it watches has moved for `stall_s`
-(default 120 s), or after the overall cap `cap_s` (default 1800 s), never because a loaded machine is slow. The
-progress a run shows is the CPU time of its process group and the size of the files in its working folder.
+A wait never depends on the machine's speed alone: it follows the CPU time of the runs it waits on
+(carav_stream.testing.waiting), so a loaded machine slows a test and does not fail it, while a graph that stands
+still fails it in about a minute.
 """
 from __future__ import annotations
 
@@ -27,32 +26,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["GraphRun", "Graphs", "wait_for", "read_jsonl", "by_cycle", "node_pids", "STALL_S", "CAP_S"]
+from carav_stream.testing.waiting import group_cpu_s, wait_until
 
-STALL_S = 120.0     # nothing moved for this long: stalled
-CAP_S = 1800.0      # an overall cap, whatever moves
-_TICK = os.sysconf("SC_CLK_TCK")
+__all__ = ["GraphRun", "Graphs", "wait_for", "read_jsonl", "by_cycle", "node_pids"]
 
 
-def wait_for(predicate: Callable[[], Any], what: str, *, progress: Callable[[], Any] | None = None,
-             stall_s: float = STALL_S, cap_s: float = CAP_S, interval_s: float = 0.05) -> Any:
-    """Poll `predicate` until it returns something true (returned). The deadline restarts whenever the predicate's
-    value or `progress()` changes; AssertionError naming `what` after `stall_s` without change, or after `cap_s`."""
-    start = last_change = time.monotonic()
-    seen = None
-    while True:
-        value = predicate()
-        if value:
-            return value
-        now = time.monotonic()
-        state = (repr(value), progress() if progress else None)
-        if state != seen:
-            seen, last_change = state, now
-        if now - last_change > stall_s:
-            raise AssertionError(f"waiting for {what}: nothing moved for {stall_s:.0f} s (last: {state[0][:200]})")
-        if now - start > cap_s:
-            raise AssertionError(f"waiting for {what}: not there after {cap_s:.0f} s, although the graph moved")
-        time.sleep(interval_s)
+
+def wait_for(predicate: Callable[[], Any], what: str, *runs: GraphRun, interval_s: float = 0.05) -> Any:
+    """The predicate's first true value, waiting while `runs` make progress (their processes' CPU time)."""
+    return wait_until(predicate, what, lambda: sum(r.progress() for r in runs), interval_s=interval_s)
 
 
 def read_jsonl(path: str | Path) -> list[dict]:
@@ -83,34 +65,22 @@ def by_cycle(records: list[dict]) -> dict[int, dict]:
 
 
 def node_pids(run_root: Path, node: str = "*") -> list[int]:
-    """The pids of the node processes under a run folder (or of one node), from /proc: a node's command line names
-    its spec file in the run folder (no `carav status` process to start, which is slow on a loaded machine)."""
+    """The pids of the live node processes under a run folder (or of one node), from /proc: a node's command line
+    names its spec file in the run folder (no `carav status` process to start, which is slow on a loaded machine).
+    Zombies (ended, not yet reaped) are left out."""
     specs = {str(p) for p in Path(run_root).glob(f"carav-*/*/{node}.spec")}
     pids = []
     for proc in Path("/proc").iterdir():
         try:
             argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
-        except OSError:
+            zombie = (proc / "stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+        except (OSError, IndexError):       # not a process, or it ended meanwhile
             continue
-        if argv[1:2] == ["-m"] and argv[2:3] in (["carav_stream.node_start"], ["carav_stream.runtime.node"]) \
+        if not zombie and argv[1:2] == ["-m"] and argv[2:3] in (["carav_stream.node_start"],
+                                                                 ["carav_stream.runtime.node"]) \
                 and argv[3:] and argv[3] in specs:
             pids.append(int(proc.name))
     return pids
-
-
-def _group_cpu_ticks(pgid: int) -> int:
-    """utime + stime of the live processes of a process group, in clock ticks."""
-    total = 0
-    for proc in Path("/proc").iterdir():
-        if not proc.name.isdigit():
-            continue
-        try:
-            fields = (proc / "stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[2]) == pgid:
-            total += int(fields[11]) + int(fields[12])
-    return total
 
 
 class GraphRun:
@@ -128,15 +98,13 @@ class GraphRun:
                                      stdin=subprocess.DEVNULL, start_new_session=True)
         self.pgid = self.proc.pid
 
-    def progress(self) -> tuple[int, int]:
-        """What moves while the graph works: its processes' CPU time and the bytes in its working folder."""
-        size = sum(f.stat().st_size for f in self.workdir.iterdir() if f.is_file())
-        return _group_cpu_ticks(self.pgid), size
+    def progress(self) -> float:
+        """CPU seconds used by the run's process group: it rises while the graph works."""
+        return group_cpu_s(self.pgid)
 
-    def wait(self, *, stall_s: float = STALL_S, cap_s: float = CAP_S) -> int:
-        """The exit code of `carav run`, waiting while the run makes progress."""
-        wait_for(lambda: self.proc.poll() is not None, "the run to end", progress=self.progress,
-                 stall_s=stall_s, cap_s=cap_s, interval_s=0.1)
+    def wait(self) -> int:
+        """The exit code, once the run ends; fails when the run stops making progress."""
+        wait_until(lambda: self.proc.poll() is not None, "the run to end", self.progress)
         return self.proc.returncode
 
     def stderr(self) -> str:
@@ -158,14 +126,8 @@ class GraphRun:
 
     def kill(self) -> None:
         """SIGKILL the whole process group (teardown)."""
-        try:
-            os.killpg(self.pgid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        try:
-            self.proc.wait(30)
-        except subprocess.TimeoutExpired:
-            pass
+        _kill_group(self.pgid)
+        self.proc.wait()          # SIGKILL cannot be refused: the direct child ends and is reaped
         self.out.close()
         self.err.close()
 
@@ -195,10 +157,22 @@ class Graphs:
         self.started.append(p)
         return p
 
-    def cli(self, *args: str, timeout_s: float = 600) -> subprocess.CompletedProcess:
-        """A short carav command (status, stop, swap, validate ...) in the same environment."""
-        return subprocess.run([sys.executable, "-m", "carav_stream.cli", *args], env=self.env, cwd=self.workdir,
-                              capture_output=True, text=True, timeout=timeout_s)
+    def cli(self, *args: str) -> subprocess.CompletedProcess:
+        """A short carav command (status, stop, swap, validate ...) in its own process group, waited on by progress
+        (a command that waits on a running graph, swap or stop, has that graph's work as its progress too)."""
+        with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+            proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", *args], env=self.env, cwd=self.workdir,
+                                    stdout=out, stderr=err, stdin=subprocess.DEVNULL, text=True,
+                                    start_new_session=True)
+            try:
+                wait_until(lambda: proc.poll() is not None, f"carav {' '.join(args)}",
+                           lambda: group_cpu_s(proc.pid, *(p.pgid for p in self.started)))
+            finally:
+                _kill_group(proc.pid)
+                proc.wait()
+            out.seek(0)
+            err.seek(0)
+            return subprocess.CompletedProcess(proc.args, proc.returncode, out.read(), err.read())
 
     def graph(self, body: str, name: str = "g.toml", block_paths: list[str | Path] = ()) -> Path:
         """Write a graph file into the working folder (with `block_paths` to find your blocks)."""
@@ -215,7 +189,7 @@ class Graphs:
 
     def kill_node(self, node: str, sig: int = signal.SIGKILL) -> int:
         """Send `sig` to the process of one node of the running graph; returns its pid."""
-        pids = wait_for(lambda: node_pids(self.run_root, node), f"the process of node {node}")
+        pids = wait_for(lambda: node_pids(self.run_root, node), f"the process of node {node}", *self.started)
         assert len(pids) == 1, f"node {node}: {len(pids)} processes {pids}"
         os.kill(pids[0], sig)
         return pids[0]
@@ -224,6 +198,13 @@ class Graphs:
         for p in self.started:
             p.kill()
         shutil.rmtree(self.run_root, ignore_errors=True)
+
+
+def _kill_group(pgid: int) -> None:
+    try:
+        os.killpg(pgid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
 
 
 def _toml(value: Any) -> str:

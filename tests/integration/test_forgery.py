@@ -40,12 +40,12 @@ def push(carav, port: str, messages: list[list]) -> None:
     ctx.term()
 
 
-def advancing(path: Path, what: str, more: int = 20) -> None:
+def advancing(carav, path: Path, what: str, more: int = 20) -> None:
     """Wait until `path` (a jsonl sink's file) holds `more` lines more than now; the deadline restarts while
     it grows (a busy machine slows the graph, a stalled graph stops it)."""
     goal = len(read_jsonl(path)) + more
     while (n := len(read_jsonl(path))) < goal:
-        wait_until(lambda: len(read_jsonl(path)) > n, 30, f"{what} ({path.name} stuck at {n} lines)")
+        wait_until(lambda: len(read_jsonl(path)) > n, f"{what} ({path.name} stuck at {n} lines)", *carav.started)
 
 
 def cycles_of(record: dict) -> list[int]:
@@ -56,13 +56,13 @@ def cycles_of(record: dict) -> list[int]:
 def last_seq_taken(carav, node: str) -> int:
     """The last seq `node` took on its input, from its last heartbeat (`carav status`)."""
     def state():
-        st = carav.cli("status", "--json", timeout_s=30)
+        st = carav.cli("status", "--json")
         if st.returncode != 0 or not st.stdout.strip().startswith("["):
             return None
         (run,) = json.loads(st.stdout)
         found = re.search(r"last seq (\d+)", run["nodes"][node]["counters"].get("state", ""))
         return found and int(found.group(1))
-    return wait_until(state, 30, f"{node}'s last seq in carav status")
+    return wait_until(state, f"{node}'s last seq in carav status", *carav.started)
 
 
 def header(seq: int, **fields) -> dict:
@@ -74,7 +74,7 @@ def header(seq: int, **fields) -> dict:
 def test_forged_seq_end_of_stream_cycles_and_resume_are_refused_and_the_graph_runs_on(carav):
     out = carav.workdir / "out.jsonl"
     run = carav.run(carav.graph(CHAIN), "--cycles", "0")
-    advancing(out, "frames to flow", more=5)
+    advancing(carav, out, "frames to flow", more=5)
     # Every forgery comes from this test's process, so the node refuses it for its sender before it reads a field
     # (tests/runtime/test_forged_headers.py checks each field's own reason, as a producer's message would meet it).
     forgeries = [   # (what, the message)
@@ -90,12 +90,12 @@ def test_forged_seq_end_of_stream_cycles_and_resume_are_refused_and_the_graph_ru
     for i, (what, build) in enumerate(forgeries, 1):
         last = last_seq_taken(carav, "t")
         push(carav, "t.inp", [build(last)])
-        wait_until(lambda: f"rejected frame #{i}: " in run.stderr(), 60, f"{what} to be refused")
+        wait_until(lambda: f"rejected frame #{i}: " in run.stderr(), f"{what} to be refused", *carav.started)
         line = next(l for l in run.stderr().splitlines() if f"rejected frame #{i}: " in l)
         assert reason in line, (what, line)
-        advancing(out, f"the graph to keep running after {what}", more=5)
+        advancing(carav, out, f"the graph to keep running after {what}", more=5)
     assert carav.cli("stop").returncode == 0
-    assert run.wait(60) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()
     assert s["lost"] == 0 and not s["failures"], (s["lost_by_edge"], s["failures"])
     assert s["rejected"] == len(forgeries) and s["per_node"]["t"]["rejected"] == {"inp": len(forgeries)}
@@ -112,8 +112,8 @@ def test_forged_clean_verdicts_never_let_an_attacked_cycle_reach_ranging(carav):
     verdicts = carav.workdir / "verdicts.jsonl"
     run = carav.run(TAPS / "radar_taps.toml", "--cycles", "0", "--set", "attacker.model='smart'",
                     "--set", "attacker.rarms=3.0", "--set", "attacker.start_cycle=0", "--set", "batch=16")
-    wait_until(lambda: read_jsonl(verdicts), 180, "the radar graph to start (14 processes importing numpy)")
-    advancing(verdicts, "verdicts to flow", more=3)
+    wait_until(lambda: read_jsonl(verdicts), "the radar graph to start (14 processes importing numpy)", *carav.started)
+    advancing(carav, verdicts, "verdicts to flow", more=3)
     real = read_jsonl(verdicts)[-1]
     n, n_chirps = real["cycles"], len(real["data"][0])
     forged = [encode(Frame.of(np.ones((n, n_chirps), bool), eta=1.5, per_cycle={
@@ -124,9 +124,9 @@ def test_forged_clean_verdicts_never_let_an_attacked_cycle_reach_ranging(carav):
     push(carav, "gate.verdict", forged)        # returns once the gate's input holds them (linger)
     # the gate reads its verdict input fairly from both senders: 40 frames more out of the gate (alarms and the
     # cycles it passed, both in judged.jsonl) and it has read every forged one
-    advancing(carav.workdir / "judged.jsonl", "the gate to keep judging after the forged verdicts", more=40)
+    advancing(carav, carav.workdir / "judged.jsonl", "the gate to keep judging after the forged verdicts", more=40)
     assert carav.cli("stop").returncode == 0
-    assert run.wait(120) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     s = run.summary()                          # a node prints its first refusals; its counters count them all
     refusals = [l for l in run.stderr().splitlines() if "node 'gate' input 'verdict': rejected frame #" in l]
     assert refusals and all("not by this input's producer" in l for l in refusals), refusals

@@ -11,6 +11,7 @@ import pytest
 from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.graph import TRANSPORTS
+from carav_stream.testing.graphs import node_pids
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
@@ -274,18 +275,7 @@ def test_a_killed_supervisor_takes_its_nodes_and_leaves_nothing_behind(carav):
 
 
 def _node_pids(carav, node: str = "*") -> list[int]:
-    """The pids of the run's node processes (or of one node), from /proc: a node's command line names its spec
-    file in the run folder. No `carav status` process to start, which takes seconds on a loaded machine."""
-    specs = {str(p) for p in carav.run_root.glob(f"carav-*/*/{node}.spec")}
-    pids = []
-    for proc in Path("/proc").iterdir():
-        try:
-            argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
-        except OSError:                     # not a process, or it ended meanwhile
-            continue
-        if argv[1:3] == ["-m", "carav_stream.node_start"] and argv[3:] and argv[3] in specs:
-            pids.append(int(proc.name))
-    return pids
+    return node_pids(carav.run_root, node)
 
 
 def _segments_held_by(pids: list[int]) -> int:

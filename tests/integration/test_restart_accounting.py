@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from carav_stream.testing.graphs import node_pids
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
@@ -32,31 +33,21 @@ STALE_FRAMES = 120     # what a killed node may have done after its last heartbe
 
 
 def node_pid(carav, node: str) -> int | None:
-    """The pid of the one live process of `node` (its command line names its spec file in the run folder)."""
-    specs = {str(p) for p in carav.run_root.glob(f"carav-*/*/{node}.spec")}
-    pids = []
-    for proc in Path("/proc").iterdir():
-        try:
-            argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")[:-1]
-            if (proc / "stat").read_text().rsplit(")", 1)[1].split()[0] == "Z":
-                continue
-        except (OSError, IndexError):       # not a process, or it ended meanwhile
-            continue
-        if argv[3:] and argv[1] == "-m" and argv[3] in specs:
-            pids.append(int(proc.name))
+    """The pid of the one live process of `node`."""
+    pids = node_pids(carav.run_root, node)
     return pids[0] if len(pids) == 1 else None
 
 
 def kill_and_wait_for_restart(carav, run, node: str, n: int) -> None:
-    os.kill(int(wait_until(lambda: node_pid(carav, node), 30, f"{node}'s pid")), signal.SIGKILL)
-    wait_until(lambda: f"restarting {node!r} ({n}/5)" in run.stderr(), 60, f"the supervisor to restart {node}")
+    os.kill(int(wait_until(lambda: node_pid(carav, node), f"{node}'s pid", run)), signal.SIGKILL)
+    wait_until(lambda: f"restarting {node!r} ({n}/5)" in run.stderr(), f"the supervisor to restart {node}", run)
 
 
-def grow(path: Path, more_than: int, what: str) -> int:
+def grow(run, path: Path, more_than: int, what: str) -> int:
     """Wait while the sink's file grows (a deadline that restarts with every new line) until it has more lines."""
     last, n = -1, 0
     while n <= more_than:
-        n = wait_until(lambda: (k := len(read_jsonl(path))) > last and k, 30, what)
+        n = wait_until(lambda: (k := len(read_jsonl(path))) > last and k, what, run)
         last = n
     return n
 
@@ -65,14 +56,14 @@ def test_a_restarted_source_counts_each_cycle_once_in_the_summary_and_status(car
     run = carav.run(carav.graph(CHAIN))
     out = carav.workdir / "out.jsonl"
     for i in (1, 2):
-        n = grow(out, 300 * i, "frames before killing the source")
+        n = grow(run, out, 300 * i, "frames before killing the source")
         kill_and_wait_for_restart(carav, run, "src", i)
-    grow(out, n + 200, "frames after the restarts")
+    grow(run, out, n + 200, "frames after the restarts")
     status = carav.cli("status", "--json")
     assert status.returncode == 0, status.stderr
     [live] = json.loads(status.stdout)
     assert carav.cli("stop").returncode == 0
-    run.wait(60)
+    run.wait()
     s = run.summary()
     lines = read_jsonl(out)
     seqs = [line["seq"] for line in lines]
@@ -90,14 +81,14 @@ def test_a_restarted_source_counts_each_cycle_once_in_the_summary_and_status(car
 def test_restarted_jsonl_and_csv_sinks_append_and_keep_every_line_they_wrote(carav):
     run = carav.run(carav.graph(CHAIN))
     out, table = carav.workdir / "out.jsonl", carav.workdir / "out.csv"
-    grow(out, 150, "frames before killing the sinks")
+    grow(run, out, 150, "frames before killing the sinks")
     before = read_jsonl(out)
     rows_before = list(csv.reader(table.open()))
     kill_and_wait_for_restart(carav, run, "log", 1)
     kill_and_wait_for_restart(carav, run, "csv", 1)
-    grow(out, len(before) + 150, "frames after the sinks' restarts")
+    grow(run, out, len(before) + 150, "frames after the sinks' restarts")
     assert carav.cli("stop").returncode == 0
-    run.wait(60)
+    run.wait()
     s = run.summary()
     lines = read_jsonl(out)
     rows = list(csv.reader(table.open()))

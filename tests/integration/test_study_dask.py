@@ -9,8 +9,8 @@ import sys
 
 import pytest
 
+from carav_stream.testing.waiting import group_cpu_s, wait_until
 from tests.integration.conftest import ROOT
-from tests.waiting import group_cpu_s, wait_until
 
 pytestmark = pytest.mark.integration
 pytest.importorskip("distributed")

@@ -24,7 +24,6 @@ src = { type = "counter_source" }
 t = { type = "tagger", delay_s = 0.005 }
 log = { type = "jsonl_sink", path = "out.jsonl" }
 """
-GONE_S = 30     # generous: a node dies at once with its supervisor, or as soon as its interpreter starts
 
 
 def run_processes(root: Path) -> dict[int, str]:
@@ -55,19 +54,19 @@ def test_no_node_outlives_a_supervisor_killed_while_nodes_start_or_restart(carav
         run = carav.run(graph)
         if moment == "start-up":
             # from the first spawn (its spec written) to about when every node has imported and said ready
-            wait_until(lambda: list(carav.run_root.glob("carav-*/*/*.spec")), 60, "the first node to be spawned")
+            wait_until(lambda: list(carav.run_root.glob("carav-*/*/*.spec")), "the first node to be spawned", run)
         else:
-            wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 5 * (i + 1), 60, "frames to flow")
-            os.kill(int(wait_until(lambda: node_pid(carav.run_root, "t"), 30, "t's pid")), signal.SIGKILL)
-            wait_until(lambda: "restarting 't'" in run.stderr(), 60, "the supervisor to restart t")
+            wait_until(lambda: len(read_jsonl(carav.workdir / "out.jsonl")) > 5 * (i + 1), "frames to flow", run)
+            os.kill(int(wait_until(lambda: node_pid(carav.run_root, "t"), "t's pid", run)), signal.SIGKILL)
+            wait_until(lambda: "restarting 't'" in run.stderr(), "the supervisor to restart t", run)
         # the moment of the kill, drawn at random (not a wait for work): before, during or after the imports of
         # the nodes being started
         time.sleep(rng.uniform(0.0, 1.2))
         os.kill(run.proc.pid, signal.SIGKILL)
         run.proc.wait(10)
         try:
-            wait_until(lambda: not run_processes(carav.run_root), GONE_S,
-                       f"every node to die with its supervisor (kill {i + 1} at {moment})")
+            wait_until(lambda: not run_processes(carav.run_root),
+                       f"every node to die with its supervisor (kill {i + 1} at {moment})", run)
         except AssertionError as exc:
             raise AssertionError(f"{exc}; still alive: {run_processes(carav.run_root)}") from None
         run.kill()

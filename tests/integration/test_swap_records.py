@@ -21,10 +21,10 @@ def status_of(carav) -> dict:
 
 def test_applied_and_refused_swaps_are_named_with_their_model_in_reply_status_and_summary(carav):
     run = carav.run(TAPS, "--cycles", "0", "--set", "batch=4")
-    wait_until(lambda: status_of(carav).get("cycles", 0) > 40, 90, "cycles before the swaps")
-    refused = carav.cli("swap", "attacker", "attacker", "--set", "model=smart", "--set", "rarms=-3", timeout_s=60)
+    wait_until(lambda: status_of(carav).get("cycles", 0) > 40, "cycles before the swaps", *carav.started)
+    refused = carav.cli("swap", "attacker", "attacker", "--set", "model=smart", "--set", "rarms=-3")
     assert refused.returncode == 3 and "rarms" in refused.stderr, refused.stderr
-    done = carav.cli("swap", "attacker", "attacker", "--set", "model=smart", "--set", "rarms=3", timeout_s=60)
+    done = carav.cli("swap", "attacker", "attacker", "--set", "model=smart", "--set", "rarms=3")
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith("attacker: now attacker@1#1 (smart, rarms=3) from seq "), done.stdout
     s = status_of(carav)
@@ -35,7 +35,7 @@ def test_applied_and_refused_swaps_are_named_with_their_model_in_reply_status_an
     assert "swap: node attacker runs block attacker (version 1) (smart, rarms=3) from frame seq" in text, text
     assert "swap refused: node attacker to block attacker (smart, rarms=-3) at " in text, text
     assert carav.cli("stop").returncode == 0
-    assert run.wait(90) == 0, run.stderr()
+    assert run.wait() == 0, run.stderr()
     summary = run.summary()
     assert summary["swaps"] == [applied] and summary["refused_swaps"] == [no]
     assert "swap refused: node attacker to block attacker (smart, rarms=-3) at " in run.stdout()

@@ -1,10 +1,11 @@
-"""The integration tests' wait (tests/waiting.py): it waits while the work progresses and fails when it stands still."""
+"""The test kit's wait (carav_stream/testing/waiting.py): it waits while the work progresses and fails when it
+stands still."""
 import os
 import time
 
 import pytest
 
-from tests.waiting import group_cpu_s, wait_until
+from carav_stream.testing.waiting import group_cpu_s, wait_until
 
 
 def test_a_wait_outlasts_its_stall_time_while_progress_rises_and_returns_the_predicate_s_value():

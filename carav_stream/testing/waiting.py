@@ -11,7 +11,7 @@ waited for; one that stands still fails in about `stall_s`; one that spins witho
 uses far less than `min_step` (0.5 CPU-s) in `stall_s` (60 s); a loaded machine still gives a working graph CPU
 time, only less of it per second, so its deadline keeps restarting.
 
-Self-contained (standard library, Linux /proc), so a package of test helpers can take it as it is.
+Standard library and Linux /proc only.
 """
 from __future__ import annotations
 
