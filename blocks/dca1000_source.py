@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from carav_stream.capture.activation_log import ActivationLogError, pattern_rho, read_log
-from carav_stream.capture.dca1000 import ENCODINGS, Layout, complete_cycles, read_cycles
+from carav_stream.capture.dca1000 import CAPTURE_PARAMS, Layout, complete_cycles, read_cycles
 from carav_stream.capture.inspect import layout_warnings
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, Out, Param
@@ -37,12 +37,7 @@ class Dca1000Source(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="one receiver's ADC codes per cycle"),
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
     params = (Param("path", str, doc="DCA1000 .bin capture", file=True),
-              Param("activation", str, "", "activation log of the capture ('' = use pattern)", file=True),
-              Param("pattern", str, "", "fixed activation pattern of every cycle, n_chirps digits 0 | 1"),
-              Param("n_rx", int, 4, "receivers enabled in the capture", low=1, high=4),
-              Param("rx", int, 0, "receiver to process", low=0, high=3),
-              Param("lanes", int, 2, "LVDS lanes: 2 (xWR16xx/18xx/68xx) or 4 (xWR12xx/14xx)", choices=(2, 4)),
-              Param("encoding", str, "twos_complement", "how the words hold the codes", choices=ENCODINGS),
+              *CAPTURE_PARAMS,
               SCENE,
               Param("batch", int, 16, "cycles per frame", low=1, high=4096))
 

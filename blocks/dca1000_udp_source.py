@@ -27,7 +27,7 @@ import ipaddress
 import numpy as np
 
 from carav_stream.capture.activation_log import ActivationLogError, pattern_rho, read_log
-from carav_stream.capture.dca1000 import ENCODINGS, Layout, decode
+from carav_stream.capture.dca1000 import CAPTURE_PARAMS, Layout, decode
 from carav_stream.capture.dca1000_udp import DATA_PORT, REASONS, Reassembler, UdpReceiver
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, Out, Param
@@ -38,12 +38,7 @@ class Dca1000UdpSource(Block):
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
     params = (Param("address", str, "127.0.0.1", "address to receive on (the host's address on the card's link)"),
               Param("port", int, DATA_PORT, "UDP data port", low=1, high=65535),
-              Param("activation", str, "", "activation log of the capture ('' = use pattern)", file=True),
-              Param("pattern", str, "", "fixed activation pattern of every cycle, n_chirps digits 0 | 1"),
-              Param("n_rx", int, 4, "receivers enabled in the capture", low=1, high=4),
-              Param("rx", int, 0, "receiver to process", low=0, high=3),
-              Param("lanes", int, 2, "LVDS lanes: 2 (xWR16xx/18xx/68xx) or 4 (xWR12xx/14xx)", choices=(2, 4)),
-              Param("encoding", str, "twos_complement", "how the words hold the codes", choices=ENCODINGS),
+              *CAPTURE_PARAMS,
               Param("idle_timeout_s", float, 5.0, "the stream ends after this long without a packet", unit="s",
                     low=0.0, strict=True),
               SCENE,

@@ -35,8 +35,21 @@ from pathlib import Path
 
 import numpy as np
 
+from carav_stream.core.params import Param
+
 LANES = (2, 4)                                     # xWR16xx/18xx/68xx: 2 LVDS lanes; xWR12xx/14xx: 4
 ENCODINGS = ("twos_complement", "offset_binary")
+
+# What a DCA1000 capture's layout and activation take, the same for a file (dca1000_source) and the live stream
+# (dca1000_udp_source): one declaration for both blocks.
+CAPTURE_PARAMS = (
+    Param("activation", str, "", "activation log of the capture ('' = use pattern)", file=True),
+    Param("pattern", str, "", "fixed activation pattern of every cycle, n_chirps digits 0 | 1"),
+    Param("n_rx", int, 4, "receivers enabled in the capture", low=1, high=4),
+    Param("rx", int, 0, "receiver to process", low=0, high=3),
+    Param("lanes", int, 2, "LVDS lanes: 2 (xWR16xx/18xx/68xx) or 4 (xWR12xx/14xx)", choices=(2, 4)),
+    Param("encoding", str, "twos_complement", "how the words hold the codes", choices=ENCODINGS),
+)
 
 
 @dataclass(frozen=True)

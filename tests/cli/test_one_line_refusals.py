@@ -8,15 +8,10 @@ import pytest
 
 from carav_stream.cli import main as carav
 from carav_stream.console.errors import Exit
+from tests.cli.test_errors import error_of
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = str(ROOT / "graphs" / "demo.toml")
-
-
-def error_of(capsys) -> str:
-    err = capsys.readouterr().err
-    assert "Traceback" not in err, err
-    return err
 
 
 @pytest.mark.parametrize("setting, text", [

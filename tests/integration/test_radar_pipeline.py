@@ -11,7 +11,7 @@ import pytest
 from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.graph import TRANSPORTS
-from carav_stream.testing.graphs import node_pids
+from carav_stream.testing.graphs import by_cycle, node_pids
 from tests.integration.conftest import read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
@@ -26,18 +26,6 @@ def radar(carav, cycles: int, graph: str = "radar_taps.toml", *, seed: int = 21,
     sets = [f"seed={seed}", f"fidelity={fidelity}", f"batch={batch}",
             *(f"attacker.{k}={v!r}" if isinstance(v, str) else f"attacker.{k}={v}" for k, v in attacker.items())]
     return carav.run(TAPS / graph, "--cycles", str(cycles), *sum((["--set", s] for s in sets), []))
-
-
-def by_cycle(records: list[dict]) -> dict[int, dict]:
-    """{cycle: that cycle's record}: the frame's header with its per_cycle values for the cycle (and port)."""
-    out = {}
-    for r in records:
-        per = r.get("per_cycle") or {}
-        index = per.get("cycle_index", list(range(r["cycle"], r["cycle"] + r.get("cycles", 1))))
-        for i, c in enumerate(index):
-            assert c not in out, f"cycle {c} recorded twice"
-            out[c] = {**{k: v for k, v in r.items() if k != "per_cycle"}, **{k: v[i] for k, v in per.items()}}
-    return out
 
 
 def assert_equals_the_library(carav, run, lib, n: int, batch: int = 16) -> dict:
