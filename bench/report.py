@@ -73,6 +73,33 @@ def transport_table(doc: dict) -> list[str]:
     return lines
 
 
+def udp_rows(doc: dict) -> list[Row]:
+    """The live DCA1000 receiver: every packet the replayer sent at and above the AWR1642's data rate arrived, and
+    no cycle was damaged; unpaced, what it could take (damaged cycles there are refused, never judged)."""
+    rows = []
+    for r in doc["records"]:
+        if r["case"] == "replayer":
+            rows.append(("the replayer alone (loopback, unpaced)", f"{r['packets_per_s']:.0f} packets/s, "
+                         f"{r['mb_per_s']:.1f} MB/s", "(reported: the load it can offer)", "-"))
+            continue
+        paced = r.get("rate_multiple")
+        what = (f"receiver at {paced} x the AWR1642's data rate" if paced else "receiver, replayer unpaced") + \
+            f" ({r['offered_mb_per_s']:.1f} MB/s offered)"
+        got = (f"{r['packets_received']} of {r['packets_sent']} packets, {r['damaged_cycles']} of "
+               f"{r['cycles_sent']} cycles damaged")
+        if paced:
+            met = r["packets_lost"] == 0 and r["damaged_cycles"] == 0
+            rows.append((what, got, "every packet, no cycle damaged", "yes" if met else "NO"))
+        else:
+            rows.append((what, got, "(reported: above the radar's rate; damaged cycles are refused)", "-"))
+    return rows
+
+
+def udp_table(doc: dict) -> list[str]:
+    return ["| case | measured | target | met |", "|---|---|---|---|",
+            *(f"| {' | '.join(row)} |" for row in udp_rows(doc))]
+
+
 def zerocopy_rows(doc: dict) -> list[Row]:
     rows = []
     for r in doc["records"]:
@@ -385,6 +412,7 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], l
     "soak": ("Soak: the demo graph for minutes with live swaps", soak_rows, soak_table),
     "study": ("Studies on Dask: scaling over local workers", study_rows, study_table),
     "view": ("Live view: what watching costs the chain", view_rows, view_table),
+    "dca1000_udp": ("Live capture: the DCA1000 UDP receiver against the AWR1642's data rate", udp_rows, udp_table),
 }
 # Evaluations whose benchmark is not in the tree: their records stay, rendered with this note beside the command.
 RECORDED_ONLY = {"zerocopy": "a recorded evaluation (iceoryx2 against the standard library's shared memory); its "
