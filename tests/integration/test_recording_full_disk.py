@@ -24,7 +24,7 @@ def small_disk(tmp_path):
 def test_carav_record_on_a_full_disk_fails_in_one_line_naming_the_file(carav, small_disk):
     out = small_disk / "rec"
     done = carav.cli("record", str(ROOT / "graphs" / "demo.toml"), "--out", str(out), "--cycles", "64",
-                     "--no-progress", timeout_s=120)
+                     "--no-progress")
     assert done.returncode == 1, done.stderr
     assert "Traceback" not in done.stderr and "Traceback" not in done.stdout, done.stderr
     line = (f"carav: node 'recorder' (sigmf_sink) failed: exited with status 1: BlockError: "
