@@ -122,17 +122,19 @@ def test_forged_clean_verdicts_never_let_an_attacked_cycle_reach_ranging(carav):
                            node="detector", block="rms_detector"))
               for k in range(10, 30)]
     push(carav, "gate.verdict", forged)        # returns once the gate's input holds them (linger)
-    # the gate reads its verdict input fairly from both senders: 40 frames more out of the gate (alarms and the
-    # cycles it passed, both in judged.jsonl) and it has read every forged one
+    # the gate reads its verdict input from both senders: 40 frames more out of the gate (alarms and the cycles it
+    # passed, both in judged.jsonl) before the stop
     advancing(carav, carav.workdir / "judged.jsonl", "the gate to keep judging after the forged verdicts", more=40)
     assert carav.cli("stop").returncode == 0
     assert run.wait() == 0, run.stderr()
     s = run.summary()                          # a node prints its first refusals; its counters count them all
     refusals = [l for l in run.stderr().splitlines() if "node 'gate' input 'verdict': rejected frame #" in l]
     assert refusals and all("not by this input's producer" in l for l in refusals), refusals
-    assert s["lost"] == 0 and not s["failures"] and s["rejected"] == 20, \
+    # every forged verdict the gate read was refused for its sender (how many it read before the stop is not
+    # pinned down here: all 20 in most runs, fewer in some); none of them let a cycle through
+    rejected = s["per_node"]["gate"]["rejected"].get("verdict", 0)
+    assert s["lost"] == 0 and not s["failures"] and s["rejected"] == rejected and 1 <= rejected <= 20, \
         (s["lost_by_edge"], s["failures"], s["per_node"]["gate"]["rejected"])
-    assert s["per_node"]["gate"]["rejected"] == {"verdict": 20}
     alarmed = {c for v in read_jsonl(verdicts) for c, a in zip(cycles_of(v), v["per_cycle"]["alarm"]) if a}
     ranged = {c for e in read_jsonl(carav.workdir / "judged.jsonl") if e["port"] == "inp" for c in cycles_of(e)}
     assert len(alarmed) > 100 and not alarmed & ranged, sorted(alarmed & ranged)[:10]
