@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from carav_stream.capture.activation_log import ActivationLogError, pattern_rho, read_log
-from carav_stream.capture.dca1000 import CAPTURE_PARAMS, Layout, complete_cycles, read_cycles
+from carav_stream.capture.activation_log import capture_activation
+from carav_stream.capture.dca1000 import CAPTURE_PARAMS, capture_layout, complete_cycles, read_cycles
 from carav_stream.capture.inspect import layout_warnings
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, Out, Param
@@ -43,24 +43,14 @@ class Dca1000Source(Block):
 
     def check_params(self) -> None:
         scene = scene_of(self.scene)
-        if self.rx >= self.n_rx:
-            raise ValueError(f"rx: receiver {self.rx} is not among the capture's n_rx = {self.n_rx}")
-        self.layout = Layout(self.n_rx, scene.n_samples, scene.n_chirps, scene.iq,
-                             scene.adc_bits if scene.adc_bits in (12, 14) else 16, self.lanes, self.encoding)
+        self.layout = capture_layout(scene, self.n_rx, self.rx, self.lanes, self.encoding)
         if not Path(self.path).is_file():
             raise ValueError(f"path: {self.path}: capture file not found")
         self.cycles, self.left = complete_cycles(self.path, self.layout)
-        if bool(self.activation) == bool(self.pattern):
-            raise ValueError("activation, pattern: give exactly one (an activation log, or the fixed pattern of "
-                             "the radar's profile)")
-        if self.pattern:
-            rho = pattern_rho(self.pattern, scene.n_chirps)
-            self.log_cycles, self.rho = np.arange(self.cycles), np.tile(rho, (self.cycles, 1))
+        fixed, self.log_cycles, self.rho = capture_activation(self.activation, self.pattern, scene.n_chirps)
+        if fixed is not None:
+            self.log_cycles, self.rho = np.arange(self.cycles), np.tile(fixed, (self.cycles, 1))
             return
-        try:
-            self.log_cycles, self.rho = read_log(self.activation, scene.n_chirps)
-        except ActivationLogError as exc:
-            raise ValueError(f"activation: {exc}") from None
         if len(self.log_cycles) < self.cycles:
             raise ValueError(f"activation: {self.activation}: {len(self.log_cycles)} cycles, shorter than the "
                              f"capture's {self.cycles} whole cycles ({self.path})")

@@ -26,8 +26,8 @@ import ipaddress
 
 import numpy as np
 
-from carav_stream.capture.activation_log import ActivationLogError, pattern_rho, read_log
-from carav_stream.capture.dca1000 import CAPTURE_PARAMS, Layout, decode
+from carav_stream.capture.activation_log import capture_activation
+from carav_stream.capture.dca1000 import CAPTURE_PARAMS, capture_layout, decode
 from carav_stream.capture.dca1000_udp import DATA_PORT, REASONS, Reassembler, UdpReceiver
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, Out, Param
@@ -46,25 +46,14 @@ class Dca1000UdpSource(Block):
 
     def check_params(self) -> None:
         scene = scene_of(self.scene)
-        if self.rx >= self.n_rx:
-            raise ValueError(f"rx: receiver {self.rx} is not among the capture's n_rx = {self.n_rx}")
+        self.layout = capture_layout(scene, self.n_rx, self.rx, self.lanes, self.encoding)
         try:
             ipaddress.ip_address(self.address)
         except ValueError:
             raise ValueError(f"address: {self.address!r} is not an IP address") from None
-        self.layout = Layout(self.n_rx, scene.n_samples, scene.n_chirps, scene.iq,
-                             scene.adc_bits if scene.adc_bits in (12, 14) else 16, self.lanes, self.encoding)
-        if bool(self.activation) == bool(self.pattern):
-            raise ValueError("activation, pattern: give exactly one (an activation log, or the fixed pattern of "
-                             "the radar's profile)")
-        self.fixed, self.log_rho = None, None
-        if self.pattern:
-            self.fixed = pattern_rho(self.pattern, scene.n_chirps)
+        self.fixed, cycles, self.log_rho = capture_activation(self.activation, self.pattern, scene.n_chirps)
+        if self.fixed is not None:
             return
-        try:
-            cycles, self.log_rho = read_log(self.activation, scene.n_chirps)
-        except ActivationLogError as exc:
-            raise ValueError(f"activation: {exc}") from None
         if np.any(cycles != np.arange(len(cycles))):
             raise ValueError(f"activation: {self.activation}: a capture's log lists cycles 0, 1, 2, ... in order")
 

@@ -87,3 +87,19 @@ def pattern_rho(pattern: str, n_chirps: int) -> np.ndarray:
         raise ValueError(f"pattern: expected {n_chirps} digits 0 or 1 (the scene's n_chirps), got {pattern[:40]!r}"
                          f" ({len(pattern)} characters)")
     return np.frombuffer(pattern.encode(), np.uint8) == ord("1")
+
+
+def capture_activation(log: str, pattern: str, n_chirps: int) -> tuple[np.ndarray | None, np.ndarray | None,
+                                                                       np.ndarray | None]:
+    """A capture's activation from exactly one of an activation log or a fixed pattern (CAPTURE_PARAMS): (the
+    pattern's row, None, None) or (None, the log's cycles, its rows). ValueError naming the parameter otherwise."""
+    if bool(log) == bool(pattern):
+        raise ValueError("activation, pattern: give exactly one (an activation log, or the fixed pattern of "
+                         "the radar's profile)")
+    if pattern:
+        return pattern_rho(pattern, n_chirps), None, None
+    try:
+        cycles, rho = read_log(log, n_chirps)
+    except ActivationLogError as exc:
+        raise ValueError(f"activation: {exc}") from None
+    return None, cycles, rho

@@ -94,6 +94,15 @@ class Layout:
                 f"{self.encoding.replace('_', ' ')}")
 
 
+def capture_layout(scene, n_rx: int, rx: int, lanes: int, encoding: str) -> Layout:
+    """The Layout of a scene's capture with the CAPTURE_PARAMS values; ValueError when receiver `rx` is not among
+    the capture's n_rx. Codes wider than 14 bits are read as 16."""
+    if rx >= n_rx:
+        raise ValueError(f"rx: receiver {rx} is not among the capture's n_rx = {n_rx}")
+    return Layout(n_rx, scene.n_samples, scene.n_chirps, scene.iq,
+                  scene.adc_bits if scene.adc_bits in (12, 14) else 16, lanes, encoding)
+
+
 def signed_codes(words: np.ndarray, adc_bits: int, encoding: str) -> np.ndarray:
     """The ADC's codes as int16 from the file's words (int16, any shape): offset binary's top bit inverted back,
     a 12- or 14-bit code's sign extended."""
