@@ -27,7 +27,7 @@ from carav_stream.cli.view import view_graph
 from carav_stream.console.options import count, output_file
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.supervisor import Supervisor
-from carav_stream.view.server import free_port
+from carav_stream.view.server import free_port, new_token, page_url
 
 PRESET, FIDELITY = "table1", "beat"
 TARGET = 0.9          # the view node, no page open: at least this fraction of the graph's own rate
@@ -41,18 +41,18 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--batch", type=count(1), default=32, help="cycles per frame")
 
 
-def _graph(n: int, batch: int, view_port: int | None):
+def _graph(n: int, batch: int, view_port: int | None, token: str = ""):
     overrides = pipeline_overrides(PRESET, FIDELITY, n, "fft_peak", batch)
     graph = load_graph(graph_file("radar_chain"), overrides)
     if view_port is None:
         return graph, None
-    path = view_graph(graph, "127.0.0.1", view_port)
+    path = view_graph(graph, "127.0.0.1", view_port, token)
     return load_graph(path, overrides), path.parent
 
 
 def _run_once(n: int, batch: int, mode: str) -> dict:
-    port = free_port("127.0.0.1") if mode != "graph" else None
-    graph, folder = _graph(n, batch, port)
+    port, token = (free_port("127.0.0.1") if mode != "graph" else None), new_token()
+    graph, folder = _graph(n, batch, port, token)
     watcher: dict = {}
     stop = threading.Event()
     if mode == "view_browser":
@@ -61,7 +61,7 @@ def _run_once(n: int, batch: int, mode: str) -> dict:
         def watch() -> None:        # open the page as soon as it serves, keep it open until the run ends
             while not stop.is_set():
                 try:
-                    driver.get(f"http://127.0.0.1:{port}/")
+                    driver.get(page_url("127.0.0.1", port, token))
                     break
                 except Exception:   # noqa: BLE001 (not serving yet)
                     time.sleep(0.1)

@@ -7,7 +7,8 @@ server on a thread of this node, on loopback unless `address` says otherwise) sh
 cycle against eta coloured by D0, D1, opt-in detectors and fail-closed refusals; the range and velocity
 estimates against the scene's targets; the range-Doppler map of the latest clean cycle; the attacker's model and
 RARMS with a form that swaps them through the same request as `carav swap`; the nodes' rates and the edges'
-queue fill from `carav status`.
+queue fill from `carav status`. The page's address carries a per-run token and its websocket takes only the page's
+own origin (carav_stream/view/server.py).
 
 Ports   in  alarms     header only (tap)      gate.alarms: per_cycle cycle_index, reason, q, raised_by, attack_active
         in  estimates  header only (tap)      range_estimator.estimates: per_cycle q, range_m, velocity_mps, ...
@@ -31,6 +32,8 @@ class LiveView(Block):
     params = (SCENE,
               Param("address", str, "127.0.0.1", "address the page is served on (loopback: this machine only)"),
               Param("port", int, 5006, "TCP port of the page; 0 = any free port (printed)", low=0, high=65535),
+              Param("token", str, "", "access token in the page's address (`carav run --view` draws one per run); "
+                    "empty = a new one is drawn and the address printed"),
               Param("update_hz", float, 4.0, "page updates per second", unit="Hz", low=0.2, high=50.0),
               Param("history", int, 2000, "cycles kept on the page's plots", unit="cycles", low=10),
               Param("attacker", str, "attacker", "node the page's swap form swaps"),
@@ -54,7 +57,8 @@ class LiveView(Block):
                          truth_velocity_mps=[s.range_rate_mps(t) for t in s.targets], eta=self.eta or None,
                          history=self.history, update_hz=self.update_hz, attacker=self.attacker,
                          title=f"carav live view: {run_id or 'run'} ({self.scene})")
-        self.server = ViewServer(lambda doc: make_document(doc, self.state, self.control, cfg), self.address, self.port)
+        self.server = ViewServer(lambda doc: make_document(doc, self.state, self.control, cfg), self.address, self.port,
+                                 self.token)
         self.server.start()
         if self.control is not None:
             self.control.start()

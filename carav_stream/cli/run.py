@@ -14,7 +14,7 @@ from carav_stream.console.options import count, output_file
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.supervisor import Supervisor
-from carav_stream.view.server import free_port
+from carav_stream.view.server import free_port, new_token, page_url
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -49,10 +49,11 @@ def run(args: argparse.Namespace) -> int:
     if not args.view:
         return execute(graph, args)
     port = args.port or free_port(args.view_host)
-    path = view_graph(graph, args.view_host, port)
+    token = new_token()
+    path = view_graph(graph, args.view_host, port, token)
     try:
         viewed = load(path, args, shown_as=args.graph)
-        print(f"carav run: live view at http://{args.view_host}:{port}/", file=sys.stderr, flush=True)
+        print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
         return execute(viewed, args)
     finally:
         shutil.rmtree(path.parent, ignore_errors=True)

@@ -1,7 +1,8 @@
 """`carav run GRAPH --view [--port N]`: the graph plus a live_view node on taps of its gate and estimator.
 
 The composed graph is a file like `carav record`'s: the user's graph included, the view node and its wiring
-added (gate.alarms, range_estimator.estimates, gate.clean; the attacker node the page swaps; the detector's eta),
+added (gate.alarms, range_estimator.estimates, gate.clean; the attacker node the page swaps; the detector's eta; the
+page's per-run token),
 written to a private temporary folder named after the graph so the run id reads the same.
 """
 from __future__ import annotations
@@ -24,9 +25,9 @@ def _one(graph: Graph, block_type: str) -> str | None:
     return names[0] if names else None
 
 
-def view_params(graph: Graph, host: str, port: int) -> dict:
+def view_params(graph: Graph, host: str, port: int, token: str) -> dict:
     attacker, detector = _one(graph, "attacker"), _one(graph, "rms_detector")
-    params: dict = {"type": "live_view", "address": host, "port": port}
+    params: dict = {"type": "live_view", "address": host, "port": port, "token": token}
     if attacker:
         params["attacker"] = attacker
     if detector and isinstance(graph.nodes[detector].params.get("eta"), int | float):
@@ -46,9 +47,9 @@ def wiring(graph: Graph) -> list[str]:
     return wires
 
 
-def view_graph(graph: Graph, host: str, port: int) -> Path:
-    """Write the composed graph into a new private temporary folder; returns its path (the caller removes the
-    folder). CommandError if Bokeh is not installed."""
+def view_graph(graph: Graph, host: str, port: int, token: str) -> Path:
+    """Write the composed graph into a new private temporary folder (it holds the page's token); returns its path
+    (the caller removes the folder). CommandError if Bokeh is not installed."""
     try:
         import bokeh  # noqa: F401
     except ImportError:
@@ -56,7 +57,7 @@ def view_graph(graph: Graph, host: str, port: int) -> Path:
                            "'carav-stream[view]'") from None
     if NODE in graph.nodes:
         raise CommandError(f"{graph.path}: has a node named {NODE!r} already; --view adds its own", Exit.INVALID)
-    params = view_params(graph, host, port)
+    params = view_params(graph, host, port, token)
     fields = ", ".join(f"{k} = {json.dumps(v)}" for k, v in params.items())
     folder = Path(tempfile.mkdtemp(prefix="carav-view-"))
     path = folder / Path(graph.path).name

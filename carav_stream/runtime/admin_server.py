@@ -149,6 +149,7 @@ class AdminServer:
                               "alive": bool(st.proc and st.proc.poll() is None),
                               "restarts": st.restarts, "counters": st.counters,
                               # over every incarnation: each counts only what it did itself (NodeState.total)
+                              "processed": st.total("processed"), "cycles_total": st.total("cycles"),
                               "rate_per_s": st.total("processed") / elapsed if elapsed else 0.0,
                               "cycles_per_s": st.total("cycles") / elapsed if elapsed else 0.0,
                               "block": st.spec.type, "params": st.spec.params}
@@ -158,7 +159,12 @@ class AdminServer:
     def edge_queues(self) -> dict[str, dict[str, Any]]:
         """Per edge between local nodes, from the last heartbeats (up to HEARTBEAT_S old): frames in flight (sent
         by the producer, not yet taken by the consumer), the queue capacity (ZeroMQ's send and receive high-water
-        marks; the socket buffers of the kernel can hold a little more), and skipped frames of a tap edge."""
+        marks), how far apart the two counts were read, and skipped frames of a tap edge.
+
+        In flight can exceed the capacity, and then `beyond_capacity` says why: the two counters come from two
+        heartbeats, and when the producer's is the newer one the frames it sent since the consumer's count look
+        in flight; and the kernel's socket buffers hold frames beyond ZeroMQ's marks (many small header-only
+        frames fit there)."""
         capacity = 2 * int(self.graph.run["queue_frames"])
         out = {}
         for e in self.graph.edges:
@@ -167,6 +173,12 @@ class AdminServer:
                 continue
             sent = src.total("sent").get(str(e), 0)
             taken = dst.total("in").get(e.dst_port, 0) + dst.total("rejected").get(e.dst_port, 0)
-            out[str(e)] = {"in_flight": max(0, sent - taken), "capacity": capacity,
-                           "skipped": src.total("skipped").get(str(e), 0)}
+            apart = src.last_seen - dst.last_seen
+            entry = {"in_flight": max(0, sent - taken), "capacity": capacity, "counters_apart_s": round(apart, 3),
+                     "skipped": src.total("skipped").get(str(e), 0)}
+            if entry["in_flight"] > capacity:
+                entry["beyond_capacity"] = (
+                    (f"the producer's count is {apart:.1f} s newer than the consumer's; " if apart > 0 else "")
+                    + "the kernel's socket buffers hold frames beyond ZeroMQ's high-water marks")
+            out[str(e)] = entry
         return out

@@ -21,6 +21,7 @@ from carav_stream.view.control import RunControl, models
 from carav_stream.view.state import CATEGORIES, ViewState, rd_map_db
 
 COLOURS = {"clean": "#1f77b4", "D0": "#d62728", "D1": "#ff7f0e", "opt-in": "#9467bd", "refused": "#7f7f7f"}
+NODE_COLUMNS = ("node", "block", "state", "cycles", "frames_s", "cycles_s", "restarts")
 LABELS = {"clean": "clean (passed to ranging)", "D0": "alarm raised by D0", "D1": "alarm raised by D1",
           "opt-in": "alarm raised by an opt-in detector", "refused": "refused without a verdict (fail closed, at Q=0)"}
 
@@ -112,16 +113,17 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
     if control is not None:
         swap_button.on_click(lambda: control.swap(model_in.value, rarms_in.value))
 
-    node_src = ColumnDataSource({k: [] for k in ("node", "block", "state", "frames_s", "cycles_s", "restarts")},
-                                name="nodes")
+    node_src = ColumnDataSource({k: [] for k in NODE_COLUMNS}, name="nodes")
     nodes = DataTable(name="node_table", source=node_src, width=470, height=230, index_position=None, columns=[
         TableColumn(field="node", title="node"), TableColumn(field="block", title="block"),
-        TableColumn(field="state", title="state"), TableColumn(field="frames_s", title="frames/s"),
-        TableColumn(field="cycles_s", title="cycles/s"), TableColumn(field="restarts", title="restarts")])
+        TableColumn(field="state", title="state"), TableColumn(field="cycles", title="cycles"),
+        TableColumn(field="frames_s", title="frames/s (last s)"),
+        TableColumn(field="cycles_s", title="cycles/s (last s)"),
+        TableColumn(field="restarts", title="restarts")])
     edge_src = ColumnDataSource({k: [] for k in ("edge", "fill", "skipped")}, name="edges")
     edges = DataTable(name="edge_table", source=edge_src, width=470, height=230, index_position=None, columns=[
         TableColumn(field="edge", title="edge", width=300),
-        TableColumn(field="fill", title="in flight / queue capacity"),
+        TableColumn(field="fill", title="in flight / queue capacity (why beyond it)", width=320),
         TableColumn(field="skipped", title="skipped (tap)")])
     info = Div(name="info", text="", width=980)
 
@@ -130,7 +132,8 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
         row(column(rd_fig, rd_div), column(attacker_div, row(model_in, rarms_in), swap_button, swap_div, nodes)),
         edges))
 
-    seen: dict[str, Any] = {"points": 0, "estimates": 0, "map": 0, "status": None}   # what this page has drawn
+    seen: dict[str, Any] = {"points": 0, "estimates": 0, "map": 0, "status": None,   # what this page has drawn
+                            "model": None}
 
     def update() -> None:
         pts, seen["points"], est, seen["estimates"] = state.since(seen["points"], seen["estimates"])
@@ -162,11 +165,20 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
         with state.lock:
             status, status_error, swaps = state.status, state.status_error, list(state.swap_log[-5:])
         if status is not None and status is not seen["status"]:   # a new one comes once a second: tables
-            seen["status"] = status                                # redrawn only then (the browser's work)
+            before, seen["status"] = seen["status"], status        # redrawn only then (the browser's work)
             recent = [p.attacked for p in state.recent(200)]
             on = (f"attack on in {sum(recent)} of the last {len(recent)} cycles shown" if recent
                   else "no cycle shown yet")
-            _show_status(status, cfg.attacker, node_src, edge_src, attacker_div, on)
+            node_src.data = node_rows(status, before)
+            edge_src.data = edge_rows(status)
+            attacker_div.text = attacker_text(status, cfg.attacker, on)
+            running = ((status.get("nodes", {}).get(cfg.attacker) or {}).get("params") or {})
+            if running.get("model") in choices and running.get("model") != seen["model"]:
+                # the form shows what runs whenever that changes (a swap from here, the CLI or a restart); a
+                # choice the user is making in between is left alone
+                seen["model"] = model_in.value = running["model"]
+                if isinstance(running.get("rarms"), int | float):
+                    rarms_in.value = float(running["rarms"])
         if swaps and swap_div.text != "<br>".join(swaps):
             swap_div.text = "<br>".join(swaps)
         k = state.counts()
@@ -181,24 +193,41 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
     doc.add_periodic_callback(update, max(50, int(1000 / cfg.update_hz)))
 
 
-def _show_status(status: dict[str, Any], attacker: str, node_src: Any, edge_src: Any, attacker_div: Any,
-                 on: str) -> None:
-    nodes = status.get("nodes", {})
-    node_src.data = {
-        "node": list(nodes), "block": [n.get("block", "?") for n in nodes.values()],
-        "state": ["up" if n.get("alive") else "DOWN" for n in nodes.values()],
-        "frames_s": [round(n.get("rate_per_s", 0.0), 1) for n in nodes.values()],
-        "cycles_s": [round(n.get("cycles_per_s", 0.0), 1) for n in nodes.values()],
-        "restarts": [n.get("restarts", 0) for n in nodes.values()]}
+def node_rows(status: dict[str, Any], before: dict[str, Any] | None) -> dict[str, list]:
+    """The node table: each node's block, state, cycles so far, and its rates over the interval since the status
+    `before` (the run's average while there is none, or when the node is new to it)."""
+    nodes, old = status.get("nodes", {}), (before or {}).get("nodes", {})
+    dt = status.get("elapsed_s", 0.0) - (before or {}).get("elapsed_s", 0.0)
+
+    def rate(name: str, n: dict[str, Any], key: str, average: str) -> float:
+        if before is None or dt <= 0 or name not in old:
+            return round(n.get(average, 0.0), 1)
+        return round((n.get(key, 0) - old[name].get(key, 0)) / dt, 1)
+
+    return {"node": list(nodes), "block": [n.get("block", "?") for n in nodes.values()],
+            "state": ["up" if n.get("alive") else "DOWN" for n in nodes.values()],
+            "cycles": [n.get("cycles_total", 0) for n in nodes.values()],
+            "frames_s": [rate(k, n, "processed", "rate_per_s") for k, n in nodes.items()],
+            "cycles_s": [rate(k, n, "cycles_total", "cycles_per_s") for k, n in nodes.items()],
+            "restarts": [n.get("restarts", 0) for n in nodes.values()]}
+
+
+def edge_rows(status: dict[str, Any]) -> dict[str, list]:
+    """The edge table: frames in flight against the queue's capacity, with the supervisor's reason when they
+    exceed it, and what a tap skipped."""
     edges = status.get("edges", {})
-    edge_src.data = {"edge": list(edges),
-                     "fill": [f"{e['in_flight']} / {e['capacity']}" for e in edges.values()],
-                     "skipped": [e.get("skipped", 0) for e in edges.values()]}
-    a = nodes.get(attacker)
+    return {"edge": list(edges),
+            "fill": [f"{e['in_flight']} / {e['capacity']}" + (f" ({e['beyond_capacity']})"
+                                                             if e.get("beyond_capacity") else "")
+                     for e in edges.values()],
+            "skipped": [e.get("skipped", 0) for e in edges.values()]}
+
+
+def attacker_text(status: dict[str, Any], attacker: str, on: str) -> str:
+    a = status.get("nodes", {}).get(attacker)
     if a is None:
-        attacker_div.text = f"attacker: the graph has no node {attacker!r}"
-        return
+        return f"attacker: the graph has no node {attacker!r}"
     p = a.get("params", {})
     swaps = [s for s in status.get("swaps", []) if s.get("node") == attacker]
-    attacker_div.text = (f"<b>attacker</b> node {attacker}: block {a.get('block')}, model <b>{p.get('model')}</b>, "
-                         f"RARMS <b>{p.get('rarms', 'n/a')}</b>, {len(swaps)} swap(s) so far; {on}")
+    return (f"<b>attacker</b> node {attacker}: block {a.get('block')}, model <b>{p.get('model')}</b>, "
+            f"RARMS <b>{p.get('rarms', 'n/a')}</b>, {len(swaps)} swap(s) so far; {on}")

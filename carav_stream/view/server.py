@@ -4,10 +4,22 @@ Bokeh's server keeps a document per browser tab in sync with Python over a webso
 plot data in Python and Bokeh sends only the change (a `stream` sends the new points alone). It runs on a thread
 of the live_view node's process, never in the radar chain's processes; a slow or closed browser slows only that
 thread (its websocket writes queue in tornado), and the node's taps skip frames rather than wait for it.
+
+Who may open the page: the page can swap the run's attacker, so it is not open to every local process.
+- The page's address carries a per-run token (`?token=...`, 24 random bytes from `secrets`): a request for the
+  page, its metadata or its autoload script without it is refused with 403 before Bokeh sees it.
+- The websocket is refused (403, before the upgrade) unless its `Origin` header names the page's own host and
+  port: a client that sends none (any local script) or another web page's (a browser tab on another site) is
+  refused; tornado alone would accept a missing `Origin`.
+- Bokeh's sessions are signed with a per-run secret key: a websocket must present the session token the page was
+  served with, so only a client that loaded the page with the run's token gets one.
+The token costs one constant-time comparison per HTTP request, nothing per websocket message.
 """
 from __future__ import annotations
 
 import asyncio
+import hmac
+import secrets
 import socket
 import threading
 from collections.abc import Callable
@@ -20,13 +32,61 @@ def free_port(host: str) -> int:
         return s.getsockname()[1]
 
 
-class ViewServer:
-    """serve(make_document, host, port) on a daemon thread; `url` once started; stop() ends it."""
+def new_token() -> str:
+    """A per-run access token for the page's address (24 bytes from `secrets`)."""
+    return secrets.token_urlsafe(24)
 
-    def __init__(self, make_document: Callable[[Any], None], host: str, port: int) -> None:
+
+def page_url(host: str, port: int, token: str) -> str:
+    return f"http://{host}:{port}/?token={token}"
+
+
+def page_origins(host: str, port: int) -> set[str]:
+    """The `host:port` forms a browser sends as the `Origin` of the page served on host:port (loopback is reached
+    as localhost or 127.0.0.1)."""
+    hosts = {host, "localhost", "127.0.0.1"} if host in ("127.0.0.1", "localhost") else {host}
+    return {f"{h}:{port}" for h in hosts}
+
+
+def _auth_provider(token: str, origins: set[str]) -> Any:
+    """A Bokeh AuthProvider that refuses (tornado HTTPError 403, before any Bokeh handler runs) a websocket whose
+    Origin is missing or foreign and any other request of the page without the run's token."""
+    from urllib.parse import urlparse
+
+    from bokeh.server.auth_provider import AuthProvider
+    from tornado.web import HTTPError
+    from tornado.websocket import WebSocketHandler
+
+    async def user(handler: Any) -> str:
+        if isinstance(handler, WebSocketHandler):
+            origin = handler.request.headers.get("Origin")
+            if origin is None or urlparse(origin).netloc.lower() not in origins:
+                raise HTTPError(403, reason="websocket from another origin than the page's")
+        elif not hmac.compare_digest(handler.get_argument("token", ""), token):
+            raise HTTPError(403, reason="the live view's address needs the run's token")
+        return "viewer"
+
+    class Provider(AuthProvider):
+        @property
+        def get_user_async(self) -> Any:
+            return user
+
+        @property
+        def login_url(self) -> str:
+            return "/"   # never reached: a refused request ends in 403, never in a redirect
+
+    return Provider()
+
+
+class ViewServer:
+    """serve(make_document, host, port, token) on a daemon thread; `url` (with the token) once started; stop().
+    An empty token draws a new one."""
+
+    def __init__(self, make_document: Callable[[Any], None], host: str, port: int, token: str = "") -> None:
         self.make_document, self.host = make_document, host
         self.port = port or free_port(host)
-        self.url = f"http://{host}:{self.port}/"
+        self.token = token or new_token()
+        self.url = page_url(host, self.port, self.token)
         self.started = threading.Event()
         self.error: BaseException | None = None
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -48,9 +108,11 @@ class ViewServer:
         self.loop = asyncio.new_event_loop()
         asyncio.set_event_loop(self.loop)
         try:
-            origins = [f"{self.host}:{self.port}", f"localhost:{self.port}", f"127.0.0.1:{self.port}"]
+            origins = page_origins(self.host, self.port)
             self.server = Server({"/": Application(FunctionHandler(self.make_document))}, io_loop=IOLoop.current(),
-                                 address=self.host, port=self.port, allow_websocket_origin=origins)
+                                 address=self.host, port=self.port, allow_websocket_origin=sorted(origins),
+                                 auth_provider=_auth_provider(self.token, origins), sign_sessions=True,
+                                 secret_key=secrets.token_urlsafe(32).encode(), generate_session_ids=True)
             self.server.start()
         except BaseException as exc:       # reported by start() in the block's thread
             self.error = exc

@@ -4,6 +4,9 @@ in the run summary, and the alarms follow it. CI installs the browser (.ci/run);
 this test and says why."""
 import json
 import os
+import re
+import socket
+import urllib.error
 import urllib.request
 
 import pytest
@@ -27,11 +30,23 @@ def browser():
     return headless_chromium()
 
 
+def handshake(port: int, origin: str | None) -> str:
+    """The status line a websocket upgrade of the page's /ws gets, with the given Origin header (None: none)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+        s.sendall((f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                   "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n"
+                   "Sec-WebSocket-Protocol: bokeh, x\r\n"
+                   + (f"Origin: {origin}\r\n" if origin else "") + "\r\n").encode())
+        return s.recv(4096).decode(errors="replace").split("\r\n")[0]
+
+
 def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_attacker(carav):
     from selenium.webdriver.support.ui import Select
     port = free_port("127.0.0.1")
     run = carav.run(ROOT / "graphs" / "table1_smart.toml", "--view", "--port", str(port), "--cycles", "0")
-    url = f"http://127.0.0.1:{port}/"
+    wait_until(lambda: "live view at " in run.stderr(), "the page's address", run, interval_s=0.2)
+    url = re.search(r"live view at (\S+)", run.stderr()).group(1)
+    assert url.startswith(f"http://127.0.0.1:{port}/?token=") and len(url.split("token=")[1]) >= 32
 
     def page_up():
         try:
@@ -40,7 +55,13 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
             assert run.proc.poll() is None, run.stderr()
             return False
     wait_until(page_up, "the live view page", run, interval_s=0.2)
-    assert f"live view at {url}" in run.stderr()
+    # without the run's token, or with another, the page is refused; its websocket takes only the page's origin
+    for wrong in (f"http://127.0.0.1:{port}/", url[:-4] + "AAAA"):
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(wrong, timeout=5)
+        assert refused.value.code == 403
+    assert " 403 " in handshake(port, None) and " 403 " in handshake(port, "http://evil.example:80")
+    assert " 101 " in handshake(port, f"http://127.0.0.1:{port}")
     driver = browser()
     try:
         driver.get(url)
@@ -52,6 +73,12 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
         assert all(abs(r - 43.0) < 1.0 for r in data("estimates", "range_m"))        # the car at 43 m
         wait_until(lambda: "peak" in text("rd_text"), "the range-Doppler map", run)
         assert "RARMS <b>3.0</b>" in text("attacker") and "model <b>smart</b>" in text("attacker")
+        assert model(driver, "swap_model", "value") == "smart"                  # the menu shows what runs
+        assert model(driver, "swap_rarms", "value") == 3.0
+        rows = lambda: dict(zip(data("nodes", "node"), data("nodes", "cycles")))  # noqa: E731
+        wait_until(lambda: rows().get("source", 0) > 0, "the node table", run)
+        source_cycles = rows()["source"]
+        wait_until(lambda: rows()["source"] > source_cycles, "the node table refreshing", run)
         first = max(data("q_D0", "cycle"))
         wait_until(lambda: max(data("q_D0", "cycle")) > first + 10 * BATCH, "the Q plot moving on", run)
 
@@ -69,6 +96,9 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
                    "clean cycles after the swap", run)
         assert max(data("q_D0", "cycle")) < after + BATCH
         wait_until(lambda: "model <b>none</b>" in text("attacker"), "the attacker panel following the swap", run)
+        assert model(driver, "swap_model", "value") == "none"
+        fills = data("edges", "fill")
+        assert fills and all("/" in f for f in fills)
     except BaseException:
         driver.save_screenshot(str(carav.workdir / "live_view.png"))
         raise
