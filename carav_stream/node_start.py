@@ -21,13 +21,18 @@ SUPERVISOR_PID_ENV = "CARAV_SUPERVISOR_PID"
 PR_SET_PDEATHSIG = 1
 
 
-def die_with_parent() -> None:
-    """Steps 1 and 2 above; exits when the parent is not the supervisor named in CARAV_SUPERVISOR_PID."""
+def parent_death_signal() -> None:
+    """Ask the kernel to SIGKILL this process when its parent dies (Linux; elsewhere nothing)."""
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
     except (OSError, AttributeError):   # not Linux: no parent-death signal; the start deadline still holds
         pass
+
+
+def die_with_parent() -> None:
+    """Steps 1 and 2 above; exits when the parent is not the supervisor named in CARAV_SUPERVISOR_PID."""
+    parent_death_signal()
     expected = os.environ.get(SUPERVISOR_PID_ENV, "")
     if expected.isdigit() and os.getppid() != int(expected):
         sys.exit(f"carav node: its supervisor (pid {expected}) is gone (parent now pid {os.getppid()}); exiting")

@@ -26,6 +26,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from carav_stream.node_start import parent_death_signal
 from carav_stream.testing.waiting import group_cpu_s, wait_until
 
 __all__ = ["GraphRun", "Graphs", "wait_for", "read_jsonl", "by_cycle", "node_pids"]
@@ -95,7 +96,8 @@ class GraphRun:
         self.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "run", str(graph),
                                       "--json", str(self.summary_path), "--no-progress", *args],
                                      cwd=workdir, env=env, stdout=self.out, stderr=self.err,
-                                     stdin=subprocess.DEVNULL, start_new_session=True)
+                                     stdin=subprocess.DEVNULL, start_new_session=True,
+                                     preexec_fn=parent_death_signal)   # a test process killed takes its graph along
         self.pgid = self.proc.pid
 
     def progress(self) -> float:

@@ -1,9 +1,16 @@
 """The kit's graph helpers on a real graph, through the plugin's own `carav` fixture: a node killed mid-run comes
 back under its restart policy and the stream goes on in order (what died with it is counted lost); a node swapped
 mid-run carries on from where the old block stopped."""
+import os
+import shutil
+import signal
+import subprocess
+import sys
+
 import pytest
 
 from carav_stream.testing.graphs import by_cycle, node_pids, read_jsonl, wait_for
+from carav_stream.testing.waiting import group_cpu_s, wait_until
 from tests.integration.conftest import TOYS
 
 pytestmark = pytest.mark.integration
@@ -45,3 +52,22 @@ def test_kill_node_and_swap_steer_a_running_graph_and_nothing_is_lost(carav):
     tags = [r["tag"] for r in records]
     assert tags[0] == "a" and tags[-1] == "b2" and "a" not in tags[tags.index("b2"):]
     assert sorted(by_cycle(records)) == sorted(r["cycle"] for r in records)
+
+
+def test_a_test_process_killed_mid_run_takes_its_graph_along(tmp_path):
+    """The kit's runs die with the process that started them (a test killed by a CI timeout leaves no graph
+    running on): the test process here is a child SIGKILLed while its endless graph runs."""
+    graph = tmp_path / "g.toml"
+    graph.write_text(f"block_paths = [{str(TOYS)!r}]\n" + CHAIN)
+    script = ("import time; from carav_stream.testing.graphs import Graphs; "
+              f"g = Graphs({str(tmp_path)!r}); r = g.run({str(graph)!r}); print(g.run_root, r.pgid, flush=True); "
+              "time.sleep(3600)")
+    child = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    run_root, pgid = child.stdout.readline().split()
+    progress = lambda: group_cpu_s(int(pgid))  # noqa: E731
+    wait_until(lambda: len(read_jsonl(tmp_path / "out.jsonl")) > 5, "the graph to run", progress)
+    assert node_pids(run_root)
+    os.kill(child.pid, signal.SIGKILL)
+    child.wait()
+    wait_until(lambda: not node_pids(run_root), "the graph's nodes to go with the test process", progress)
+    shutil.rmtree(run_root, ignore_errors=True)
