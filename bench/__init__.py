@@ -29,6 +29,7 @@ BENCHES = {
     "study": ("bench.study", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),
     "view": ("bench.view", "what the live view costs the radar chain, with and without a browser"),
     "dca1000-udp": ("bench.dca1000_udp", "the live DCA1000 receiver against the AWR1642's data rate"),
+    "chaos": ("bench.chaos", "SIGKILL a random node every 2 s on both planes: nothing judged twice, counts right"),
     "soak": ("bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
     "report": ("bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }

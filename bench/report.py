@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from bench import records as bench_records
+from bench.chaos import met as chaos_met
 from bench.estimators import LISTS, TARGET_RATIO, TARGET_TIME_FACTOR, scores
 from bench.pipeline import ceiling
 from bench.soak import SOAK_RSS_MB_PER_H, no_growth
@@ -340,6 +341,39 @@ def soak_table(doc: dict) -> list[str]:
     return lines
 
 
+def chaos_rows(doc: dict) -> list[Row]:
+    rows = []
+    for r in doc["records"]:
+        ok = chaos_met(r)
+        head = f"{r['transport']}, {r['n_kills']} SIGKILLs in {r['seconds']:g} s:"
+        rows += [(f"{head} cycles judged twice / out of order", f"{r['judged_twice']} / {r['out_of_order']}",
+                  "0 / 0", _met(ok["judged_twice"] and ok["out_of_order"])),
+                 (f"{head} cycles passed to ranging without a clean verdict",
+                  f"{r['clean_without_clean_verdict']} of {r['passed_to_ranging']}", "0",
+                  _met(ok["clean_without_clean_verdict"])),
+                 (f"{head} the summary's judged cycles against the gated log's",
+                  f"{r['cycles_judged']} / {r.get('gated_log_cycles_compared', r['gated_log_cycles'])} "
+                  f"({r['judged_agreement']:.2%} apart; {r.get('summary_covers', 'figures cover the whole run')})",
+                  f"within {doc.get('agreement', 0.01):.0%}", _met(ok["judged_agreement"])),
+                 (f"{head} each sink's lines against the frames counted into it",
+                  "; ".join(f"{k} {v['lines']} / {v['counted']} ({v['killed']} kills)" for k, v in r["sinks"].items()),
+                  "equal for a sink never killed", _met(ok["sinks"])),
+                 (f"{head} processes and run files left {r.get('settle_s', 10):g} s after the run",
+                  f"{r['left_processes']} / {len(r['left_files'])}", "0 / 0", _met(ok["left"]))]
+    return rows
+
+
+def chaos_table(doc: dict) -> list[str]:
+    lines = ["| plane | kills (by node) | restarts | cycles generated | judged | lost frames | verdict log cycles "
+             "| gated log cycles | passed to ranging | exit |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in doc["records"]:
+        kills = ", ".join(f"{k} {v}" for k, v in sorted(r["kills"].items()))
+        lines.append(f"| {r['transport']} | {r['n_kills']} ({kills}) | {r['restarts']} | {r['cycles']} "
+                     f"| {r['cycles_judged']} | {r['lost']} | {r['verdict_log_cycles']} | {r['gated_log_cycles']} "
+                     f"| {r['passed_to_ranging']} | {r['exit_code']} |")
+    return lines
+
+
 def study_rows(doc: dict) -> list[Row]:
     r = doc["records"][0]
     return [(f"carav study, 2 local workers over 1 on {r['cores']} cores ({r['points']} points of {r['trials']} "
@@ -410,6 +444,7 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], l
     "estimators": ("Estimators: error against run time", estimators_rows, estimators_table),
     "pipeline": ("Pipeline: the multi-process radar graph", pipeline_rows, pipeline_table),
     "soak": ("Soak: the demo graph for minutes with live swaps", soak_rows, soak_table),
+    "chaos": ("Chaos: a random node SIGKILLed every 2 s, restarted by policy", chaos_rows, chaos_table),
     "study": ("Studies on Dask: scaling over local workers", study_rows, study_table),
     "view": ("Live view: what watching costs the chain", view_rows, view_table),
     "dca1000_udp": ("Live capture: the DCA1000 UDP receiver against the AWR1642's data rate", udp_rows, udp_table),
