@@ -2,8 +2,8 @@
 """Set-up-free entry point: creates (and reuses) ./.venv, installs the project into it, then runs.
 
     python3 dev.py demo [carav run options]   run the default graph graphs/demo.toml and print its summary
-    python3 dev.py test [pytest options]      run the whole test suite on two pytest-xdist workers (under CI=true:
-                                              the 20 slowest are listed; -n N or -n 0 overrides the workers)
+    python3 dev.py test [pytest options]      run the whole test suite (under CI=true: the 20 slowest are listed;
+                                              -n 2 runs it on two pytest-xdist workers)
     python3 dev.py test --quick [options]     the quick loop: every test that starts no process and takes no
                                               noticeable time (-m "not integration and not slow")
     python3 dev.py bench NAME [options]       a benchmark of bench/ (`python3 dev.py bench --help` lists them)
@@ -55,10 +55,6 @@ def main(argv: list[str]) -> int:
     elif command == "test":
         if "--quick" in rest:
             rest = [*(a for a in rest if a != "--quick"), "-m", QUICK]
-        elif not any(a == "-n" or a.startswith(("-n=", "--numprocesses")) for a in rest):
-            # the process tests mostly wait on their graphs: two workers halve them on two cores (the quick loop
-            # keeps both cores busy alone, and runs in one process); worksteal evens out the long ones
-            rest = ["-n", "2", "--dist", "worksteal", *rest]
         if os.environ.get("CI") == "true":
             rest = ["--durations=20", *rest]     # CI's log names the 20 slowest: a slow test shows the day it lands
         cmd = [str(BIN / "python"), "-m", "pytest", *rest]
