@@ -1,7 +1,7 @@
 """`carav design`: the threshold of every detector for a target false-alarm rate per cycle on one scene.
 
     carav design --preset NAME | --scene FILE [--pf 1e-6] [--nr N] [--ns N] [--iq] [--snr-db DB] [--rarms LIST]
-                 [--trials N] [--seed S] [--json FILE]
+                 [--trials N] [--seed S] [--fidelity beat|waveform] [--benign-trials N] [--json FILE]
 
 Thresholds (closed forms; model and limits: carav_stream/firmware/design.py):
 - C(eta), the RMS detector (D0 on the silent chirps, D1 on the active ones): eta with PF(eta) = pf per cycle, and PF
@@ -10,6 +10,13 @@ Thresholds (closed forms; model and limits: carav_stream/firmware/design.py):
 - the CUSUM of the silent power across cycles: h for an in-control average run length of 1 / pf cycles.
 Misses of C at both etas for the paper's attacks: `random` by the closed form, `smart` by Monte Carlo (--trials
 cycles per RARMS, seeded, with 95 % intervals).
+The closed forms hold for the noise and the echoes the beat fidelity renders. The scene's own benign cycles are
+simulated too (--benign-trials, at --fidelity beat or waveform): their alarms at both etas, with 95 % intervals,
+and a warning when even the interval's lower end exceeds the target PF (the scene's echo, not noise, then sets
+the false-alarm rate: at waveform fidelity a strong near echo leaks into the silent slots' first samples).
+Two SNRs are printed, each named: the echo's power averaged over a slot (what the detector's law sees, counting
+the samples before the echo arrives) and per sample once it has arrived (what `carav scenes` and `carav sweep`
+print).
 """
 from __future__ import annotations
 
@@ -48,6 +55,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="attack strengths for the miss rates (default 0.5,1,1.5,2,3,5)")
     parser.add_argument("--trials", type=count(1), default=2000, help="Monte Carlo cycles per smart-attack point")
     parser.add_argument("--seed", type=int, default=1, help="seed of the smart-attack Monte Carlo (default 1)")
+    parser.add_argument("--fidelity", choices=("beat", "waveform"), default="beat",
+                        help="signal model of the simulated cycles (benign and smart): beat, or waveform (the IF "
+                             "filter and each slot's start as the receiver sees them)")
+    parser.add_argument("--benign-trials", type=count(0), default=200,
+                        help="benign cycles simulated to check the design against the scene's own echo (0: none)")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="also write the numbers as JSON")
 
 
@@ -67,7 +79,8 @@ def _scene(args: argparse.Namespace):
         raise CommandError(str(exc), Exit.INVALID) from None
 
 
-def design(scene, pf: float, rarms: list[float], trials: int, seed: int) -> dict:
+def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelity: str = "beat",
+           benign_trials: int = 0) -> dict:
     """Every number `carav design` prints, as a dict (JSON-ready)."""
 
     if not 0 < pf < 1:
@@ -77,8 +90,17 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int) -> dict
     m = scene.n_chirps // 2
     bins = scene.n_samples if scene.iq else (scene.n_samples - 1) // 2     # the spectral test's bins per chirp
     spectral = spectral_threshold(pf, m * bins)
-    source = RadarSource(scene)
-    seeds = np.random.SeedSequence(seed).spawn(len(rarms))
+    source = RadarSource(scene, fidelity=fidelity)
+    seeds = np.random.SeedSequence(seed).spawn(len(rarms) + 1)
+    benign = None
+    if benign_trials:
+        q = simulate_q(source, "none", 0.0, benign_trials, seeds[-1], workers=1).q
+        benign = {"trials": benign_trials}
+        for key, e in (("design", eta), ("paper", PAPER_ETA)):
+            k = int(np.sum(q >= e))
+            lo, hi = clopper_pearson(k, benign_trials)
+            benign[key] = {"eta": e, "alarms": k, "rate": k / benign_trials, "ci": [float(lo), float(hi)]}
+        benign["above_design"] = benign["design"]["ci"][0] > pf
     misses = []
     for r, child in zip(rarms, seeds):
         q = simulate_q(source, "smart", r, trials, child, workers=1).q
@@ -92,6 +114,8 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int) -> dict
     return {
         "scene": {"name": scene.name, "n_chirps": scene.n_chirps, "n_samples": scene.n_samples, "iq": scene.iq,
                   "dof": law.dof, "echo_snr_db": float(10 * np.log10(law.snr)) if law.snr > 0 else None,
+                  "echo_snr_per_sample_db": float(scene.snr_db(0)) if scene.targets else None,
+                  "fidelity": fidelity,
                   "adc_bits": scene.adc_bits, "noise_inflation_by_adc": law.sigma_eff / law.sigma_n},
         "pf": pf,
         "rms_detector": {"eta": eta, "pf_at_eta": float(pf_per_cycle(law, eta)),
@@ -99,14 +123,16 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int) -> dict
         "spectral_silent_test": {"threshold": spectral, "threshold_db": float(10 * np.log10(spectral)),
                                  "bins_tested": m * bins},
         "cusum_silent_power": {"k": 0.5, "h": cusum_threshold(1 / pf, 0.5), "arl0_cycles": 1 / pf},
-        "misses": misses, "smart_trials": trials, "seed": seed,
+        "benign": benign, "misses": misses, "smart_trials": trials, "seed": seed,
     }
 
 
 def _print(d: dict, stream=None) -> None:
     stream = stream or sys.stdout
     s, rd = d["scene"], d["rms_detector"]
-    snr = "no echo" if s["echo_snr_db"] is None else f"echo SNR {s['echo_snr_db']:+.1f} dB per sample"
+    snr = ("no echo" if s["echo_snr_db"] is None else
+           f"echoes' SNR {s['echo_snr_db']:+.1f} dB averaged over a slot, ADC noise included (target 1: "
+           f"{s['echo_snr_per_sample_db']:+.1f} dB per sample once its echo has arrived)")
     print(f"scene {s['name']}: N_r = {s['n_chirps']}, N_s = {s['n_samples']}, {'I/Q' if s['iq'] else 'I only'} "
           f"(nu = {s['dof']}), {snr}, {s['adc_bits']}-bit ADC (noise x{s['noise_inflation_by_adc']:.6f}); "
           f"target PF {d['pf']:g} per cycle", file=stream)
@@ -118,8 +144,18 @@ def _print(d: dict, stream=None) -> None:
     cu = d["cusum_silent_power"]
     print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
           f"{cu['arl0_cycles']:.3g} cycles", file=stream)
-    print(f"misses of C per attacked cycle (random: closed form; smart: {d['smart_trials']} cycles per RARMS, seed "
-          f"{d['seed']}, 95 % interval)", file=stream)
+    b = d.get("benign")
+    if b:
+        cells = [f"{b[k]['alarms']} at eta = {b[k]['eta']:.4g} (95 % interval {b[k]['ci'][0]:.3g}-{b[k]['ci'][1]:.3g})"
+                 for k in ("design", "paper")]
+        print(f"benign cycles of the scene ({s['fidelity']} fidelity, seed {d['seed']}): alarms in {b['trials']}: "
+              f"{cells[0]}, {cells[1]}", file=stream)
+        if b["above_design"]:
+            print(f"  WARNING: the scene's own echo raises false alarms above the target PF {d['pf']:g} at "
+                  f"{s['fidelity']} fidelity: the threshold is set by the scene, not by the noise "
+                  "(docs/DETECTION.md, near echoes)", file=stream)
+    print(f"misses of C per attacked cycle (random: closed form; smart: {d['smart_trials']} cycles per RARMS at "
+          f"{s['fidelity']} fidelity, seed {d['seed']}, 95 % interval)", file=stream)
     print(f"  {'RARMS':>6}  {'random @ eta':>12}  {'smart @ eta':>22}  {'random @ 1.5':>12}  {'smart @ 1.5':>22}",
           file=stream)
     for row in d["misses"]:
@@ -133,7 +169,7 @@ def _print(d: dict, stream=None) -> None:
 def run(args: argparse.Namespace) -> int:
     if not args.pf < 1:
         raise CommandError(f"--pf: must be in (0, 1), got {args.pf:g}", Exit.USAGE)
-    result = design(_scene(args), args.pf, args.rarms, args.trials, args.seed)
+    result = design(_scene(args), args.pf, args.rarms, args.trials, args.seed, args.fidelity, args.benign_trials)
     _print(result)
     if args.json:
         args.json.write_text(json.dumps(result, indent=1))

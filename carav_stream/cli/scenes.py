@@ -1,8 +1,9 @@
 """`carav scenes [NAME | FILE ...]`: what a scene implies, side by side, as a markdown table.
 
-Chirps and samples, sweep, slope, sampling rate, cycle rate, the targets, the per-sample SNR of the first target
-(radar equation), range resolution, maximum range, unambiguous velocity, the beat with Doppler (and where it folds
-to when the ADC cannot represent it), the ADC, and the scene's warnings. With no argument: every preset.
+Chirps and samples, sweep, slope, sampling rate, cycle rate, the targets, the SNR of the first target per sample
+once its echo has arrived (radar equation) and the echoes' SNR averaged over a slot (what `carav design` and the
+detector's closed form use), range resolution, maximum range, unambiguous velocity, the beat with Doppler (and
+where it folds to when the ADC cannot represent it), the ADC, and the scene's warnings. With no argument: every preset.
 
 `carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml] [--noise-codes X]`: the scene of a TI mmWave CLI profile
 (carav_stream/capture/ti_cfg.py), checked by the scene loader, written to --out (or printed), then its table.
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from carav_stream.capture.ti_cfg import TiCfgError, profile_from_cfg, scene_toml
 from carav_stream.console.errors import CommandError, Exit
+from carav_stream.firmware.design import scene_law
 from carav_stream.radar.scene import SceneError, fold_beat_hz
 from carav_stream.radar.scene_loader import load_scene, preset_names, scene_from_dict
 
@@ -66,7 +68,9 @@ def _column(scene) -> dict[str, str]:
         "targets": targets,
         "range rate of target 1": "-" if rate is None else f"{rate:+.4g} m/s",
         "beat of target 1 (with Doppler)": beat,
-        "SNR per sample, target 1": "-" if t0 is None else f"{scene.snr_db(0):+.2f} dB",
+        "SNR of target 1, per sample once its echo has arrived": "-" if t0 is None else f"{scene.snr_db(0):+.2f} dB",
+        "echoes' SNR averaged over a slot, ADC noise included (what the detector's law sees)":
+            "-" if t0 is None else f"{10 * math.log10(scene_law(scene).snr):+.2f} dB",
         "range resolution": f"{scene.range_resolution_m:.4g} m",
         "max range": f"{scene.max_range_m:.4g} m",
         "unambiguous velocity": f"+-{v_max:.4g} m/s",

@@ -25,6 +25,7 @@ from carav_stream.montecarlo.detectors import DETECTORS
 from carav_stream.montecarlo.engine import eta_grid, sweep
 from carav_stream.montecarlo.sources import source_from_spec
 from carav_stream.montecarlo.study import Group, Study, execute, results
+from carav_stream.radar.synth import FIDELITIES
 
 __all__ = ["configure", "run", "build_source", "sweep_spec"]
 
@@ -42,6 +43,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="per-sample echo SNR of the first target, dB (default: the scene's own, e.g. +2.2 dB "
                              "for table1 from MATLAB's radar equation; the paper's runs: 0)")
     parser.add_argument("--ideal-adc", action="store_true", help="no quantisation (adc_bits = 0)")
+    parser.add_argument("--fidelity", choices=FIDELITIES, default="auto",
+                        help="signal model of the radar chain: beat (fast, analytic beat tones), waveform (the "
+                             "IF filter and each slot's start as the receiver sees them, sample by sample), auto "
+                             "(beat unless an attacker transmits its own waveform)")
     parser.add_argument("--attack", default="random", help="attacker kind(s), comma separated (default random)")
     parser.add_argument("--attack-param", action="append", default=[], metavar="KIND.KEY=VALUE",
                         help="extra attacker parameter, e.g. ghost.range_m=25 (repeatable)")
@@ -97,9 +102,11 @@ def sweep_spec(args: argparse.Namespace) -> dict:
         params.setdefault(kind, {})[name] = _parse_value(value)
     if args.model == "paper" and args.scene:
         raise CommandError("--model paper takes --preset table1|awr1642, not --scene")
+    if args.model == "paper" and args.fidelity != "auto":
+        raise CommandError("--fidelity is the radar chain's signal model; --model paper has none")
     return {"model": args.model, "preset": args.preset, "scene": args.scene, "nr": args.nr, "ns": args.ns,
             "iq": args.iq, "snr_db": args.snr_db, "ideal_adc": args.ideal_adc, "activation": args.activation,
-            "attack_params": params}
+            "fidelity": args.fidelity, "attack_params": params}
 
 
 def _ci(ci) -> str:
@@ -120,7 +127,10 @@ def _print_table(result: dict, stream=None) -> None:
         snr += " (the paper's runs set 0 dB: --snr-db 0)"
     what = ("detector C(eta)" if detector == "carav"
             else f"detector {detector} (threshold in units of its PF = 1e-6 value)")
-    print(f"scene {scene['name']} ({scene['model']}){snr}, {what}, {result['trials']} cycles per curve, "
+    fidelity = {"auto": "beat fidelity, waveform for an attacker that transmits its own"}.get(
+        scene.get("fidelity"), f"{scene.get('fidelity')} fidelity")
+    model = scene["model"] + (f", {fidelity}" if scene.get("fidelity") else "")
+    print(f"scene {scene['name']} ({model}){snr}, {what}, {result['trials']} cycles per curve, "
           f"PF from {result['pf_method']}", file=stream)
     at = f"@{ref:g}"
     print(f"{'attack':<18}{'RARMS':>7}{'method':>9}{'PF' + at:>9}{'PM' + at:>9}  {'PM 95% CI' + at:<19}"

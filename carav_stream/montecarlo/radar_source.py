@@ -21,7 +21,7 @@ from carav_stream.montecarlo.detectors import statistic
 from carav_stream.radar.activation import ActivationSource, balanced_rows
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.physics import echo_templates
-from carav_stream.radar.synth import simulate_cycles
+from carav_stream.radar.synth import resolve_fidelity, simulate_cycles
 
 __all__ = ["RadarSource", "ENERGY_ATTACKS"]
 
@@ -34,12 +34,18 @@ class RadarSource:
     attack_params  {kind: {param: value}} extra attacker parameters (e.g. {"ghost": {"range_m": 25.0}})
     activation     "seeded" | "lfsr" | "secure"
     detector_sigma_n  noise RMS the detector uses (default: the scene's true sigma_n); set it to model a drift
+    fidelity       "auto" (beat unless the attacker transmits its own waveform), "beat" or "waveform": the
+                   waveform fidelity renders what the beat fidelity leaves out (the IF filter, the previous
+                   chirp's echo at a slot's start), so every cycle is simulated sample by sample (no energy
+                   shortcut, no closed form)
     """
 
     sequential = True
 
     def __init__(self, scene, *, attack_params: dict | None = None, activation: str = "seeded",
-                 activation_seed: int = 1, detector_sigma_n: float | None = None):
+                 activation_seed: int = 1, detector_sigma_n: float | None = None, fidelity: str = "auto"):
+        resolve_fidelity(fidelity)          # ValueError naming it if unknown
+        self.fidelity = fidelity
         self.scene = scene
         self.name = scene.name
         self.n_chirps, self.n_samples, self.iq = scene.n_chirps, scene.n_samples, scene.iq
@@ -83,10 +89,10 @@ class RadarSource:
     def energy_exact(self, attack: str) -> bool:
         s = self.scene
         return (attack in ENERGY_ATTACKS and s.adc_bits == 0 and all(t.swerling == 0 for t in s.targets)
-                and not s.attackers and self.sigma_n == s.sigma_n)
+                and not s.attackers and self.sigma_n == s.sigma_n and self.fidelity != "waveform")
 
     def closed_form(self, attack: str) -> dict | None:
-        if self.sigma_n != self.scene.sigma_n:
+        if self.sigma_n != self.scene.sigma_n or self.fidelity == "waveform":
             return None
         if attack not in ("none", "random") or self.scene.adc_bits != 0 or any(t.swerling for t in self.scene.targets):
             return None
@@ -132,14 +138,15 @@ class RadarSource:
             rho = job["activation"].next(n_cycles, self.n_chirps)
         rng_attack = np.random.default_rng(rng.integers(2 ** 63))
         cyc = simulate_cycles(self.scene, rho, rng, attacker=job["attacker"], rng_attack=rng_attack,
-                              cycle0=job["cycle0"])
+                              fidelity=self.fidelity, cycle0=job["cycle0"])
         job["cycle0"] += n_cycles
         job["clipped"] += int(cyc.clipped.sum())
         job["samples"] += cyc.frames.size
         return cyc.frames, rho
 
     def draw_q(self, n_cycles, attack, rarms, rng, method):
-        if method == "energy" and paper_model.exchangeable(self.paper_equivalent(), attack):
+        if method == "energy" and self.energy_exact(attack) and paper_model.exchangeable(self.paper_equivalent(),
+                                                                                         attack):
             return paper_model.sample_q_fast(self.paper_equivalent(), n_cycles, rng, attack, rarms)
         rms, rho = self.draw(n_cycles, attack, rarms, rng, method)
         det = detect_from_rms(rms, rho, self.sigma_n, 1.0)
@@ -148,7 +155,8 @@ class RadarSource:
     def describe(self) -> dict:
         s = self.scene
         out = {"model": "radar", "name": s.name, "n_chirps": s.n_chirps, "n_samples": s.n_samples, "iq": s.iq,
-               "sigma_n": s.sigma_n, "adc_bits": s.adc_bits, "activation": self.activation}
+               "sigma_n": s.sigma_n, "adc_bits": s.adc_bits, "activation": self.activation,
+               "fidelity": self.fidelity}
         if s.targets:
             out["snr_db"] = s.snr_db(0)
         return out

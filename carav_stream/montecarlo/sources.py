@@ -11,7 +11,8 @@ __all__ = ["source_from_spec"]
 
 def source_from_spec(spec: dict):
     """The cycle source of a plain description (what `carav sweep` options and a study's [[scenes]] entry say):
-    model radar | paper, preset or scene file, nr, ns, iq, snr_db, ideal_adc, activation, attack_params."""
+    model radar | paper, preset or scene file, nr, ns, iq, snr_db, ideal_adc, activation, fidelity,
+    attack_params."""
     preset = spec.get("preset") or ("table1" if spec.get("scene") is None else None)
     if spec.get("model", "radar") == "paper":
         return PaperSource(paper_scene(preset.split("_")[0], n_chirps=spec.get("nr"), n_samples=spec.get("ns"),
@@ -26,4 +27,4 @@ def source_from_spec(spec: dict):
         overrides["adc_bits"] = 0
     scene = load_scene(spec.get("scene") or preset, overrides or None)
     return RadarSource(scene, attack_params=spec.get("attack_params") or {},
-                       activation=spec.get("activation") or "seeded")
+                       activation=spec.get("activation") or "seeded", fidelity=spec.get("fidelity") or "auto")

@@ -21,6 +21,7 @@ from carav_stream.montecarlo.engine import QDraw, assemble, batch_plan, batches_
 from carav_stream.montecarlo.sources import source_from_spec
 from carav_stream.radar.attackers import KINDS
 from carav_stream.radar.scene_loader import preset_names
+from carav_stream.radar.synth import FIDELITIES
 
 STORE_VERSION = 1
 
@@ -83,6 +84,7 @@ SCENE = (
     Param("snr_db", float, None, "echo SNR per sample", unit="dB", optional=True),
     Param("ideal_adc", bool, False, "no quantisation"),
     Param("activation", str, "seeded", "activation sequence", choices=("seeded", "lfsr", "secure")),
+    Param("fidelity", str, "auto", "signal model of the radar chain", choices=FIDELITIES),
 )
 ATTACK = (
     Param("kind", str, REQUIRED, "attacker model"),

@@ -3,9 +3,11 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import pytest
 
+import carav_stream.radar
 from carav_stream.cli import main as carav
 from carav_stream.cli import sweep as sweep_cli
 
@@ -69,6 +71,27 @@ def test_sweep_cli_radar_chain_accepts_any_attacker(tmp_path):
                  "--trials", "20", "--eta", "1:2:0.5", "--seed", "1", "--quiet", "--json", str(out)])
     assert code == 0
     assert json.loads(out.read_text())["curves"][0]["attack"] == "ghost"
+
+
+@pytest.mark.slow
+def test_sweep_at_waveform_fidelity_sees_a_near_echo_leak_into_silent_slots_that_the_beat_fidelity_cannot(tmp_path):
+    """The table1 car at 5 m: the IF filter smears the end of each active chirp's echo into the first samples of
+    the next slot; at waveform fidelity the silent slots after an active one carry it and C(1.5) fires on
+    benign cycles; the beat fidelity, which renders no such edge, raises none."""
+    preset = (Path(carav_stream.radar.__file__).parent / "presets" / "table1.toml").read_text()
+    scene = tmp_path / "near.toml"
+    scene.write_text(preset.replace('name = "table1"', 'name = "table1_5m"').replace("range_m = 43.0",
+                                                                                      "range_m = 5.0"))
+    pf = {}
+    for fidelity in ("beat", "waveform"):
+        out = tmp_path / f"{fidelity}.json"
+        assert _run(["--scene", str(scene), "--attack", "random", "--rarms", "3", "--trials", "40",
+                     "--eta", "1.5:2:0.5", "--seed", "3", "--quiet", "--fidelity", fidelity,
+                     "--json", str(out)]) == 0
+        res = json.loads(out.read_text())
+        assert res["scene"]["fidelity"] == fidelity
+        pf[fidelity] = res["curves"][0]["pf"][0]
+    assert pf["beat"] < 0.05 and pf["waveform"] >= 0.9, pf
 
 
 def test_sweep_table_header_states_the_echo_snr_and_the_papers_reading(capsys):

@@ -3,6 +3,7 @@ chi-square directly and against the full sample chain (ADC included) by Monte Ca
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -90,3 +91,24 @@ def test_validate_and_sweep_warn_when_eta_is_loose_for_the_scene(capsys):
     assert "warning" not in capsys.readouterr().err
     assert carav(["sweep", "--nr", "256", "--ns", "32", "--rarms", "1", "--trials", "20", "--quiet"]) == Exit.OK
     assert "the paper's eta = 1.5 raises false alarms on 0.0083" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_design_checks_the_scenes_own_benign_cycles_and_warns_when_a_near_echo_sets_the_false_alarm_rate(
+        tmp_path, capsys):
+    """The table1 car at 7 m: the closed form sees noise and the beat fidelity's echo, so at beat fidelity the
+    benign cycles raise no alarm at the designed eta; at waveform fidelity the echo's smeared edge in the silent
+    slots does, and the design says so instead of printing a threshold that does not hold."""
+    scene = str(Path(__file__).parents[2] / "examples" / "table1_car_7m.toml")
+    found = {}
+    for fidelity in ("beat", "waveform"):
+        out = tmp_path / f"{fidelity}.json"
+        assert carav(["design", "--scene", scene, "--fidelity", fidelity, "--benign-trials", "60", "--rarms", "3",
+                      "--trials", "20", "--seed", "4", "--json", str(out)]) == Exit.OK
+        found[fidelity] = (json.loads(out.read_text()), capsys.readouterr().out)
+    beat, text = found["beat"]
+    assert beat["benign"]["design"]["alarms"] == 0 and not beat["benign"]["above_design"] and "WARNING" not in text
+    wave, text = found["waveform"]
+    assert wave["scene"]["fidelity"] == "waveform" and wave["benign"]["design"]["alarms"] >= 10
+    assert wave["benign"]["above_design"] and "WARNING: the scene's own echo raises false alarms" in text
+    assert wave["rms_detector"]["eta"] == beat["rms_detector"]["eta"]          # the closed form is the same
