@@ -98,18 +98,28 @@ def no_growth(per_h: float, stderr_per_h: float) -> bool:
     return per_h < max(SOAK_RSS_MB_PER_H, 3.0 * stderr_per_h)
 
 
-def _carav(env: dict[str, str], *args: str, timeout_s: float = 60) -> subprocess.CompletedProcess:
+def _carav(env: dict[str, str], *args: str, timeout_s: float | None = 60) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "carav_stream.cli", *args], env=env, capture_output=True, text=True,
                           timeout=timeout_s)
 
 
 def _node_pids(env: dict[str, str]) -> dict[str, int]:
     """{node: pid} of the running graph, from `carav status` ({} while it is not up yet)."""
-    st = _carav(env, "status", "--json", timeout_s=20)
+    try:
+        st = _carav(env, "status", "--json", timeout_s=20)
+    except subprocess.TimeoutExpired:      # a loaded machine: asked again at the next sample
+        return {}
     if st.returncode != 0 or not st.stdout.strip().startswith("["):
         return {}
     return {node: info["pid"] for run in json.loads(st.stdout) for node, info in run["nodes"].items()
             if info.get("pid")}
+
+
+def _going(env: dict[str, str]) -> bool:
+    """Whether the run has made cycles yet (from `carav status`)."""
+    st = _carav(env, "status", "--json", timeout_s=None)
+    return st.returncode == 0 and st.stdout.strip().startswith("[") and \
+        any(run.get("cycles", 0) > 0 for run in json.loads(st.stdout))
 
 
 def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: int = 0,
@@ -124,9 +134,16 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                                  "--json", str(summary_path)], env=env, start_new_session=True,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         series: dict[tuple[str, int], list[tuple[float, float, int]]] = {}
-        swaps, t0 = 0, time.monotonic()
+        swaps = 0
         pids: dict[str, int] = {}
         try:
+            # the soak's minutes are minutes of running: its clock starts once the graph makes cycles (a loaded
+            # machine may take a while to start ten processes)
+            while not _going(env):
+                if proc.poll() is not None:
+                    raise RuntimeError(f"the graph ended before it ran:\n{proc.stderr.read()[-2000:]}")
+                time.sleep(0.2)
+            t0 = time.monotonic()
             next_swap = next_sample = t0
             end = t0 + minutes * 60
             while time.monotonic() < end:

