@@ -274,8 +274,11 @@ def test_a_run_that_cannot_drain_is_killed_at_its_deadline_and_says_where_each_n
         st = carav.cli("status", "--json")
         if st.returncode != 0 or not st.stdout.strip().startswith("["):
             return False
-        return any("queue full" in s["nodes"]["src"]["counters"].get("state", "") for s in json.loads(st.stdout))
-    wait_until(blocked, "the source to block on t's full queue", run)
+        # the source blocked on t's full queue, and t heard from once (a node reports between frames: t, in its
+        # first 3 s frame from the start, would otherwise be killed having said nothing)
+        return any("queue full" in s["nodes"]["src"]["counters"].get("state", "")
+                   and "inp: " in s["nodes"]["t"]["counters"].get("state", "") for s in json.loads(st.stdout))
+    wait_until(blocked, "the source to block on t's full queue and t to report", run)
     assert carav.cli("stop").returncode == 0
     assert run.wait() == 1, run.stderr()
     (failure,) = [f for f in run.summary()["failures"] if "drain deadline" in f]
