@@ -132,7 +132,7 @@ def chaos(transport: str, seconds: float, every_s: float, seed: int, settle_s: f
                                 stderr=(tmp_path / "stderr.txt").open("w"))
         kills: dict[str, int] = {}
         try:
-            while not (work / SINKS["glog"]).exists() or not read_jsonl(work / SINKS["glog"]):   # going
+            while not read_jsonl(work / SINKS["glog"]):        # going: cycles gated (no file yet reads as none)
                 if proc.poll() is not None:
                     raise RuntimeError(f"the graph ended early:\n{(tmp_path / 'stderr.txt').read_text()[-2000:]}")
                 time.sleep(0.1)
