@@ -32,6 +32,12 @@ class Geometry:
     t_chirp_s       chirp repetition interval T_c [s] (slow-time sample spacing)
     n_samples       fast-time samples per chirp
     iq              True: complex (I/Q) samples; False: real (I-only) samples
+    t_adc_start_s   fast time of the first sample after the ramp's start (TI's adcStartTime) [s]
+
+    The chirp-to-chirp phase progression is read at the first sample. There the echo's phase 2 pi (fc tau +
+    S t' tau) advances by 2 pi alpha T_c (fc + S t'), alpha = 2 v / c, so a window that starts t_adc into the
+    ramp scales the Doppler by 1 + S t_adc / fc (1.1e-3 on AWR1642 with a 7 us start): the velocity conversions
+    below take it out.
     """
 
     fs_hz: float
@@ -40,6 +46,7 @@ class Geometry:
     t_chirp_s: float
     n_samples: int
     iq: bool = True
+    t_adc_start_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("fs_hz", "slope_hz_per_s", "fc_hz", "t_chirp_s"):
@@ -48,18 +55,21 @@ class Geometry:
                 raise ValueError(f"Geometry.{name}: must be a finite number > 0, got {value!r}")
         if int(self.n_samples) != self.n_samples or self.n_samples < 4:
             raise ValueError(f"Geometry.n_samples: must be an integer >= 4, got {self.n_samples!r}")
+        if not (np.isfinite(self.t_adc_start_s) and self.t_adc_start_s >= 0):
+            raise ValueError(f"Geometry.t_adc_start_s: must be a finite number >= 0, got {self.t_adc_start_s!r}")
         object.__setattr__(self, "n_samples", int(self.n_samples))
         object.__setattr__(self, "iq", bool(self.iq))
 
     @classmethod
     def from_scene(cls, scene: object) -> Geometry:
-        """Read fs_hz, slope_hz_per_s, fc_hz, t_chirp_s, n_samples, iq from any object (duck typing)."""
+        """Read fs_hz, slope_hz_per_s, fc_hz, t_chirp_s, n_samples, iq and, if it has one, t_adc_start_s from any
+        object (duck typing)."""
         names = ("fs_hz", "slope_hz_per_s", "fc_hz", "t_chirp_s", "n_samples", "iq")
         missing = [n for n in names if not hasattr(scene, n)]
         if missing:
             raise TypeError(f"Geometry.from_scene: {type(scene).__name__} lacks attribute(s) {missing}; "
                             f"expected all of {list(names)}")
-        return cls(*(getattr(scene, n) for n in names))
+        return cls(*(getattr(scene, n) for n in names), t_adc_start_s=float(getattr(scene, "t_adc_start_s", 0.0)))
 
     @property
     def wavelength_m(self) -> float:
@@ -83,8 +93,14 @@ class Geometry:
 
     @property
     def max_velocity_mps(self) -> float:
-        """Unambiguous radial velocity: |v| < lambda / (4 T_c) [m/s]."""
+        """Unambiguous radial velocity: |v| < lambda / (4 T_c) [m/s] (the textbook figure; the phase progression at
+        the first sample folds at this over the Doppler scale, which the velocity conversions use)."""
         return self.wavelength_m / (4.0 * self.t_chirp_s)
+
+    @property
+    def doppler_scale(self) -> float:
+        """1 + S t_adc / fc: the chirp-to-chirp phase progression at the first sample over 2 v T_c / lambda."""
+        return 1.0 + self.slope_hz_per_s * self.t_adc_start_s / self.fc_hz
 
     def beat_from_range(self, range_m, velocity_mps=0.0):
         """Beat frequency [Hz] of a target at range_m [m] with radial velocity velocity_mps [m/s]."""
@@ -98,8 +114,9 @@ class Geometry:
 
     def velocity_from_slow_freq(self, nu_cycles_per_chirp):
         """Radial velocity [m/s] from the chirp-to-chirp phase progression nu [cycles/chirp]."""
-        return np.asarray(nu_cycles_per_chirp, dtype=float) * self.wavelength_m / (2.0 * self.t_chirp_s)
+        return (np.asarray(nu_cycles_per_chirp, dtype=float) * self.wavelength_m
+                / (2.0 * self.t_chirp_s * self.doppler_scale))
 
     def slow_freq_from_velocity(self, velocity_mps):
-        """Chirp-to-chirp phase progression nu = 2 v T_c / lambda [cycles/chirp] (not wrapped)."""
-        return np.asarray(velocity_mps, dtype=float) * 2.0 * self.t_chirp_s / self.wavelength_m
+        """Chirp-to-chirp phase progression nu = 2 v T_c / lambda (1 + S t_adc / fc) [cycles/chirp] (not wrapped)."""
+        return np.asarray(velocity_mps, dtype=float) * 2.0 * self.t_chirp_s * self.doppler_scale / self.wavelength_m

@@ -45,7 +45,7 @@ def walk(geometry: Geometry, velocity_mps) -> np.ndarray:
 def alias_folds(max_speed_mps: float, geometry: Geometry) -> np.ndarray:
     """The fold numbers k to try: every alias (nu + k) lambda / (2 T_c) of an aliased velocity that can lie
     within +-max_speed_mps."""
-    step = 2.0 * geometry.max_velocity_mps
+    step = float(geometry.velocity_from_slow_freq(1.0))
     k = int(np.ceil(max_speed_mps / step + 0.5))
     return np.arange(-k, k + 1)
 
@@ -73,7 +73,7 @@ def refine_walking(x, index, mask, n_chirps: int, f0, nu0, geometry: Geometry, m
     # nu + w n, so the map's cell holds nu + w (N - 1) / 2; each alias starts from its own nu
     nu_cell = np.asarray(nu0, float)
     folds = alias_folds(max_speed_mps, geometry)
-    fold_speed = folds[None, :] * 2.0 * geometry.max_velocity_mps
+    fold_speed = geometry.velocity_from_slow_freq(folds[None, :])       # one whole cycle per chirp per fold
     speeds = geometry.velocity_from_slow_freq(_wrap(nu_cell))[:, None] + fold_speed
     for _ in range(2):
         nu_k = _wrap(nu_cell[:, None] - walk(geometry, speeds) * (n_samp - 1) / 2.0)   # (C, K)

@@ -23,9 +23,10 @@ chirp (which keeps sweeping on silent chirps), the emission as it left the emitt
 by the emitter's own on/off schedule: the victim's previous chirp arrives first, then the current
 one), mixes them, low-pass filters with a linear-phase FIR (``if_filter``) and decimates to fs.
 Mixer products beyond +-oversample*fs/2 alias on that grid: raise ``waveform_oversample`` for
-interferers whose slope differs a lot from the victim's. A replica's main part or spill whose beat lies beyond the
-grid's Nyquist rate (the AWR1642's spill beats near -2 GHz) is dropped rather than folded: the receiver's analog
-filter removes it.
+interferers whose slope differs a lot from the victim's. A replica's part whose beat lies beyond the grid's Nyquist
+rate (the AWR1642's spill beats near -2 GHz) is dropped rather than folded: the receiver's analog filter removes it.
+Which beat a part has depends on the ramp the reference is on at that instant, so the previous chirp's echo is kept
+up to the ramp reset (where it beats in band) and dropped after it.
 
 The receiver's reference (LO) keeps sweeping on silent chirps: the transmitter is gated, the synthesiser and the
 receive chain are not (paper, Section IV, step 4: acquisition in every chirp slot). So a silent slot is dechirped
@@ -236,13 +237,17 @@ def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float
     gate_tail = (u_main < 0) & (u_tail >= 0) & (u_tail < scene.t_sweep_s)
     if gate_from_s is not None:          # a late start delays chirp k's reply, not what is left of chirp k-1's
         gate_main &= g.t_fast_s[None, :] >= gate_from_s
-    # a part beating beyond the grid's Nyquist rate would fold back on the grid: the analog filter removes it
+    # A part beating beyond the grid's Nyquist rate would fold back on the grid: the analog filter removes it. The
+    # beat depends on which ramp the reference is on: before the slot's start (t' < 0, the grid's lead-in) it is
+    # still on the previous ramp, so chirp k-1's emission beats there at the main beat, in band, and its
+    # truncation by the ramp reset reaches the first samples through the IF filter; from the slot's end on
+    # (t' >= t_chirp) chirp k's emission beats at the spill beat.
     nyquist = g.oversample * scene.fs_hz / 2.0
     f_main, f_tail = replica_beats_hz(scene, tau0_s, alpha)
-    if abs(f_main) >= nyquist:
-        gate_main = np.zeros_like(gate_main)
-    if abs(f_tail) >= nyquist:
-        gate_tail = np.zeros_like(gate_tail)
+    before, after = g.t_fast_s < 0, g.t_fast_s >= scene.t_chirp_s
+    keep_main, keep_tail = abs(f_main) < nyquist, abs(f_tail) < nyquist
+    gate_main &= np.where(after, keep_tail, keep_main)[None, :]
+    gate_tail &= np.where(before, keep_main, keep_tail)[None, :]
     s = scene.slope_hz_per_s
     main = mix(scene, np.pi * s * np.clip(u_main, 0, None) ** 2, carrier, amplitude, gate_main)
     tail = mix(scene, np.pi * s * np.clip(u_tail, 0, None) ** 2, carrier, amplitude, gate_tail)

@@ -6,16 +6,18 @@ import numpy as np
 from carav_blocks.adc_framer import AdcFramer
 from carav_blocks.attacker import AttackerBlock
 from carav_blocks.channel import Channel
+from carav_stream.radar.scene_loader import load_scene
 from carav_stream.runtime import Frame
 from carav_stream.testing.harness import wire
 
 SCENE = "table1"
+N_S = load_scene(SCENE).n_samples      # samples per chirp of the scene
 RHO = np.zeros(64, bool)
 RHO[::2] = True
 
 
 def adc_frame(seq: int, value: float = 1e-4, cycles: int = 1) -> Frame:
-    return wire(Frame.of(np.full((cycles, 64, 1100), value, np.float32), cycles=cycles), seq)
+    return wire(Frame.of(np.full((cycles, 64, N_S), value, np.float32), cycles=cycles), seq)
 
 
 def front_end(fidelity: str, seed: int = 4, **attack):

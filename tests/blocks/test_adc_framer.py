@@ -6,7 +6,7 @@ from carav_blocks.adc_framer import AdcFramer
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.runtime.frames import Frame
 from tests.blocks import jig
-from tests.blocks.helpers import RHO, SCENE, front_end, wire
+from tests.blocks.helpers import N_S, RHO, SCENE, front_end, wire
 
 VECTORS = jig.vectors("adc_framer")
 
@@ -85,7 +85,7 @@ def test_adc_refuses_a_gated_attack_it_cannot_gate_naming_the_frame():
     with pytest.raises(ValueError, match="attack frame seq 6 .* gate_by_on_air 1\\) does not fit"):
         adc.process(rx, not_a_flag)
     ungated = wire(Frame.of(attack.payload, cycles=2, per_cycle={"attack_active": [True] * 2}), 6)   # flag lost
-    with pytest.raises(ValueError, match=r"attack frame seq 6 .*float32 \(1, 64, 1100\).* does not fit"):
+    with pytest.raises(ValueError, match=rf"attack frame seq 6 .*float32 \(1, 64, {N_S}\).* does not fit"):
         adc.process(rx, ungated)
     assert adc.process(rx, attack).header["per_cycle"]["attack_active"] == [True, True]
 
@@ -96,7 +96,7 @@ def test_adc_codes_count_nan_and_inf_inputs_apart_from_clipping(iq):
     from carav_stream.radar.scene_loader import load_scene
     scene = load_scene("table1", {"iq": iq})
     dtype = np.complex64 if iq else np.float32
-    rx = np.zeros((3, 64, 1100), dtype)
+    rx = np.zeros((3, 64, scene.n_samples), dtype)
     rx[1, 3, 5] = np.nan
     rx[1, 7, 9] = np.inf
     rx[2, 0, 0] = -np.inf

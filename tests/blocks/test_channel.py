@@ -4,7 +4,7 @@ import pytest
 
 from carav_blocks.channel import Channel
 from carav_stream.runtime import Frame
-from tests.blocks.helpers import RHO, SCENE, wire
+from tests.blocks.helpers import N_S, RHO, SCENE, wire
 
 
 def test_the_air_port_carries_each_cycles_previous_emission_across_frames():
@@ -15,7 +15,7 @@ def test_the_air_port_carries_each_cycles_previous_emission_across_frames():
     out2 = ch.process(wire(Frame.of(rho[2:], cycle=2, cycles=1), 1))
     heard = np.concatenate([out1["air"].payload, out2["air"].payload])
     assert not heard[0].any() and (heard[1:] == rho[:2]).all()        # nothing before cycle 0, then cycle k-1
-    assert out1["rx"].payload.shape == (2, 64, 1100) and (out1["rx"].arrays["on_air"] == rho[:2]).all()
+    assert out1["rx"].payload.shape == (2, 64, N_S) and (out1["rx"].arrays["on_air"] == rho[:2]).all()
 
 
 def test_silent_chirps_carry_noise_only_and_active_chirps_the_echo_too():

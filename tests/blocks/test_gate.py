@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from carav_blocks.gate import Gate
 from carav_stream.runtime.frames import Frame
 from tests.blocks import jig
-from tests.blocks.helpers import RHO, adc_frame, wire
+from tests.blocks.helpers import N_S, RHO, adc_frame, wire
 
 VECTORS = jig.vectors("gate")
 
@@ -67,7 +67,7 @@ def test_gate_never_passes_a_cycle_without_an_explicit_clean_verdict(cycles, eta
     assert passed == [3 + i for i in range(n) if clean[i]] and refused == [3 + i for i in range(n) if not clean[i]]
     if "clean" in out:
         assert out["clean"].header["verdict"] == "clean" and out["clean"].header["cycles"] == len(passed)
-        assert out["clean"].payload.shape == (len(passed), 64, 1100)
+        assert out["clean"].payload.shape == (len(passed), 64, N_S)
         np.testing.assert_array_equal(out["clean"].arrays["rho"], np.tile(RHO, (len(passed), 1)))
 
 

@@ -1,8 +1,13 @@
 """`carav scenes`: what a scene implies, checked against the textbook formulas computed here from Table I's numbers."""
 from __future__ import annotations
 
+import math
+
+import pytest
+
 from carav_stream.cli import main as carav
 from carav_stream.console.errors import Exit
+from carav_stream.radar.scene_loader import load_scene
 
 C = 299_792_458.0
 
@@ -16,16 +21,22 @@ def _column(out: str, name: str) -> dict[str, str]:
 def test_table1_figures_are_the_textbook_ones(capsys):
     assert carav(["scenes", "table1"]) == Exit.OK
     t = _column(capsys.readouterr().out, "table1")
-    # the preset: 150 MHz swept in 7.33 us (also the chirp period), 1100 samples at 150 MHz, 64 chirps, 77 GHz
+    # the preset: 150 MHz swept in 7.33 us (also the chirp period), 1084 samples at 150 MHz from 16 samples in, 64 chirps, 77 GHz
     t_chirp, slope = 7.33e-6, 150e6 / 7.33e-6
-    assert t["range resolution"] == f"{C / (2 * slope * 1100 / 150e6):.4g} m"      # c / 2 B_sampled
+    assert t["range resolution"] == f"{C / (2 * slope * 1084 / 150e6):.4g} m"      # c / 2 B_sampled
     assert t["unambiguous velocity"] == f"+-{C / 77e9 / (4 * t_chirp):.4g} m/s"     # lambda / 4 T_c
     assert t["max range"] == f"{75e6 * C / (2 * slope):.4g} m"                     # beat at fs / 2 (I only)
     assert t["cycle"].endswith(f"({1 / (64 * t_chirp):.5g} cycles/s)")
     assert t["SNR of target 1, per sample once its echo has arrived"] == "+2.20 dB" and t["warnings"] == "none"
-    # averaged over the slot (the 0.287 us before the echo arrives hold none of it) and with the ADC's noise:
-    # what the detector's law sees, and what `carav design` prints
-    assert t["echoes' SNR averaged over a slot, ADC noise included (what the detector's law sees)"] == "+2.03 dB"
+    # averaged over the window (from 16 samples in; until the echo arrives at 0.287 us it holds none of it) and with
+    # the ADC's quantisation noise lsb^2 / 12: what the detector's law sees, and what `carav design` prints
+    s = load_scene("table1")
+    window = s.n_samples / s.fs_hz
+    held = (s.t_adc_start_s + window - 2 * 43 / C) / window
+    lsb = s.adc_full_scale / 2 ** (s.adc_bits - 1)
+    slot_snr = s.echo_power_w(s.targets[0]) / s.sigma_n ** 2 * held / (1 + lsb ** 2 / 12 / s.sigma_n ** 2)
+    shown = t["echoes' SNR averaged over a slot, ADC noise included (what the detector's law sees)"]
+    assert shown.endswith(" dB") and float(shown[:-3]) == pytest.approx(10 * math.log10(slot_snr), abs=0.015)
     # the car closes at 100 - 96 km/h; beat = S tau + 2 v / lambda with v the range rate
     v = (96 - 100) / 3.6
     beat = slope * 2 * 43 / C + 2 * v / (C / 77e9)

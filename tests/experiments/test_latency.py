@@ -41,5 +41,5 @@ def test_window_starts_after_the_longest_visible_round_trip():
     for preset in ("table1", "awr1642"):
         s = load_scene(preset)
         first = latency.window_start(s)
-        assert first * 1 / s.fs_hz >= max_visible_delay_s(s) + 16 / s.fs_hz
+        assert s.t_adc_start_s + first / s.fs_hz >= max_visible_delay_s(s) + 16 / s.fs_hz
         assert np.isclose(max_visible_delay_s(s), 0.55 * s.fs_hz / s.slope_hz_per_s)

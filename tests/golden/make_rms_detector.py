@@ -1,6 +1,6 @@
 """Golden vectors for blocks/rms_detector.py, from the paper's Section V.A written out in plain numpy.
 
-Inputs are the int16 ADC codes of the table1 scene (Table I: 64 chirps of 1100 samples, 12-bit ADC) built here
+Inputs are the int16 ADC codes of the table1 scene (Table I: 64 chirps of N_s samples, 12-bit ADC) built here
 from the model R_k[m] = n_k[m] + rho(k) x_k[m] + a_k[m] (Section IV): white Gaussian noise of RMS sigma_n, a
 closed-form beat tone for the car, and the attack. The reference then computes, per cycle,
 
@@ -57,7 +57,7 @@ def adc(r: np.ndarray) -> np.ndarray:
 
 
 def received(seed: int, attacks: list[tuple[str, float]]) -> tuple[np.ndarray, np.ndarray]:
-    """(codes int16 (cycles, 64, 1100), rho bool (cycles, 64)), one cycle per (attack model, rarms)."""
+    """(codes int16 (cycles, 64, N_s), rho bool (cycles, 64)), one cycle per (attack model, rarms)."""
     rng = np.random.default_rng(seed)
     n_cycles, n, n_s = len(attacks), SCENE.n_chirps, SCENE.n_samples
     rho = balanced_rho(rng, n_cycles)

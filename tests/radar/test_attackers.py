@@ -372,7 +372,7 @@ def test_reactive_reply_agrees_between_fidelities_spill_included(latency_us):
         out[fid], _ = att.emit(1, 0, None, Observation(on_air, 0), fidelity=fid)
     beat, wave = out["beat"][0], out["waveform"][0]
     delay = att.delay_s()
-    m0 = int(round(delay * s.fs_hz))
+    m0 = int(round((delay - s.t_adc_start_s) * s.fs_hz))          # the sample where the reply's gating edge falls
     keep = np.ones(s.n_samples, bool)
     keep[:18] = keep[-18:] = False
     keep[max(0, m0 - 18): m0 + 18] = False

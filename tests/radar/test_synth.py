@@ -152,15 +152,21 @@ def test_beat_and_waveform_fidelities_agree_within_tolerance(preset, iq):
     wave = clean(s, fidelity="waveform")[0]
     tau = 2 * s.targets[0].range_m / C
     settle = 16 + 2                                   # FIR half length in ADC samples, plus margin
-    m0 = int(np.ceil(tau * s.fs_hz)) + settle
+    m0 = _sample_at(s, tau) + settle
     interior = slice(m0, s.n_samples - settle)
     amp = np.abs(beat[:, interior]).max()
     # stated tolerance (docs/SCENES.md): 0.5 % of the echo amplitude inside the window
     assert np.abs(wave[:, interior] - beat[:, interior]).max() < 5e-3 * amp
-    # before the echo of this chirp arrives the waveform model holds (almost) nothing
-    if m0 > settle + 2:
-        # (its first samples hold the previous chirp's in-band echo, cut off by the reference's reset)
-        assert np.abs(wave[:, settle: int(tau * s.fs_hz) - settle]).max() < 0.02 * amp
+    # before the echo of this chirp arrives the waveform model holds (almost) nothing (a window starting at the
+    # ramp's reset: its first samples hold the previous chirp's in-band echo, cut off by the reset)
+    lead = max(0, settle - _sample_at(s, 0.0))
+    if m0 > 2 * settle + lead:
+        assert np.abs(wave[:, lead: m0 - 2 * settle]).max() < 0.02 * amp
+
+
+def _sample_at(s, t_s: float) -> int:
+    """Index of the first ADC sample at or after fast time t_s (negative before the window's start)."""
+    return int(np.ceil(round((t_s - s.t_adc_start_s) * s.fs_hz, 6)))
 
 
 def _edges_masked(n_samples, edges, settle=18):
@@ -201,7 +207,7 @@ def test_beat_and_waveform_agree_on_the_slot_and_the_spill(preset, tau_over_chir
     beat, wave = (clean(s, rho, fid)[0] for fid in ("beat", "waveform"))
     amp = physics.echo_amplitude(s, target)
     tau = 2 * r / C
-    m0 = int(np.ceil(tau * s.fs_hz))
+    m0 = max(0, _sample_at(s, tau))
     keep = _edges_masked(s.n_samples, [m0])
     assert np.abs(wave[:, keep] - beat[:, keep]).max() < 5e-3 * amp
     # energy per slot, the edges included, within 2 % of a full slot of echo
@@ -311,7 +317,7 @@ def test_transmit_rejects_bad_activation_rows(small_scene):
 def test_frames_dtype_and_shape(table1):
     rho = ActivationSource("seeded", seed=1).next(2, 64)
     c = simulate_cycles(table1, rho, np.random.default_rng(0))
-    assert c.frames.dtype == np.float32 and c.frames.shape == (2, 64, 1100)
+    assert c.frames.dtype == np.float32 and c.frames.shape == (2, 64, 1084)
     assert c.clean_echo is None and c.fidelity == "beat"
     assert c.clipped.dtype == np.int64 and c.attack_active.dtype == np.bool_
     assert not c.attack_active.any() and math.isfinite(float(np.abs(c.frames).max()))
