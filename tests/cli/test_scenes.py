@@ -21,7 +21,8 @@ def _column(out: str, name: str) -> dict[str, str]:
 def test_table1_figures_are_the_textbook_ones(capsys):
     assert carav(["scenes", "table1"]) == Exit.OK
     t = _column(capsys.readouterr().out, "table1")
-    # the preset: 150 MHz swept in 7.33 us (also the chirp period), 1084 samples at 150 MHz from 16 samples in, 64 chirps, 77 GHz
+    # the preset: 150 MHz swept in 7.33 us (also the chirp period), 1084 samples at 150 MHz from 16 samples in,
+    # 64 chirps, 77 GHz
     t_chirp, slope = 7.33e-6, 150e6 / 7.33e-6
     assert t["range resolution"] == f"{C / (2 * slope * 1084 / 150e6):.4g} m"      # c / 2 B_sampled
     assert t["unambiguous velocity"] == f"+-{C / 77e9 / (4 * t_chirp):.4g} m/s"     # lambda / 4 T_c

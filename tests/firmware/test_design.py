@@ -87,7 +87,8 @@ def test_validate_and_sweep_warn_when_eta_is_loose_for_the_scene(capsys):
     assert carav(["validate", graph, "--set", "detector.eta=1.05"]) == Exit.OK
     err = capsys.readouterr().err
     assert err.count("rms_detector eta = 1.05 raises false alarms") == 1
-    assert f"`carav design --preset table1` gives eta = {rms_threshold(scene_law(load_scene('table1')), 1e-6):.4g}" in err
+    designed = rms_threshold(scene_law(load_scene("table1")), 1e-6)
+    assert f"`carav design --preset table1` gives eta = {designed:.4g}" in err
     assert carav(["validate", graph]) == Exit.OK
     assert "warning" not in capsys.readouterr().err
     assert carav(["sweep", "--nr", "256", "--ns", "32", "--rarms", "1", "--trials", "20", "--quiet"]) == Exit.OK
