@@ -19,6 +19,7 @@ import numpy as np
 
 from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
 from carav_stream.firmware.design import scene_law, threshold_warning
+from carav_stream.firmware.leak import leak_warnings
 from carav_stream.radar.adc import adc_step
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import SCENE, scene_of
@@ -39,11 +40,13 @@ class RmsDetector(Block):
         self.lsb = adc_step(self.scene_obj)
 
     def param_warnings(self) -> list[str]:
-        """eta is not universal: its false-alarm rate per cycle depends on the scene (montecarlo/design.py)."""
+        """eta is not universal: its false-alarm rate per cycle depends on the scene (firmware/design.py), and a
+        scene's echo can leak into the silent slots (firmware/leak.py)."""
         where = f"--preset {self.scene}" if self.scene in preset_names() else f"--scene {self.scene}"
         text = threshold_warning(scene_law(self.scene_obj), self.eta, self.sigma, who="rms_detector",
                                  design_hint=f"carav design {where}")
-        return [text] if text else []
+        leaks = leak_warnings(self.scene_obj, self.eta, sigma_det=self.sigma, who="rms_detector")
+        return ([text] if text else []) + leaks
 
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)

@@ -13,7 +13,7 @@
     carav study STUDY.toml [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--plot]   sweeps on Dask
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
-    carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency ...
+    carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency | near-echoes ...
     carav new block NAME [--kind filter|source|sink] [--dir DIR]   a block, its test and a graph to start from
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
@@ -54,6 +54,7 @@ EXPERIMENTS = {
     "cfar": ("carav_stream.experiments.cfar_experiment", "the radar's CFAR target detection against its design"),
     "clutter": ("carav_stream.experiments.clutter", "several targets and clutter: false alarms, the target list"),
     "latency": ("carav_stream.experiments.latency", "spill test: PF over echo power, PM over repeater latency"),
+    "near-echoes": ("carav_stream.experiments.near_echoes", "a near car's echo against every detector, attack-free"),
 }
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 

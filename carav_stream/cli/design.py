@@ -21,6 +21,7 @@ print).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 
@@ -31,6 +32,7 @@ from carav_stream.console.options import count, float_list, number, output_file
 from carav_stream.detect.opt_in import cusum_threshold, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.firmware.design import pf_per_cycle, pm_random, rms_threshold, scene_law
+from carav_stream.firmware.leak import scene_leaks
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
 from carav_stream.radar.scene import SceneError
@@ -124,6 +126,7 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
                                  "bins_tested": m * bins},
         "cusum_silent_power": {"k": 0.5, "h": cusum_threshold(1 / pf, 0.5), "arl0_cycles": 1 / pf},
         "benign": benign, "misses": misses, "smart_trials": trials, "seed": seed,
+        "leaks": [dataclasses.asdict(k) for k in scene_leaks(scene, eta, pf_design=pf)],
     }
 
 
@@ -144,6 +147,15 @@ def _print(d: dict, stream=None) -> None:
     cu = d["cusum_silent_power"]
     print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
           f"{cu['arl0_cycles']:.3g} cycles", file=stream)
+    for k in d["leaks"]:
+        over = ", ".join(f"{a:.3g}-{b:.3g} m" for a, b in k["ranges_over"] or ())
+        print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks {k['fraction']:.2g} of a slot "
+              f"of its echo into a silent slot after an active one ({k['fidelity']} fidelity, worst phase): PF "
+              f"{k['pf']:.3g} at eta = {k['eta']:.4f}; within {d['pf'] * 2:g} below {k['rcs_limit_m2']:.3g} m^2 at "
+              f"its range" + (f"; at its RCS it exceeds at {over}" if over else ""), file=stream)
+        if k["pf"] > k["limit"]:
+            print("  WARNING: that leak, not the noise, sets the false-alarm rate (docs/DETECTION.md, near echoes)",
+                  file=stream)
     b = d.get("benign")
     if b:
         cells = [f"{b[k]['alarms']} at eta = {b[k]['eta']:.4g} (95 % interval {b[k]['ci'][0]:.3g}-{b[k]['ci'][1]:.3g})"

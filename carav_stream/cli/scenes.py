@@ -2,8 +2,11 @@
 
 Chirps and samples, sweep, slope, sampling rate, cycle rate, the targets, the SNR of the first target per sample
 once its echo has arrived (radar equation) and the echoes' SNR averaged over a slot (what `carav design` and the
-detector's closed form use), range resolution, maximum range, unambiguous velocity, the beat with Doppler (and
-where it folds to when the ADC cannot represent it), the ADC, and the scene's warnings. With no argument: every preset.
+detector's closed form use), range resolution, maximum range, the ranges where the beat and waveform fidelities
+differ by design (the IF filter's transition band), unambiguous velocity, the beat with Doppler (and where it folds
+to when the ADC cannot represent it), the ADC, and the scene's warnings, among them any echo that leaks enough into
+the silent slots to raise C(eta)'s false-alarm rate at the eta designed for 1e-6 (carav_stream/firmware/leak.py).
+With no argument: every preset.
 
 `carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml] [--noise-codes X]`: the scene of a TI mmWave CLI profile
 (carav_stream/capture/ti_cfg.py), checked by the scene loader, written to --out (or printed), then its table.
@@ -13,11 +16,14 @@ from __future__ import annotations
 import argparse
 import math
 import tomllib
+from functools import lru_cache
 from pathlib import Path
 
 from carav_stream.capture.ti_cfg import TiCfgError, profile_from_cfg, scene_toml
 from carav_stream.console.errors import CommandError, Exit
-from carav_stream.firmware.design import scene_law
+from carav_stream.firmware.design import PF_WARN, scene_law
+from carav_stream.firmware.leak import leak_warnings
+from carav_stream.radar.physics import fidelity_dependent_ranges_m
 from carav_stream.radar.scene import SceneError, fold_beat_hz
 from carav_stream.radar.scene_loader import load_scene, preset_names, scene_from_dict
 
@@ -73,10 +79,18 @@ def _column(scene) -> dict[str, str]:
             "-" if t0 is None else f"{10 * math.log10(scene_law(scene).snr):+.2f} dB",
         "range resolution": f"{scene.range_resolution_m:.4g} m",
         "max range": f"{scene.max_range_m:.4g} m",
+        "ranges where the fidelities differ (the IF filter's transition band)":
+            ", ".join(f"{a:.4g}-{b:.4g} m" for a, b in fidelity_dependent_ranges_m(scene)) or "none",
         "unambiguous velocity": f"+-{v_max:.4g} m/s",
         "ADC": f"{scene.adc_bits} bits" if scene.adc_bits else "ideal",
-        "warnings": str(len(scene.warnings)) if scene.warnings else "none",
+        "warnings": str(len(_warnings(scene))) if _warnings(scene) else "none",
     }
+
+
+@lru_cache(maxsize=64)
+def _warnings(scene) -> tuple[str, ...]:
+    """The scene's own warnings, then its echoes' leak into the silent slots at the eta designed for PF 1e-6."""
+    return (*scene.warnings, *leak_warnings(scene, pf_design=PF_WARN))
 
 
 def scene_table(scenes) -> list[str]:
@@ -84,7 +98,7 @@ def scene_table(scenes) -> list[str]:
     cols = [_column(s) for s in scenes]
     lines = ["| | " + " | ".join(f"`{s.name}`" for s in scenes) + " |", "|---" * (len(scenes) + 1) + "|"]
     lines += [f"| {key} | " + " | ".join(c[key] for c in cols) + " |" for key in cols[0]]
-    notes = [f"- `{s.name}`: {w}" for s in scenes for w in s.warnings]
+    notes = [f"- `{s.name}`: {w}" for s in scenes for w in _warnings(s)]
     return lines + (["", "Warnings:", "", *notes] if notes else [])
 
 

@@ -166,7 +166,7 @@ def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e
     """Energy still arriving in a silent slot after the longest visible round trip (a repeater's spill).
 
     frames  float32/64 | complex64/128 (n_cycles, n_chirps, n_samples);  rho  (n_cycles, n_chirps) or (n_chirps,)
-    sigma_n noise RMS per sample (> 0);  first_sample  first sample of the window (1 .. n_samples - 4), from
+    sigma_n noise RMS per sample (> 0);  first_sample  first sample of the window (0 .. n_samples - 4), from
             ``physics.max_visible_delay_s`` plus the IF filter's settling (``experiments/latency.py: window_start``)
     pf      false-alarm probability per cycle, exact under white Gaussian noise for any echo within the range
     Slot k (k >= 1) is used iff rho[k - 1] and not rho[k]; the chirp before chirp 0 belongs to another cycle.
@@ -177,8 +177,8 @@ def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
     if not sigma_n > 0:
         raise ValueError(f"sigma_n: must be > 0 for the spill test, got {sigma_n!r}")
-    if not 0 < first_sample <= x.shape[-1] - 4:
-        raise ValueError(f"first_sample: must be in 1..{x.shape[-1] - 4}, got {first_sample}")
+    if not 0 <= first_sample <= x.shape[-1] - 4:
+        raise ValueError(f"first_sample: must be in 0..{x.shape[-1] - 4}, got {first_sample}")
     if not 0 < pf < 1:
         raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
     used = np.zeros(x.shape[:2], dtype=bool)

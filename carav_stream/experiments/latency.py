@@ -46,7 +46,7 @@ __all__ = ["configure", "run", "window_start", "head_tail_ratio"]
 
 ECHO_DB = (-10, -5, 0, 5, 10, 15, 20)
 LATENCIES_US = {"table1": (0.1, 1.0, 2.0, 3.0, 3.3, 3.6, 3.9, 4.2, 5.0, 6.0, 7.0),
-                "awr1642": (0.1, 0.2, 0.5, 1.0, 5.0, 20.0)}
+                "awr1642": (0.1, 0.2, 0.5, 1.0, 5.0, 10.0, 20.0)}
 CASES = (("table1", "beat"), ("table1", "waveform"), ("awr1642", "beat"))
 PF_MEASURED = 0.05
 N_HEAD = 24
@@ -113,7 +113,7 @@ def _misses(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
         out.append({"preset": preset, "fidelity": fidelity, "latency_us": lat_us, "delay_us": delay * 1e6,
                     "trials": n, "own_in_band": physics.in_band(scene, f_own),
                     "spill_in_band": physics.in_band(scene, f_spill),
-                    "spill_reaches_window": delay * scene.fs_hz > first,
+                    "spill_reaches_window": (delay - scene.t_adc_start_s) * scene.fs_hz > first,
                     "spill_missed": int(n - spill_test(x, rho, scene.sigma_n, first, pf=1e-6).alarm.sum()),
                     "c15_missed": int(n - detect(x, rho, scene.sigma_n).alarm.sum()),
                     "integrated_missed": int(n - integrated_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.sum())})

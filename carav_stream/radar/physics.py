@@ -103,11 +103,37 @@ def max_visible_delay_s(scene: Scene) -> float:
     return (if_band(scene)[1] + 0.05 * scene.fs_hz) / scene.slope_hz_per_s
 
 
+def fidelity_dependent_ranges_m(scene: Scene) -> tuple[tuple[float, float], ...]:
+    """Ranges [from, to) in metres whose echo, or its spill into the next slot, beats within the waveform FIR's
+    transition band (+-0.05 fs around an edge of the IF band, Doppler aside): there the waveform fidelity passes part
+    of what the beat fidelity's ideal filter passes whole or removes, and results depend on the fidelity. Round trips
+    up to one chirp period. A scene without the beat fidelity's filter (if_filter = false) folds every beat beyond
+    the band instead, so there every range from the band's top on depends on the fidelity."""
+    s, t_c, fs = scene.slope_hz_per_s, scene.t_chirp_s, scene.fs_hz
+    spans = []
+    for edge in if_band(scene):
+        for offset in (0.0, t_c):                                   # the echo's own beat S tau, its spill S (tau - T_c)
+            lo, hi = (edge - 0.05 * fs) / s + offset, (edge + 0.05 * fs) / s + offset
+            lo, hi = max(lo, 0.0), min(hi, t_c)
+            if lo < hi:
+                spans.append([lo, hi])
+    if not scene.if_filter:
+        spans.append([max(0.0, (if_band(scene)[1] - 0.05 * fs) / s), t_c])
+    spans.sort()
+    merged: list[list[float]] = []
+    for lo, hi in spans:
+        if merged and lo <= merged[-1][1]:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return tuple((C_MPS * lo / 2.0, C_MPS * hi / 2.0) for lo, hi in merged)
+
+
 def spill_window_start(scene: Scene) -> int:
     """First ADC sample of a slot that no echo the receiver passes reaches: after the longest visible round trip,
     plus the waveform FIR's half length (16 samples) and one, so that no filtered edge reaches it either (the spill
-    test's window, detect.opt_in.spill_test)."""
-    return int(np.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz)) + 17
+    test's window, detect.opt_in.spill_test); 0 when the ADC starts later than that."""
+    return max(0, int(np.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz)) + 17)
 
 
 def replica_beats_hz(scene: Scene, tau0_s: float, alpha: float) -> tuple[float, float]:

@@ -121,7 +121,7 @@ def test_spill_test_batches_equal_single_cycles():
 
 
 def test_spill_test_names_a_window_outside_the_chirp():
-    with pytest.raises(ValueError, match=r"first_sample: must be in 1..60, got 70"):
+    with pytest.raises(ValueError, match=r"first_sample: must be in 0..60, got 70"):
         spill_test(np.zeros((1, 8, 64)), np.tile([True, False], 4), 1.0, 70)
 
 
