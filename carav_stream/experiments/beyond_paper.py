@@ -334,7 +334,7 @@ NUISANCE_NOTES = """Reading the table: a fluctuating target does not change the 
 D1 compares active chirps with their mean, so a target whose power changes from chirp to chirp (Swerling 2) at high
 SNR raises D1 false alarms, while a per-cycle fluctuation (Swerling 1) scales all active chirps alike and D1 stays
 quiet. A drift of the true noise above the calibrated sigma_n multiplies every silent D0 by the drift factor: PF
-explodes once the factor passes the threshold's margin over 1 + a few / sqrt(2 N_s) (eta_CFAR = 1.117 for
+explodes once the factor passes the threshold's margin over 1 + a few / sqrt(2 N_s) (eta_CFAR = 1.118 for
 Table I, so a 20 % drift already alarms every cycle at eta_CFAR, but not at 1.5). Noise *below* calibration only
 costs sensitivity. ADC clipping lowers the RMS of the chirps it hits, so it removes energy rather than adding it;
 on its own it does not raise false alarms in these runs."""
@@ -357,7 +357,7 @@ radar's own range-Doppler map from the silent chirps instead of the active ones,
 chirp period integrates there as it does in the map the radar reports targets from. The question that matters is
 the last two columns: a ghost the radar would report (its CFAR lists a target at the ghost's range) without an
 alarm from any test is a ghost that reaches the car's decisions unnoticed; the line under the table counts them.
-With 32 silent chirps of 1100 samples, the non-coherent sum is as sensitive as the coherent map here (its
+With 32 silent chirps of 1084 samples, the non-coherent sum is as sensitive as the coherent map here (its
 threshold is lower because it searches fewer cells); the coherent map's advantage grows with the number of
 chirps and at lower SNR per chirp."""
 

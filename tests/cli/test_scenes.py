@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -55,3 +56,26 @@ def test_an_unknown_scene_is_one_line_and_invalid(capsys):
     assert carav(["scenes", "nope"]) == Exit.INVALID
     err = capsys.readouterr().err
     assert err.startswith("carav scenes: ") and "nope" in err and len(err.strip().splitlines()) <= 2
+
+
+def test_scenes_names_where_the_fidelities_differ_and_the_leak_of_a_near_car(capsys, tmp_path):
+    assert carav(["scenes", "table1"]) == Exit.OK
+    t = _column(capsys.readouterr().out, "table1")
+    slope = 150e6 / 7.33e-6
+    # I only: the echo's beat S tau within +-0.05 fs of fs / 2; its spill's, S (tau - T_c) = -(fs - S tau) here
+    # (S T_c = fs), within +-0.05 fs of -fs / 2: the same ranges
+    lo, hi = (C * f * 150e6 / (2 * slope) for f in (0.45, 0.55))
+    assert t["ranges where the fidelities differ (the IF filter's transition band)"] == f"{lo:.4g}-{hi:.4g} m"
+    # the car at 7 m sampled from the ramp's reset is warned about, with its boundary; as the preset samples, it is not
+    near = tmp_path / "near.toml"
+    preset = (Path(__file__).parents[2] / "carav_stream/radar/presets/table1.toml").read_text()
+    preset = preset.replace('name = "table1"', 'name = "near"')
+    near.write_text(preset.replace("range_m = 43.0", "range_m = 7.0"))
+    assert carav(["scenes", str(near)]) == Exit.OK
+    assert _column(capsys.readouterr().out, "near")["warnings"] == "none"
+    near.write_text(preset.replace("range_m = 43.0", "range_m = 7.0").replace("t_adc_start_s =", "# t_adc_start_s =")
+                    .replace("n_samples = 1084", "n_samples = 1100"))
+    assert carav(["scenes", str(near)]) == Exit.OK
+    out = capsys.readouterr().out
+    assert _column(out, "near")["warnings"] == "1"
+    assert "targets[0] (7 m, 100 m^2)" in out and "m^2 at 7 m; at 100 m^2 it exceeds at 0.25-" in out
