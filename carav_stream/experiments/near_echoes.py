@@ -30,7 +30,7 @@ from carav_stream.console.options import count, output_file
 from carav_stream.detect.detector import chirp_rms, detect
 from carav_stream.detect.opt_in import cusum_silent_power, cusum_threshold, silent_power_z
 from carav_stream.experiments.reporting import rate
-from carav_stream.firmware.design import scene_law, rms_threshold
+from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
 from carav_stream.montecarlo.detectors import OPT_IN, statistic
 from carav_stream.radar.activation import balanced_rows
@@ -90,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
             for fid in FIDELITIES:
                 c = cell(start, r, fid, n, args.seed)
                 rows.append(c)
-                print(f"{start:<15}{r:>4g} m {fid:<9}{c['eta']:>7.4f}{c['leak_pf']:>9.2g} {'yes' if c['warned'] else 'no':<7}"
+                warned = "yes" if c["warned"] else "no"
+                print(f"{start:<15}{r:>4g} m {fid:<9}{c['eta']:>7.4f}{c['leak_pf']:>9.2g} {warned:<7}"
                       + "".join(f"{rate(c['alarms'][k], n):<26}" for k in cols)
                       + ("-" if c["cusum_first_alarm"] is None else f"cycle {c['cusum_first_alarm']}"), flush=True)
     for start in STARTS:

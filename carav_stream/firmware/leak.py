@@ -30,8 +30,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import optimize, stats
 
-from carav_stream.firmware.design import PF_WARN, pf_per_cycle, rms_threshold, scene_law
 from carav_stream.core.units import C_MPS
+from carav_stream.firmware.design import PF_WARN, pf_per_cycle, rms_threshold, scene_law
 from carav_stream.radar import physics
 from carav_stream.radar.scene import Scene
 
