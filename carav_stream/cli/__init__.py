@@ -13,7 +13,8 @@
     carav study STUDY.toml [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--plot]   sweeps on Dask
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
-    carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency | near-echoes ...
+    carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency | near-echoes
+                     | blind-zones ...
     carav new block NAME [--kind filter|source|sink] [--dir DIR]   a block, its test and a graph to start from
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
@@ -55,6 +56,7 @@ EXPERIMENTS = {
     "clutter": ("carav_stream.experiments.clutter", "several targets and clutter: false alarms, the target list"),
     "latency": ("carav_stream.experiments.latency", "spill test: PF over echo power, PM over repeater latency"),
     "near-echoes": ("carav_stream.experiments.near_echoes", "a near car's echo against every detector, attack-free"),
+    "blind-zones": ("carav_stream.experiments.blind_zones", "what each detector misses of the weak attacks, per scene"),
 }
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 

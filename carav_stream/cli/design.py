@@ -14,6 +14,8 @@ The closed forms hold for the noise and the echoes the beat fidelity renders. Th
 simulated too (--benign-trials, at --fidelity beat or waveform): their alarms at both etas, with 95 % intervals,
 and a warning when even the interval's lower end exceeds the target PF (the scene's echo, not noise, then sets
 the false-alarm rate: at waveform fidelity a strong near echo leaks into the silent slots' first samples).
+The weakest ghost (a false target at 25 m, carav_stream/montecarlo/blind_zone.py) each detector catches in 9
+cycles of 10 or more, from a grid of RARMS, --ghost-trials cycles each: the scene's blind zone for that attack.
 Two SNRs are printed, each named: the echo's power averaged over a slot (what the detector's law sees, counting
 the samples before the echo arrives) and per sample once it has arrived (what `carav scenes` and `carav sweep`
 print).
@@ -33,6 +35,7 @@ from carav_stream.detect.opt_in import cusum_threshold, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.firmware.design import pf_per_cycle, pm_random, rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
+from carav_stream.montecarlo.blind_zone import miss_rates, weakest_caught
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
 from carav_stream.radar.scene import SceneError
@@ -41,6 +44,8 @@ from carav_stream.radar.scene_loader import load_scene
 __all__ = ["configure", "run", "design"]
 
 PAPER_ETA = 1.5
+GHOST_RANGE_M = 25.0
+GHOST_RARMS = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 3.0)
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -62,6 +67,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "filter and each slot's start as the receiver sees them)")
     parser.add_argument("--benign-trials", type=count(0), default=200,
                         help="benign cycles simulated to check the design against the scene's own echo (0: none)")
+    parser.add_argument("--ghost-trials", type=count(0), default=100,
+                        help="attacked cycles per RARMS for the weakest ghost each detector catches (0: none)")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="also write the numbers as JSON")
 
 
@@ -82,7 +89,7 @@ def _scene(args: argparse.Namespace):
 
 
 def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelity: str = "beat",
-           benign_trials: int = 0) -> dict:
+           benign_trials: int = 0, ghost_trials: int = 0) -> dict:
     """Every number `carav design` prints, as a dict (JSON-ready)."""
 
     if not 0 < pf < 1:
@@ -113,6 +120,12 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
             row[key] = {"random": float(pm_random(law, e, r)), "smart": k / trials,
                         "smart_ci": [float(lo), float(hi)]}
         misses.append(row)
+    ghost = None
+    if ghost_trials:
+        rows = miss_rates(scene, "ghost", GHOST_RARMS, ghost_trials, seed, fidelity=fidelity,
+                          params={"range_m": GHOST_RANGE_M}, pf=pf)
+        ghost = {"range_m": GHOST_RANGE_M, "trials": ghost_trials, "rarms": list(GHOST_RARMS),
+                 "weakest_caught": weakest_caught(rows), "rows": rows}
     return {
         "scene": {"name": scene.name, "n_chirps": scene.n_chirps, "n_samples": scene.n_samples, "iq": scene.iq,
                   "dof": law.dof, "echo_snr_db": float(10 * np.log10(law.snr)) if law.snr > 0 else None,
@@ -126,7 +139,7 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
                                  "bins_tested": m * bins},
         "cusum_silent_power": {"k": 0.5, "h": cusum_threshold(1 / pf, 0.5), "arl0_cycles": 1 / pf},
         "benign": benign, "misses": misses, "smart_trials": trials, "seed": seed,
-        "leaks": [dataclasses.asdict(k) for k in scene_leaks(scene, eta, pf_design=pf)],
+        "leaks": [dataclasses.asdict(k) for k in scene_leaks(scene, eta, pf_design=pf)], "ghost": ghost,
     }
 
 
@@ -166,6 +179,13 @@ def _print(d: dict, stream=None) -> None:
             print(f"  WARNING: the scene's own echo raises false alarms above the target PF {d['pf']:g} at "
                   f"{s['fidelity']} fidelity: the threshold is set by the scene, not by the noise "
                   "(docs/DETECTION.md, near echoes)", file=stream)
+    g = d.get("ghost")
+    if g:
+        w = g["weakest_caught"]
+        grid = ", ".join(f"{r:g}" for r in g["rarms"])
+        print(f"weakest ghost caught in 9 cycles of 10 or more ({g['range_m']:g} m; RARMS {grid}; {g['trials']} "
+              f"cycles each at {s['fidelity']} fidelity; C at eta, the opt-in tests at PF 1e-6): "
+              + ", ".join(f"{k} {'none' if v is None else f'{v:g}'}" for k, v in w.items()), file=stream)
     print(f"misses of C per attacked cycle (random: closed form; smart: {d['smart_trials']} cycles per RARMS at "
           f"{s['fidelity']} fidelity, seed {d['seed']}, 95 % interval)", file=stream)
     print(f"  {'RARMS':>6}  {'random @ eta':>12}  {'smart @ eta':>22}  {'random @ 1.5':>12}  {'smart @ 1.5':>22}",
@@ -181,7 +201,8 @@ def _print(d: dict, stream=None) -> None:
 def run(args: argparse.Namespace) -> int:
     if not args.pf < 1:
         raise CommandError(f"--pf: must be in (0, 1), got {args.pf:g}", Exit.USAGE)
-    result = design(_scene(args), args.pf, args.rarms, args.trials, args.seed, args.fidelity, args.benign_trials)
+    result = design(_scene(args), args.pf, args.rarms, args.trials, args.seed, args.fidelity, args.benign_trials,
+                    args.ghost_trials)
     _print(result)
     if args.json:
         args.json.write_text(json.dumps(result, indent=1))

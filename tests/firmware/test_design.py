@@ -71,6 +71,10 @@ def test_design_command_prints_and_writes_every_threshold(tmp_path, capsys):
     # RARMS 3 is caught at both thresholds; the smart attack at RARMS 1 is missed more at 1.5 than at the design eta
     assert d["misses"][1]["paper"]["smart"] == 0 and d["misses"][1]["design"]["random"] < 1e-12
     assert d["misses"][0]["paper"]["smart"] > d["misses"][0]["design"]["smart"]
+    # the weakest ghost each detector catches: printed, and the integrated test sees fainter ghosts than C
+    w = d["ghost"]["weakest_caught"]
+    assert set(w) == {"C(eta)", "spectral", "integrated", "coherent"} and f"integrated {w['integrated']:g}" in text
+    assert w["integrated"] is not None and (w["C(eta)"] is None or w["integrated"] < w["C(eta)"])
 
 
 def test_design_refuses_a_pf_outside_0_1_and_an_unknown_scene(capsys):

@@ -1,0 +1,61 @@
+"""Blind zones: the share of attacked cycles each detector misses, over the attack's strength, on one scene.
+
+Every detector judges the same simulated cycles (the radar chain at the scene's fidelity, attack-free noise and
+echoes plus the attack), each at its own design for a false-alarm rate `pf` per cycle: C(eta) at the eta the closed
+form gives for the scene and pf (carav_stream/firmware/design.py), the opt-in tests at their exact (or union-bound)
+PF 1e-6 thresholds (carav_stream/montecarlo/detectors.py; only 1e-6 is designed for them). The weakest attack a detector
+catches is the smallest RARMS of the grid from which on its miss rate stays at or below `caught` (0.1: nine cycles
+in ten caught).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from carav_stream.detect.detector import detect
+from carav_stream.detect.stats import clopper_pearson
+from carav_stream.firmware.design import rms_threshold, scene_law
+from carav_stream.montecarlo.detectors import DESIGN_PF, statistic
+from carav_stream.radar.activation import balanced_rows
+from carav_stream.radar.attackers import make_attacker
+from carav_stream.radar.synth import simulate_cycles
+
+__all__ = ["DETECTORS", "miss_rates", "weakest_caught"]
+
+DETECTORS = ("C(eta)", "spectral", "integrated", "coherent")
+CHUNK = 100
+
+
+def miss_rates(scene, attack: str, rarms_grid, n: int, seed: int, *, fidelity: str = "auto",
+               params: dict | None = None, pf: float = DESIGN_PF) -> list[dict]:
+    """One row per RARMS: {"rarms", "missed": {detector: k}, "ci": {detector: [lo, hi]}, "trials", "eta"}; C(eta)
+    at the eta designed for pf, the opt-in tests at their 1e-6 designs."""
+    eta = rms_threshold(scene_law(scene), pf)
+    rows = []
+    for i, r in enumerate(rarms_grid):
+        rng = np.random.default_rng([seed, i])
+        attacker = make_attacker(attack, scene, rarms=float(r), **(params or {}))
+        missed = dict.fromkeys(DETECTORS, 0)
+        for done in range(0, n, CHUNK):
+            rho = balanced_rows(rng, min(CHUNK, n - done), scene.n_chirps)
+            x = simulate_cycles(scene, rho, rng, attacker=attacker, rng_attack=rng, fidelity=fidelity,
+                                cycle0=done).frames
+            missed["C(eta)"] += int(np.sum(detect(x, rho, scene.sigma_n).q < eta))
+            for name in DETECTORS[1:]:
+                missed[name] += int(np.sum(statistic(name, x, rho, scene.sigma_n, scene) < 1.0))
+        ci = {d: [float(v) for v in clopper_pearson(k, n)] for d, k in missed.items()}
+        rows.append({"rarms": float(r), "missed": missed, "ci": ci, "trials": n, "eta": eta})
+    return rows
+
+
+def weakest_caught(rows: list[dict], caught: float = 0.1) -> dict:
+    """Per detector: the smallest RARMS from which on every row's miss rate is <= caught (None: not in the grid)."""
+    out = {}
+    for d in DETECTORS:
+        weakest = None
+        for row in sorted(rows, key=lambda x: -x["rarms"]):
+            if row["missed"][d] / row["trials"] > caught:
+                break
+            weakest = row["rarms"]
+        out[d] = weakest
+    return out
+
