@@ -103,8 +103,9 @@ def test_validate_and_sweep_warn_when_eta_is_loose_for_the_scene(capsys):
 def test_design_checks_the_scenes_own_benign_cycles_and_warns_when_a_near_echo_sets_the_false_alarm_rate(
         tmp_path, capsys):
     """The table1 car at 7 m, sampled from the ramp's reset: the closed form sees noise and the beat fidelity's
-    echo, so at beat fidelity the benign cycles raise no alarm at the designed eta; at waveform fidelity the echo's smeared edge in the silent
-    slots does, and the design says so instead of printing a threshold that does not hold."""
+    echo, so at beat fidelity the benign cycles raise no alarm at the designed eta; at waveform fidelity the echo's
+    smeared edge in the silent slots does, and the design says so instead of printing a threshold that does not
+    hold."""
     scene = str(Path(__file__).parents[2] / "examples" / "table1_car_7m.toml")
     found = {}
     for fidelity in ("beat", "waveform"):
