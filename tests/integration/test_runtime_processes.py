@@ -209,19 +209,26 @@ def test_crashed_block_is_named_with_its_traceback_and_the_run_fails(carav):
 
 
 def test_crashed_block_restarts_by_policy_and_the_loss_is_accounted(carav):
+    # An endless source, so that the restarted c has frames to take whatever the machine's speed: tiny frames fit by
+    # the hundred in the sockets' buffers, and a 400-cycle source could have sent them all (and lost them with c)
+    # before c came back. Stopped once frames well past the crash have reached the sink.
     marker = carav.workdir / "crashed-once"
-    run = carav.run(carav.graph(CRASH % (marker, ', restart = "on-failure"')))
+    run = carav.run(carav.graph(CRASH.replace("cycles = 400", "cycles = 0") % (marker, ', restart = "on-failure"')))
+    wait_until(lambda: any(l["seq"] > 150 for l in read_jsonl(carav.workdir / "out.jsonl")),
+               "frames after the restart", run)
+    run.proc.send_signal(signal.SIGINT)
     code = run.wait()
     err = run.stderr()
     assert "node 'c' (crasher) failed" in err and "restarting 'c' (1/3)" in err
     s = run.summary()
     got = [l["seq"] for l in read_jsonl(carav.workdir / "out.jsonl")]
-    assert s["restarts"] == 1 and got[-1] == 399 and got == sorted(set(got))
+    assert s["restarts"] == 1 and got == sorted(set(got)) and got[-1] > 150
     assert s["estimated_counts"] == []      # the crash was reported with final counters: the counts are exact
     assert got[:50] == list(range(50))
-    # every cycle is either delivered or counted lost: none vanishes silently
-    assert len(got) + s["lost"] == 400, (len(got), s["lost"], s["lost_by_edge"])
-    assert code == (1 if s["lost"] else 0)
+    # every cycle the source made is either delivered or counted lost: none vanishes silently
+    assert len(got) + s["lost"] == s["cycles"], (len(got), s["lost"], s["cycles"], s["lost_by_edge"])
+    # frames lost with the crashed incarnation outrank the interruption in the exit code
+    assert s["stopped_by"] == "signal" and code == (1 if s["lost"] else 130)
 
 
 def test_sigint_drains_in_order_and_leaves_no_process_or_endpoint(carav):
