@@ -14,7 +14,7 @@ The closed forms hold for the noise and the echoes the beat fidelity renders. Th
 simulated too (--benign-trials, at --fidelity beat or waveform): their alarms at both etas, with 95 % intervals,
 and a warning when even the interval's lower end exceeds the target PF (the scene's echo, not noise, then sets
 the false-alarm rate: at waveform fidelity a strong near echo leaks into the silent slots' first samples).
-The weakest ghost (a false target at 25 m, carav_stream/montecarlo/blind_zone.py) each detector catches in 9
+The weakest ghost (a false target at 25 m, carav_stream/firmware/blind_zone.py) each detector catches in 9
 cycles of 10 or more, from a grid of RARMS, --ghost-trials cycles each: the scene's blind zone for that attack.
 Two SNRs are printed, each named: the echo's power averaged over a slot (what the detector's law sees, counting
 the samples before the echo arrives) and per sample once it has arrived (what `carav scenes` and `carav sweep`
@@ -33,9 +33,9 @@ from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, float_list, number, output_file
 from carav_stream.detect.opt_in import cusum_threshold, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
+from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
 from carav_stream.firmware.design import pf_per_cycle, pm_random, rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
-from carav_stream.montecarlo.blind_zone import miss_rates, weakest_caught
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
 from carav_stream.radar.scene import SceneError

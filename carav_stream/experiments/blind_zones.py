@@ -5,7 +5,7 @@ Three scenes: table1 (64 x 1084 samples at 150 MHz), awr1642 (128 x 256 at 10 MH
 chirp period), the paper's `random` (i.i.d. Gaussian) and `smart` (the same sequence on every chirp). For each
 RARMS of the grid, --trials attacked cycles (seeded, the radar chain at beat fidelity) judged by every detector at
 its design for PF 1e-6 per cycle: C(eta) at the scene's designed eta, the spectral, integrated and coherent
-silent-chirp tests at theirs (carav_stream/montecarlo/blind_zone.py). Printed: the share of cycles each detector
+silent-chirp tests at theirs (carav_stream/firmware/blind_zone.py). Printed: the share of cycles each detector
 misses, and the weakest RARMS of the grid from which on it misses at most one cycle in ten.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ import argparse
 import json
 
 from carav_stream.console.options import count, output_file
-from carav_stream.montecarlo.blind_zone import DETECTORS, miss_rates, weakest_caught
+from carav_stream.firmware.blind_zone import DETECTORS, miss_rates, weakest_caught
 from carav_stream.radar.scene_loader import load_scene
 
 __all__ = ["configure", "run", "SCENES", "ATTACKS", "RARMS"]

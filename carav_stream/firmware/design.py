@@ -7,8 +7,9 @@ gives about 2e-104 per cycle on table1 (nu = 1084), 7e-25 on awr1642 (nu = 256) 
 32-sample I-only scene (`carav design`).
 
 Model: white Gaussian noise of the scene's sigma_n plus the ADC's quantisation noise (lsb^2 / 12 per real
-component; exact in the limit sigma_n >> lsb, which every preset satisfies by orders of magnitude), a constant echo
-(the beat-fidelity template, as `carav_stream.montecarlo.radar_source` uses for its closed form). D0's law is exact
+component, `carav_stream.radar.adc.output_noise_rms`; exact in the limit sigma_n >> lsb, which the presets' cars
+satisfy by orders of magnitude; the table1 car at 5 m, whose echo lifts the full scale, gives lsb = 1.5 sigma_n),
+a constant echo (the beat-fidelity template, as `carav_stream.montecarlo.radar_source` uses for its closed form). D0's law is exact
 (chi-square), D1's the closed form's quadrature (`carav_stream.detect.stats.pf_pm_closed_form`). ADC clipping and
 fluctuating targets are not in the law: see the nuisance table of docs/REPRODUCTION.md for what they do.
 """
@@ -23,7 +24,7 @@ from scipy import optimize
 from carav_stream.detect.stats import pf_pm_closed_form
 from carav_stream.montecarlo.paper_model import PaperScene
 from carav_stream.montecarlo.radar_source import RadarSource
-from carav_stream.radar.adc import adc_step
+from carav_stream.radar.adc import output_noise_rms
 
 __all__ = ["SceneLaw", "scene_law", "pf_per_cycle", "pm_random", "rms_threshold", "threshold_warning", "PF_WARN"]
 
@@ -53,8 +54,7 @@ def scene_law(scene) -> SceneLaw:
     if isinstance(scene, PaperScene):
         return SceneLaw(scene.name, scene.n_chirps, scene.dof, scene.echo_snr, scene.sigma_n, scene.sigma_n)
     pm = RadarSource(scene).paper_equivalent()      # the echo template and nu, as the closed form sees them
-    lsb = adc_step(scene)
-    sigma_eff = math.sqrt(scene.sigma_n ** 2 + (lsb ** 2 / 12 if lsb else 0.0))
+    sigma_eff = output_noise_rms(scene)
     snr = pm.echo_snr * (scene.sigma_n / sigma_eff) ** 2
     return SceneLaw(scene.name, scene.n_chirps, pm.dof, float(snr), float(scene.sigma_n), sigma_eff)
 

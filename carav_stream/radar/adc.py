@@ -13,7 +13,7 @@ import numpy as np
 
 from carav_stream.radar.scene import Scene
 
-__all__ = ["adc", "adc_codes", "adc_step", "from_codes", "with_nonfinite"]
+__all__ = ["adc", "adc_codes", "adc_step", "from_codes", "output_noise_rms", "with_nonfinite"]
 
 
 def adc_step(scene: Scene) -> float | None:
@@ -21,6 +21,15 @@ def adc_step(scene: Scene) -> float | None:
     if not 0 < scene.adc_bits <= 16:
         return None
     return scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
+
+
+def output_noise_rms(scene: Scene) -> float:
+    """RMS per sample of the noise the ADC delivers: sqrt(sigma_n^2 + c lsb^2 / 12), c = 1 for I only and 2 for I/Q
+    (the quantisation error of each real component, uniform over a step; exact in the limit sigma_n >> lsb). Near a
+    loud echo the full scale, set above the echo, makes it matter: 1.087 x sigma_n for the table1 car at 5 m."""
+    lsb = adc_step(scene)
+    q = 0.0 if lsb is None else (2 if scene.iq else 1) * lsb ** 2 / 12
+    return float(np.sqrt(scene.sigma_n ** 2 + q))
 
 
 def adc(scene: Scene, rx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -3,7 +3,8 @@
 Every detector judges the same simulated cycles (the radar chain at the scene's fidelity, attack-free noise and
 echoes plus the attack), each at its own design for a false-alarm rate `pf` per cycle: C(eta) at the eta the closed
 form gives for the scene and pf (carav_stream/firmware/design.py), the opt-in tests at their exact (or union-bound)
-PF 1e-6 thresholds (carav_stream/montecarlo/detectors.py; only 1e-6 is designed for them). The weakest attack a detector
+PF 1e-6 thresholds (carav_stream/montecarlo/detectors.py; only 1e-6 is designed for them), calibrated to the noise
+the ADC delivers (sigma_n with its quantisation, as C's law counts it). The weakest attack a detector
 catches is the smallest RARMS of the grid from which on its miss rate stays at or below `caught` (0.1: nine cycles
 in ten caught).
 """
@@ -29,7 +30,8 @@ def miss_rates(scene, attack: str, rarms_grid, n: int, seed: int, *, fidelity: s
                params: dict | None = None, pf: float = DESIGN_PF) -> list[dict]:
     """One row per RARMS: {"rarms", "missed": {detector: k}, "ci": {detector: [lo, hi]}, "trials", "eta"}; C(eta)
     at the eta designed for pf, the opt-in tests at their 1e-6 designs."""
-    eta = rms_threshold(scene_law(scene), pf)
+    law = scene_law(scene)
+    eta = rms_threshold(law, pf)
     rows = []
     for i, r in enumerate(rarms_grid):
         rng = np.random.default_rng([seed, i])
@@ -41,7 +43,7 @@ def miss_rates(scene, attack: str, rarms_grid, n: int, seed: int, *, fidelity: s
                                 cycle0=done).frames
             missed["C(eta)"] += int(np.sum(detect(x, rho, scene.sigma_n).q < eta))
             for name in DETECTORS[1:]:
-                missed[name] += int(np.sum(statistic(name, x, rho, scene.sigma_n, scene) < 1.0))
+                missed[name] += int(np.sum(statistic(name, x, rho, law.sigma_eff, scene) < 1.0))
         ci = {d: [float(v) for v in clopper_pearson(k, n)] for d, k in missed.items()}
         rows.append({"rarms": float(r), "missed": missed, "ci": ci, "trials": n, "eta": eta})
     return rows

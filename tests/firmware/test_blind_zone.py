@@ -1,5 +1,5 @@
 """Blind zones per scene: every detector judged on the same attacked cycles, and the weakest attack it catches."""
-from carav_stream.montecarlo.blind_zone import DETECTORS, miss_rates, weakest_caught
+from carav_stream.firmware.blind_zone import DETECTORS, miss_rates, weakest_caught
 from carav_stream.radar.scene_loader import load_scene
 
 
