@@ -11,7 +11,8 @@ component, `carav_stream.radar.adc.output_noise_rms`; exact in the limit sigma_n
 satisfy by orders of magnitude; the table1 car at 5 m, whose echo lifts the full scale, gives lsb = 1.5 sigma_n),
 a constant echo (the beat-fidelity template, as `carav_stream.montecarlo.radar_source` uses for its closed form).
 D0's law is exact (chi-square), D1's the closed form's quadrature (`carav_stream.detect.stats.pf_pm_closed_form`).
-ADC clipping and fluctuating targets are not in the law: see the nuisance table of docs/REPRODUCTION.md for what they do.
+ADC clipping and fluctuating targets are not in the law: see the nuisance table of docs/REPRODUCTION.md for what
+they do.
 """
 from __future__ import annotations
 
