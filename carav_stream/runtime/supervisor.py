@@ -250,9 +250,11 @@ class Supervisor:
             for e in self.graph.edges_into(st.name):   # producers connect afresh to the new incarnation
                 if e.src in self.nodes:
                     self.send(e.src, Control.RECONNECT, edges=[str(e)])
-            for e in self.graph.edges_from(st.name):   # consumers: what it held is lost, do not wait for it
-                if e.dst in self.nodes:
-                    self.send(e.dst, Control.RECOVER)
+            # every node downstream, not only its consumers: what it held is lost, and a node further down that
+            # pairs a stream through it with another (the detector's frames with the source's rho) must not wait
+            # for it either, or a full buffer backs the other stream up to its source and the graph stalls
+            for name in self.downstream_of(st.name):
+                self.send(name, Control.RECOVER)
             return
         st.failed = True
         self.failures.append(f"node {st.name!r} ({st.spec.type}) failed: {reason}")
@@ -265,6 +267,18 @@ class Supervisor:
             if e.src in self.nodes:
                 self.send(e.src, Control.CUT, edges=[str(e)])
         self.request_stop(f"node {st.name!r} failed")
+
+    def downstream_of(self, name: str) -> list[str]:
+        """Every running node a frame from `name` can reach, in breadth-first order."""
+        seen, order, todo = {name}, [], [name]
+        while todo:
+            for e in self.graph.edges_from(todo.pop(0)):
+                if e.dst not in seen:
+                    seen.add(e.dst)
+                    todo.append(e.dst)
+                    if e.dst in self.nodes:
+                        order.append(e.dst)
+        return order
 
     def request_stop(self, why: str) -> None:
         if not self.stop_requested:
