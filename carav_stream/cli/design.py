@@ -161,6 +161,10 @@ def _print(d: dict, stream=None) -> None:
     print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
           f"{cu['arl0_cycles']:.3g} cycles", file=stream)
     for k in d["leaks"]:
+        if k["lam"] == 0:
+            print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks nothing into the silent "
+                  "slots at either fidelity", file=stream)
+            continue
         over = ", ".join(f"{a:.3g}-{b:.3g} m" for a, b in k["ranges_over"] or ())
         print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks {k['fraction']:.2g} of a "
               f"slot of its echo into a silent slot after an active one ({k['fidelity']} fidelity, worst phase): PF "
