@@ -172,7 +172,8 @@ def _migration(seed: int, c: int) -> None:
     r_true, v_true = car.range_m, base.range_rate_mps(car)
     r_gate, v_gate = gates(g, base.n_chirps, abs(v_true))
     print(f"awr1642 car at {r_true:g} m closing at {-v_true:.1f} m/s, OS-CFAR pfa 1e-6 per cell, {c} cycles per row: "
-          "without and with range-walk compensation (max_speed_mps 100)")
+          "without and with range-walk compensation (max_speed_mps 100); SNR: the listed cell's, after integration "
+          "(median)")
     print(f"{'RCS':>9}{'SNR':>7}{'max speed':>11}{'Pd':>7}{'false/cycle':>13}{'range RMSE':>12}{'velocity RMSE':>15}"
           f"{'true alias':>12}")
     for rcs in (car.rcs_m2, car.rcs_m2 * 1e-3, car.rcs_m2 * 1e-4, car.rcs_m2 * 10 ** -4.5):
