@@ -130,8 +130,8 @@ def ghost_section(args, fig_dir: Path, data: dict) -> list[str]:
     n_bins = (scene.n_samples - 1) // 2
     res_m = scene.range_resolution_m
     rows = [f"Table I scene (target at 43 m, SNR 0 dB per sample), ghost placed at 25 m, {n} cycles per row. The "
-            "ghost peak SNR is |X_b|^2 / (N_s sigma_n^2) at the ghost's bin of one silent chirp (where the ghost is alone), "
-            "median over the silent chirps and cycles. Both spectral tests at PF = 1e-6 per cycle with exact "
+            "ghost peak SNR is |X_b|^2 / (N_s sigma_n^2) at the ghost's bin of one silent chirp (where the ghost is "
+            "alone), median over the silent chirps and cycles. Both spectral tests at PF = 1e-6 per cycle with exact "
             f"thresholds: single-chirp {sp0.threshold:.1f} ({10 * np.log10(sp0.threshold):.1f} dB) over "
             f"{sp0.n_bins_tested} bins, integrated over the {scene.n_chirps // 2} silent chirps {in0.threshold:.1f} "
             f"(a mean of {in0.threshold / (scene.n_chirps // 2):.2f} per chirp) over {in0.n_bins_tested} bins; the "
