@@ -75,13 +75,21 @@ def test_sweep_cli_radar_chain_accepts_any_attacker(tmp_path):
 
 @pytest.mark.slow
 def test_sweep_at_waveform_fidelity_sees_a_near_echo_leak_into_silent_slots_that_the_beat_fidelity_cannot(tmp_path):
-    """The table1 car at 5 m: the IF filter smears the end of each active chirp's echo into the first samples of
-    the next slot; at waveform fidelity the silent slots after an active one carry it and C(1.5) fires on
-    benign cycles; the beat fidelity, which renders no such edge, raises none."""
+    """The table1 car at 5 m, sampled from the ramp's reset: the IF filter smears the end of each active chirp's
+    echo into the first samples of the next slot; at waveform fidelity the silent slots after an active one carry
+    it and C(1.5) fires on benign cycles; the beat fidelity, which renders no such edge, raises none. As the preset
+    samples (16 samples in), neither does."""
     preset = (Path(carav_stream.radar.__file__).parent / "presets" / "table1.toml").read_text()
+    near = preset.replace('name = "table1"', 'name = "table1_5m"').replace("range_m = 43.0", "range_m = 5.0")
+    settled = tmp_path / "settled.toml"
+    settled.write_text(near)
     scene = tmp_path / "near.toml"
-    scene.write_text(preset.replace('name = "table1"', 'name = "table1_5m"').replace("range_m = 43.0",
-                                                                                      "range_m = 5.0"))
+    scene.write_text(near.replace("t_adc_start_s =", "# t_adc_start_s =").replace("n_samples = 1084",
+                                                                                  "n_samples = 1100"))
+    assert _run(["--scene", str(settled), "--attack", "random", "--rarms", "3", "--trials", "40", "--eta",
+                 "1.5:2:0.5", "--seed", "3", "--quiet", "--fidelity", "waveform", "--json",
+                 str(tmp_path / "settled.json")]) == 0
+    assert json.loads((tmp_path / "settled.json").read_text())["curves"][0]["pf"][0] == 0
     pf = {}
     for fidelity in ("beat", "waveform"):
         out = tmp_path / f"{fidelity}.json"
