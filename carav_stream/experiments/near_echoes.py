@@ -33,9 +33,10 @@ from carav_stream.console.options import count, output_file
 from carav_stream.detect.detector import chirp_rms, detect
 from carav_stream.detect.opt_in import cusum_silent_power, cusum_threshold, silent_power_z
 from carav_stream.experiments.reporting import rate
+from carav_stream.firmware.blind_zone import opt_in_alarms
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
-from carav_stream.montecarlo.detectors import OPT_IN, statistic
+from carav_stream.montecarlo.detectors import OPT_IN
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
@@ -70,8 +71,8 @@ def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
         q = detect(x, rho, scene.sigma_n).q
         counts["C(eta)"] += int(np.sum(q >= eta))
         counts["C(1.5)"] += int(np.sum(q >= 1.5))
-        for name in OPT_IN:
-            counts[name] += int(np.sum(statistic(name, x, rho, law.sigma_eff, scene) >= 1.0))
+        for name, alarm in opt_in_alarms(x, rho, scene, law, OPT_IN).items():
+            counts[name] += int(np.sum(alarm))
         z.append(silent_power_z(chirp_rms(x), rho, law.sigma_eff, law.dof))
     _, cusum = cusum_silent_power(np.concatenate(z), h=cusum_threshold(1 / PF))
     first = int(np.argmax(cusum)) if cusum.any() else None

@@ -105,6 +105,11 @@ def silent_energy(scene: Scene, tau0_s: float, alpha: float, fidelity: str) -> f
     return float(0.5 * (np.sum(np.abs(z) ** 2) + abs(np.sum(z * z))))
 
 
+def _worst_fidelity(scene: Scene, tau0_s: float, alpha: float) -> tuple[str, float]:
+    """(fidelity, silent_energy) of the fidelity that leaves more in the silent slot (beat on a tie)."""
+    return max(((f, silent_energy(scene, tau0_s, alpha, f)) for f in ("beat", "waveform")), key=lambda p: p[1])
+
+
 def _log_ratio(lam: np.ndarray, nu: int, x: float) -> np.ndarray:
     """log(F_lambda(x) / F_0(x)) for the chi-square laws of one silent slot, resolved for tiny differences."""
     sf0 = stats.chi2.sf(x, nu)
@@ -145,8 +150,7 @@ def _intervals(r: np.ndarray, over: np.ndarray) -> tuple[tuple[float, float], ..
 def _ranges_over(scene: Scene, law, target, alpha: float, lam_limit: float) -> tuple[tuple[float, float], ...]:
     """The ranges where this target, at its RCS and range rate, would exceed the limit (both fidelities)."""
     r_scan = np.geomspace(0.25, 1.15 * scene.max_range_m, SCAN_POINTS)
-    per_unit = np.array([[silent_energy(scene, 2.0 * r / C_MPS, alpha, fid) for r in r_scan]
-                         for fid in ("beat", "waveform")]).max(axis=0)
+    per_unit = np.array([_worst_fidelity(scene, 2.0 * r / C_MPS, alpha)[1] for r in r_scan])
     amps = np.array([physics.echo_amplitude(scene, replace(target, range_m=float(r))) for r in r_scan])
     return _intervals(r_scan, _lam(scene, law, per_unit, amps) > lam_limit)
 
@@ -170,14 +174,9 @@ def scene_leaks(scene: Scene, eta: float | None = None, *, pf_design: float = PF
     for i, target in enumerate(scene.targets):
         tau0, alpha = physics.target_delay(scene, target)
         amp = physics.echo_amplitude(scene, target)
-        best = None
-        for fidelity in ("beat", "waveform"):
-            silent = silent_energy(scene, tau0, alpha, fidelity)
-            lam = float(_lam(scene, law, np.float64(silent), np.float64(amp)))
-            full = scene.n_samples * (1.0 if scene.iq else 0.5)        # a full slot of unit-amplitude echo
-            if best is None or lam > best[1]:
-                best = (fidelity, lam, silent / full)
-        fidelity, lam, fraction = best
+        fidelity, silent = _worst_fidelity(scene, tau0, alpha)
+        lam = float(_lam(scene, law, np.float64(silent), np.float64(amp)))
+        fraction = silent / (scene.n_samples * (1.0 if scene.iq else 0.5))    # of a full slot of unit-amplitude echo
         rcs_limit = math.inf if lam_limit == math.inf else (target.rcs_m2 * lam_limit / lam if lam > 0 else math.inf)
         pf = float(pf_with_leak(law, eta, lam, sigma_det, pf_free))
         spans = _ranges_over(scene, law, target, alpha, lam_limit) if pf > limit else None
