@@ -357,7 +357,7 @@ radar's own range-Doppler map from the silent chirps instead of the active ones,
 chirp period integrates there as it does in the map the radar reports targets from. The question that matters is
 the last two columns: a ghost the radar would report (its CFAR lists a target at the ghost's range) without an
 alarm from any test is a ghost that reaches the car's decisions unnoticed; the line under the table counts them.
-With 32 silent chirps of 1084 samples, the non-coherent sum is as sensitive as the coherent map here (its
+With 32 silent chirps of 1080 samples, the non-coherent sum is as sensitive as the coherent map here (its
 threshold is lower because it searches fewer cells); the coherent map's advantage grows with the number of
 chirps and at lower SNR per chirp."""
 

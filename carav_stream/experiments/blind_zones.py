@@ -1,6 +1,6 @@
 """`carav experiment blind-zones`: what each detector misses of the weak attacks, per scene.
 
-Three scenes: table1 (64 x 1084 samples at 150 MHz), awr1642 (128 x 256 at 10 MHz) and table1 cut to short chirps
+Three scenes: table1 (64 x 1080 samples at 150 MHz), awr1642 (128 x 256 at 10 MHz) and table1 cut to short chirps
 (48 x 300). Three weak attacks: the ghost (a replica of the victim's chirp planting a false target at 25 m, in every
 chirp period), the paper's `random` (i.i.d. Gaussian) and `smart` (the same sequence on every chirp). For each
 RARMS of the grid, --trials attacked cycles (seeded, the radar chain at beat fidelity) judged by every detector at

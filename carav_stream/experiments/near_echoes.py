@@ -2,7 +2,7 @@
 
 The car (100 m^2, 96 km/h, radar at 100 km/h) at 5, 7 and 10 m, at beat and waveform fidelity, sampled two ways:
 from the ramp's reset (t_adc_start_s = 0, 1100 samples, as MATLAB's example does) and as the table1 preset samples
-(16 samples in, 1084 samples, once the IF filter has settled). Each cell simulates --trials attack-free cycles
+(16 samples in, 1080 samples, once the IF filter has settled). Each cell simulates --trials attack-free cycles
 (seeded) and counts the cycles on which each detector alarms:
 
   C(eta)      the RMS detector at the eta designed for PF 1e-6 per cycle (`carav design`: D0 and D1, noise alone)

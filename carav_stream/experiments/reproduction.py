@@ -213,7 +213,7 @@ EXPLAIN = """## Reading the results
 
 **Where the curves separate.** Under the paper's own noise model (i.i.d. Gaussian noise, ||s||_r = sqrt(mean s^2))
 the RMS of a chirp of N_s samples concentrates very tightly: N_s ||n||_r^2 / sigma_n^2 is chi-square with N_s
-degrees of freedom, so ||n||_r / sigma_n = 1 +- 1/sqrt(2 N_s) (2 % for Table I's 1084 samples, 4.4 % for Table II's
+degrees of freedom, so ||n||_r / sigma_n = 1 +- 1/sqrt(2 N_s) (2 % for Table I's 1080 samples, 4.4 % for Table II's
 256). A random or smart attacker of RMS RARMS * sigma_n lifts every silent chirp to about sqrt(1 + RARMS^2) sigma_n,
 so D0 crosses eta = 1.5 as soon as sqrt(1 + RARMS^2) > 1.5, i.e. RARMS > 1.12, and D0 of an attack-free cycle never
 gets near 1.5 (see the closed-form PF(1.5) under each figure). With eta free, the curves separate already around
@@ -233,7 +233,7 @@ over the N_r/2 silent chirps profits from N_r/2 independent chances to exceed et
 sequence a per cycle: its own RMS ||a||_r is drawn once (a chi law with N_s degrees of freedom, a spread of
 1/sqrt(2 N_s)), and all silent chirps move together with it, so a cycle where ||a||_r came out low is missed on
 every silent chirp at once. Near the edge (sqrt(1 + RARMS^2) ~ 1.5) this raises PM on both scenes; the band of
-RARMS where it shows is wider for short chirps (Table II, N_s = 256) than for long ones (Table I, N_s = 1084), and
+RARMS where it shows is wider for short chirps (Table II, N_s = 256) than for long ones (Table I, N_s = 1080), and
 a coarse RARMS grid (1, 1.5, 2, ...) steps over it. Far from the edge both are always caught.
 
 **eta = 1.5 is a sound choice, for a different reason.** For every RARMS >= 2 the minimax band contains 1.5, but

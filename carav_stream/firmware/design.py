@@ -3,7 +3,7 @@
 The RMS detector's C(eta) has no universal threshold: its false-alarm rate per cycle depends on the scene's chirps per
 cycle N_r (M = N_r / 2 silent chirps, each a chance to cross), samples per chirp N_s (the spread of a chirp's RMS,
 1 / sqrt(2 nu)), I-only or I/Q (nu = N_s or 2 N_s real degrees of freedom) and, through D1, the echo. eta = 1.5
-gives about 2e-104 per cycle on table1 (nu = 1084), 7e-25 on awr1642 (nu = 256) and 8e-3 on a 256-chirp,
+gives about 5e-104 per cycle on table1 (nu = 1080), 7e-25 on awr1642 (nu = 256) and 8e-3 on a 256-chirp,
 32-sample I-only scene (`carav design`).
 
 Model: white Gaussian noise of the scene's sigma_n plus the ADC's quantisation noise (lsb^2 / 12 per real

@@ -22,10 +22,10 @@ def _column(out: str, name: str) -> dict[str, str]:
 def test_table1_figures_are_the_textbook_ones(capsys):
     assert carav(["scenes", "table1"]) == Exit.OK
     t = _column(capsys.readouterr().out, "table1")
-    # the preset: 150 MHz swept in 7.33 us (also the chirp period), 1084 samples at 150 MHz from 16 samples in,
+    # the preset: 150 MHz swept in 7.33 us (also the chirp period), 1080 samples at 150 MHz from 16 samples in,
     # 64 chirps, 77 GHz
     t_chirp, slope = 7.33e-6, 150e6 / 7.33e-6
-    assert t["range resolution"] == f"{C / (2 * slope * 1084 / 150e6):.4g} m"      # c / 2 B_sampled
+    assert t["range resolution"] == f"{C / (2 * slope * 1080 / 150e6):.4g} m"      # c / 2 B_sampled
     assert t["unambiguous velocity"] == f"+-{C / 77e9 / (4 * t_chirp):.4g} m/s"     # lambda / 4 T_c
     assert t["max range"] == f"{75e6 * C / (2 * slope):.4g} m"                     # beat at fs / 2 (I only)
     assert t["cycle"].endswith(f"({1 / (64 * t_chirp):.5g} cycles/s)")
@@ -74,7 +74,7 @@ def test_scenes_names_where_the_fidelities_differ_and_the_leak_of_a_near_car(cap
     assert carav(["scenes", str(near)]) == Exit.OK
     assert _column(capsys.readouterr().out, "near")["warnings"] == "none"
     near.write_text(preset.replace("range_m = 43.0", "range_m = 7.0").replace("t_adc_start_s =", "# t_adc_start_s =")
-                    .replace("n_samples = 1084", "n_samples = 1100"))
+                    .replace("n_samples = 1080", "n_samples = 1100"))
     assert carav(["scenes", str(near)]) == Exit.OK
     out = capsys.readouterr().out
     assert _column(out, "near")["warnings"] == "1"

@@ -5,8 +5,12 @@ import pytest
 
 from carav_stream.console.errors import CommandError
 from carav_stream.experiments import doc_outputs
+from carav_stream.firmware.design import rms_threshold, scene_law
+from carav_stream.radar.scene_loader import load_scene
 
-CMD = "carav design --preset table1 --rarms 3 --trials 20 --seed 3"
+# a deterministic command that prints a designed number and takes --json; its Monte Carlo left out (a second)
+CMD = "carav design --preset awr1642 --rarms 3 --trials 20 --benign-trials 0 --ghost-trials 0 --seed 3"
+ETA = f"eta = {rms_threshold(scene_law(load_scene('awr1642')), 1e-6):.4f}"      # as `carav design` prints it
 
 
 def _repo(tmp_path, body: str, fenced: bool = True):
@@ -27,7 +31,7 @@ def test_a_quote_is_regenerated_in_place_and_then_checks_clean(tmp_path, fenced)
     assert doc_outputs.regenerate(tmp_path) == [doc]
     text = doc.read_text()
     assert text.startswith("# X\n\nbefore\n\n") and text.endswith("<!-- end of output -->\n\nafter\n")
-    assert "eta = 1.1181" in text and "stale text" not in text
+    assert ETA in text and "stale text" not in text
     assert doc_outputs.stale(tmp_path) == []
     assert doc_outputs.regenerate(tmp_path) == []               # nothing to change the second time
 
@@ -36,9 +40,10 @@ def test_a_quote_is_regenerated_in_place_and_then_checks_clean(tmp_path, fenced)
 def test_a_hand_edit_of_a_quoted_number_is_caught(tmp_path):
     doc = _repo(tmp_path, "")
     doc_outputs.regenerate(tmp_path)
-    doc.write_text(doc.read_text().replace("eta = 1.1181", "eta = 1.1182"))
+    edited = ETA[:-1] + str((int(ETA[-1]) + 1) % 10)
+    doc.write_text(doc.read_text().replace(ETA, edited))
     [(q, now)] = doc_outputs.stale(tmp_path)
-    assert "eta = 1.1181" in now and "eta = 1.1182" in q.body
+    assert ETA in now and edited in q.body and ETA not in q.body
 
 
 @pytest.mark.slow

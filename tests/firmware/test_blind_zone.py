@@ -23,7 +23,7 @@ def test_a_faint_ghost_hides_from_every_detector_and_a_strong_one_from_none():
 
 
 def test_fewer_samples_a_cycle_widen_the_integrated_tests_blind_zone():
-    # table1 gives the integrated test 32 x 1084 silent samples a cycle: a ghost of RARMS 0.1 shows in every cycle;
+    # table1 gives the integrated test 32 x 1080 silent samples a cycle: a ghost of RARMS 0.1 shows in every cycle;
     # 24 x 300 hide it in most
     long = miss_rates(load_scene("table1"), "ghost", (0.1,), 60, seed=2, params={"range_m": 25.0})[0]
     short = miss_rates(load_scene("table1", {"n_chirps": 48, "n_samples": 300}), "ghost", (0.1,), 60, seed=2,

@@ -54,7 +54,7 @@ def test_threshold_warning_only_above_one_in_a_million():
     law = scene_law(load_scene("table1"))
     assert threshold_warning(law, 1.5) is None
     text = threshold_warning(law, 1.05, who="rms_detector", design_hint="carav design --preset table1")
-    designed = f"{rms_threshold(law, 1e-6):.4g}"            # 1.118 for table1's 64 x 1084 samples
+    designed = f"{rms_threshold(law, 1e-6):.4g}"            # 1.118 for table1's 64 x 1080 samples
     assert text.startswith("rms_detector eta = 1.05 raises false alarms on") and f"eta = {designed} for 1e-06" in text
 
 

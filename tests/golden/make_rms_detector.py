@@ -106,7 +106,8 @@ def build() -> dict[str, dict]:
         sigma = sigma_n or SCENE.sigma_n
         what = ", ".join(("no attack" if a == "none" else f"{a} rarms {r:g}") + (f" ({k} codes at a rail)" if k else "")
                          for (a, r), k in zip(attacks, rails))
-        description = (f"table1, {len(attacks)} cycles of 64 chirps x 1100 int16 codes: {what}; eta {eta:g}, "
+        description = (f"table1, {len(attacks)} cycles of {SCENE.n_chirps} chirps x {SCENE.n_samples} int16 codes: "
+                       f"{what}; eta {eta:g}, "
                        f"sigma_n {'of the scene' if not sigma_n else f'{sigma_n:g}'}")
         args = {"eta": eta, "scene": "table1"} | ({"sigma_n": sigma_n} if sigma_n else {})
         vectors[name] = {

@@ -317,7 +317,7 @@ def test_transmit_rejects_bad_activation_rows(small_scene):
 def test_frames_dtype_and_shape(table1):
     rho = ActivationSource("seeded", seed=1).next(2, 64)
     c = simulate_cycles(table1, rho, np.random.default_rng(0))
-    assert c.frames.dtype == np.float32 and c.frames.shape == (2, 64, 1084)
+    assert c.frames.dtype == np.float32 and c.frames.shape == (2, 64, 1080)
     assert c.clean_echo is None and c.fidelity == "beat"
     assert c.clipped.dtype == np.int64 and c.attack_active.dtype == np.bool_
     assert not c.attack_active.any() and math.isfinite(float(np.abs(c.frames).max()))
