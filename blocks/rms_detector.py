@@ -18,8 +18,6 @@ Graph   detector = { type = "rms_detector", eta = 1.5 }
 import numpy as np
 
 from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
-from carav_stream.firmware.design import scene_law, threshold_warning
-from carav_stream.firmware.leak import leak_warnings
 from carav_stream.radar.adc import adc_step
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import SCENE, scene_of
@@ -41,7 +39,12 @@ class RmsDetector(Block):
 
     def param_warnings(self) -> list[str]:
         """eta is not universal: its false-alarm rate per cycle depends on the scene (firmware/design.py), and a
-        scene's echo can leak into the silent slots (firmware/leak.py)."""
+        scene's echo can leak into the silent slots (firmware/leak.py). Imported here, where graphs are validated:
+        their scipy.stats and scipy.optimize would add about 0.8 s of CPU to every start of the node, which never
+        needs them."""
+        from carav_stream.firmware.design import scene_law, threshold_warning
+        from carav_stream.firmware.leak import leak_warnings
+
         where = f"--preset {self.scene}" if self.scene in preset_names() else f"--scene {self.scene}"
         text = threshold_warning(scene_law(self.scene_obj), self.eta, self.sigma, who="rms_detector",
                                  design_hint=f"carav design {where}")

@@ -18,8 +18,7 @@ slow-time sampling is not an orthogonal transform), but never with other range b
 from __future__ import annotations
 
 import numpy as np
-import scipy.fft
-import scipy.signal
+import scipy.fft  # scipy.signal loads on first use (scipy's lazy submodules), not in every process importing this
 
 __all__ = ["rd_power"]
 

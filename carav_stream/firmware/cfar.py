@@ -25,9 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.fft
-import scipy.ndimage
-from scipy import optimize
+import scipy.fft  # scipy.optimize: loaded on first use (scipy's lazy submodules), not at import
 
 __all__ = ["ca_alpha", "os_alpha", "cfar_threshold", "peak_sidelobe_ratio", "Detections",
            "detect_targets", "cells_to_range_velocity", "worst_sidelobe_ratio", "SIDELOBE_MARGIN"]
@@ -56,7 +54,7 @@ def os_alpha(pfa: float, n: int, k: int) -> float:
     hi = 1.0
     while f(hi) > 0:
         hi *= 2
-    return float(optimize.brentq(f, 0.0, hi, xtol=1e-12, rtol=1e-12))
+    return float(scipy.optimize.brentq(f, 0.0, hi, xtol=1e-12, rtol=1e-12))
 
 
 def _check_pfa(pfa: float) -> None:
