@@ -135,11 +135,11 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         series: dict[tuple[str, int], list[tuple[float, float, int]]] = {}
         swaps = 0
-        pids: dict[str, int] = {}
         try:
-            # the soak's minutes are minutes of running: its clock starts once the graph makes cycles (a loaded
-            # machine may take a while to start ten processes)
-            while not _going(env):
+            # the soak's minutes are minutes of running: its clock starts once the graph makes cycles and its
+            # nodes' pids are known (a loaded machine may take a while to start ten processes, and to answer
+            # `carav status`: a window spent asking would leave no samples to judge)
+            while not _going(env) or not (pids := _node_pids(env)):
                 if proc.poll() is not None:
                     raise RuntimeError(f"the graph ended before it ran:\n{proc.stderr.read()[-2000:]}")
                 time.sleep(0.2)
