@@ -22,7 +22,9 @@ CHAIN = """
 connections = ["src.out -> t.inp", "t.out -> log.inp"]
 [blocks]
 src = { type = "counter_source", rows = 64, n_values = 64 }
-t = { type = "tagger", delay_s = 0.1 }   # 10 frames a second: a seq read from carav status is still ahead
+# 50 frames a second: a forged message waits behind the frames queued for t (about 90 on shared memory, 45 over
+# ZeroMQ), so this rate sets the test's length
+t = { type = "tagger", delay_s = 0.02 }
 log = { type = "jsonl_sink", path = "out.jsonl", max_values = 0 }
 """
 
