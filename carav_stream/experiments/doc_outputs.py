@@ -28,7 +28,7 @@ from pathlib import Path
 
 from carav_stream.console.errors import CommandError
 
-__all__ = ["Quote", "quotes", "regenerate", "stale", "DOCUMENTS"]
+__all__ = ["Quote", "quotes", "all_quotes", "output", "regenerate", "stale", "DOCUMENTS"]
 
 MARK = re.compile(r"^<!-- output of: (?P<cmd>carav [^\n]*?) -->\n(?:```[a-z]*\n(?P<fenced>.*?)^```\n|(?P<raw>.*?))"
                   r"^<!-- end of output -->$", re.M | re.S)
@@ -58,7 +58,14 @@ def documents(root: Path) -> list[Path]:
     return sorted({p for pattern in DOCUMENTS for p in root.glob(pattern) if p.is_file()})
 
 
-def _output(q: Quote, root: Path, scratch: Path | None) -> str:
+def all_quotes(root: Path) -> list[Quote]:
+    """Every quote of every document under `root`, in document order."""
+    return [q for path in documents(root) for q in quotes(path)]
+
+
+def output(q: Quote, root: Path, scratch: Path | None) -> str:
+    """What `q`'s command prints now, run from `root`; with `scratch` (a folder), the files it would write go there
+    instead of where the command names them."""
     argv = shlex.split(q.command)[1:]
     if scratch is not None:          # a check writes nothing in the tree
         argv = [str(scratch / Path(argv[i]).name) if i and argv[i - 1] in WRITES else a for i, a in enumerate(argv)]
@@ -77,7 +84,7 @@ def _output(q: Quote, root: Path, scratch: Path | None) -> str:
 def _outputs(root: Path, scratch: Path | None, log) -> list[tuple[Quote, str]]:
     """(quote, what its command prints now) for every quote of every document; the commands run side by side, one
     per core (each is a process of its own)."""
-    qs = [q for path in documents(root) for q in quotes(path)]
+    qs = all_quotes(root)
 
     def one(i: int) -> str:
         q = qs[i]
@@ -86,7 +93,7 @@ def _outputs(root: Path, scratch: Path | None, log) -> list[tuple[Quote, str]]:
         sub = None if scratch is None else scratch / str(i)      # files of equal names kept apart
         if sub is not None:
             sub.mkdir()
-        return _output(q, root, sub)
+        return output(q, root, sub)
 
     with ThreadPoolExecutor(max_workers=max(1, os.cpu_count() or 1)) as pool:
         return list(zip(qs, pool.map(one, range(len(qs)))))

@@ -1,9 +1,12 @@
 """`carav reproduce`: the markdown and its figures, on a tiny run."""
 from __future__ import annotations
 
+import difflib
+
 import pytest
 
 from carav_stream.cli import main as carav
+from carav_stream.experiments import doc_outputs
 
 QUICK = ["--trials", "20", "--skip-beyond", "--quiet"]
 FIGURES = ["repro_fig3_table1_random.png", "repro_fig4_table1_smart.png", "repro_fig5_awr1642_smart.png",
@@ -40,11 +43,32 @@ ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
 
 @pytest.mark.slow
 def test_the_committed_reproduction_document_is_what_the_code_produces(monkeypatch, capsys):
-    """docs/REPRODUCTION.md is an output of `carav reproduce --in-place`: same defaults, same seed, same text."""
+    """docs/REPRODUCTION.md is an output of `carav reproduce --in-place`: same defaults, same seed, same text. (The
+    command outputs quoted in the documents, which `carav reproduce --check` checks too, are checked one by one
+    below, so that test workers can share them out.)"""
     monkeypatch.chdir(ROOT)
-    code = carav(["reproduce", "--check", "--quiet"])
+    code = carav(["reproduce", "--check", "--out", "docs/REPRODUCTION.md", "--quiet"])
     err = capsys.readouterr().err
     assert code == 0, err[-3000:]
+
+
+QUOTES = doc_outputs.all_quotes(ROOT)
+
+
+def test_the_documents_quote_command_outputs():
+    assert len(QUOTES) >= 10 and {q.path.name for q in QUOTES} >= {"DETECTION.md", "ESTIMATION.md", "SCENES.md"}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("quote", QUOTES, ids=[f"{q.path.name}:{' '.join(q.command.split()[1:4])}:{i}"
+                                               for i, q in enumerate(QUOTES)])
+def test_a_quoted_command_output_is_what_the_code_prints(quote, tmp_path):
+    """Each output a document quotes is what its command prints now (`carav reproduce --in-place` regenerates them);
+    the files the command would write go to a scratch folder."""
+    now = doc_outputs.output(quote, ROOT, tmp_path)
+    diff = "\n".join(difflib.unified_diff(quote.body.splitlines(), now.splitlines(), "quoted", "now", lineterm="",
+                                          n=0))
+    assert now == quote.body, f"{quote.path.relative_to(ROOT)}: `{quote.command}` prints otherwise now:\n{diff[:3000]}"
 
 
 @pytest.mark.slow
