@@ -2,8 +2,8 @@
 """Set-up-free entry point: creates (and reuses) ./.venv, installs the project into it, then runs.
 
     python3 dev.py demo [carav run options]   run the default graph graphs/demo.toml and print its summary
-    python3 dev.py test [pytest options]      run the whole test suite (under CI=true: the 20 slowest are listed;
-                                              -n 2 runs it on two pytest-xdist workers)
+    python3 dev.py test [pytest options]      run the whole test suite on one pytest-xdist worker per core (up to 4;
+                                              -n 0 runs it in one process; under CI=true the 20 slowest are listed)
     python3 dev.py test --quick [options]     the quick loop: every test that starts no process and takes no
                                               noticeable time (-m "not integration and not slow")
     python3 dev.py bench NAME [options]       a benchmark of bench/ (`python3 dev.py bench --help` lists them)
@@ -26,6 +26,7 @@ VENV = ROOT / ".venv"
 BIN = VENV / ("Scripts" if os.name == "nt" else "bin")
 STAMP = VENV / ".carav-install-stamp"
 QUICK = "not integration and not slow"     # the markers of pyproject.toml: starts processes, takes noticeable time
+MAX_WORKERS = 4      # pytest-xdist workers at most: each integration test starts a graph of about ten processes
 
 
 def _fingerprint() -> str:
@@ -44,6 +45,15 @@ def ensure_env() -> None:
     STAMP.write_text(_fingerprint())
 
 
+def _workers(args: list[str]) -> list[str]:
+    """pytest-xdist's options for a run on every core up to MAX_WORKERS ("worksteal": an idle worker takes tests
+    queued on a busy one, so one long test does not leave a core idle), unless the options choose otherwise (-n,
+    --numprocesses, --pdb, -p no:xdist) or there is a single core."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    chosen = any(a.startswith(("-n", "--numprocesses", "--pdb", "--dist")) or a == "no:xdist" for a in args)
+    return [] if chosen or cores < 2 else ["-n", str(min(cores, MAX_WORKERS)), "--dist", "worksteal"]
+
+
 def main(argv: list[str]) -> int:
     if not argv or argv[0] in {"-h", "--help"}:
         print(__doc__)
@@ -57,6 +67,7 @@ def main(argv: list[str]) -> int:
             rest = [*(a for a in rest if a != "--quick"), "-m", QUICK]
         if os.environ.get("CI") == "true":
             rest = ["--durations=20", *rest]     # CI's log names the 20 slowest: a slow test shows the day it lands
+        rest = [*_workers(rest), *rest]
         cmd = [str(BIN / "python"), "-m", "pytest", *rest]
     elif command == "bench":
         cmd = [str(BIN / "python"), "-m", "bench", *rest]
