@@ -8,7 +8,7 @@ import scipy.stats
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from carav_stream.radar.activation import ActivationSource, berlekamp_massey, lfsr_continue
+from carav_stream.radar.activation import ActivationSource, berlekamp_massey, lfsr_continue, lowest_half
 
 # Maximal-length taps (Xilinx XAPP052 table), recurrence s[n] = XOR s[n - t].
 PRIMITIVE_TAPS = [(3, 2), (4, 3), (5, 3), (6, 5), (7, 6), (8, 6, 5, 4), (9, 5), (10, 7), (11, 9), (12, 6, 4, 1),
@@ -115,3 +115,23 @@ def test_balanced_rows_have_exactly_half_active_per_cycle_and_every_pattern_can_
     assert rho.dtype == bool and np.all(rho.sum(axis=1) == 2)
     patterns = {tuple(r) for r in rho.tolist()}
     assert len(patterns) == 6                               # C(4, 2): uniform over the balanced rows
+
+
+@settings(max_examples=200, deadline=None)
+@given(keys=st.lists(st.lists(st.integers(0, 3), min_size=6, max_size=6), min_size=1, max_size=20),
+       as_float=st.booleans())
+def test_lowest_half_picks_what_a_stable_sort_picks_ties_included(keys, as_float):
+    """Selection instead of sorting: the same chirps as a stable argsort's first half, also among equal keys (few
+    distinct values force ties; the secure source's 64-bit keys can tie too)."""
+    k = np.asarray(keys, dtype=np.float64 if as_float else np.uint64)
+    order = np.argsort(k, axis=1, kind="stable")
+    expected = np.zeros(k.shape, dtype=bool)
+    np.put_along_axis(expected, order[:, :3], True, axis=1)
+    np.testing.assert_array_equal(lowest_half(k), expected)
+
+
+def test_lowest_half_of_random_keys_equals_the_stable_sort_on_wide_rows():
+    k = np.random.default_rng(5).random((500, 64))
+    expected = np.zeros(k.shape, dtype=bool)
+    np.put_along_axis(expected, np.argsort(k, axis=1, kind="stable")[:, :32], True, axis=1)
+    np.testing.assert_array_equal(lowest_half(k), expected)
