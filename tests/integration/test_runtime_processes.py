@@ -292,7 +292,9 @@ def test_a_run_that_cannot_drain_is_killed_at_its_deadline_and_says_where_each_n
     assert failure.startswith("drain deadline of 2 s passed; killed ['src', 't', 'log']"), failure
     states = dict(line.strip().split(": ", 1) for line in failure.splitlines()[1:])
     assert states["src"].startswith("sending on src.out -> t.inp (queue full); seq "), failure
-    assert states["log"].startswith("waiting for input; seq ") and "inp: 0 buffered" in states["log"], failure
+    # log had taken t's first frame or not at its last heartbeat, as the machine's load had it: 0 or 1 buffered
+    assert states["log"].startswith("waiting for input; seq ") and re.search(r"inp: [01] buffered", states["log"]), \
+        failure
     assert "inp: " in states["t"] and "last seq " in states["t"], failure
 
 
