@@ -115,6 +115,13 @@ def _node_pids(env: dict[str, str]) -> dict[str, int]:
             if info.get("pid")}
 
 
+def _swapped(swap: subprocess.Popen, i: int) -> int:
+    """1 for a finished `carav swap` that was applied; raises if it was refused."""
+    if swap.returncode != 0:
+        raise RuntimeError(f"swap {i} refused: {swap.stderr.read().strip()}")
+    return 1
+
+
 def _going(env: dict[str, str]) -> bool:
     """Whether the run has made cycles yet (from `carav status`)."""
     st = _carav(env, "status", "--json", timeout_s=None)
@@ -135,6 +142,7 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         series: dict[tuple[str, int], list[tuple[float, float, int]]] = {}
         swaps = 0
+        swapping: subprocess.Popen | None = None          # the `carav swap` under way, if any
         try:
             # the soak's minutes are minutes of running: its clock starts once the graph makes cycles and its
             # nodes' pids are known (a loaded machine may take a while to start ten processes, and to answer
@@ -159,15 +167,21 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                     for node, f in figs.items():
                         if f:
                             series.setdefault((node, pids[node]), []).append((now - t0, *f))
-                if now >= next_swap and now > t0 + 2:
-                    next_swap = now + swap_s
+                if swapping is not None and swapping.poll() is not None:
+                    swaps += _swapped(swapping, swaps)
+                    swapping, next_swap = None, now + swap_s
+                if swapping is None and now >= next_swap and now > t0 + 2:
+                    # `carav swap` runs beside the sampling: on a loaded machine it takes seconds, and a sampler
+                    # waiting for it would leave the second half of the window without samples to judge
                     model, sets = MODELS[swaps % len(MODELS)]
-                    res = _carav(env, "swap", "attacker", "attacker", "--set", f"model={model}",
-                                 *sum((["--set", s] for s in sets), []))
-                    if res.returncode != 0:
-                        raise RuntimeError(f"swap {swaps} to {model} refused: {res.stderr.strip()}")
-                    swaps += 1
+                    swapping = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "swap", "attacker",
+                                                 "attacker", "--set", f"model={model}",
+                                                 *sum((["--set", s] for s in sets), [])],
+                                                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
                 time.sleep(0.05)
+            if swapping is not None:
+                swapping.wait()
+                swaps += _swapped(swapping, swaps)
             stop = _carav(env, "stop")
             if stop.returncode != 0:
                 raise RuntimeError(f"carav stop failed: {stop.stderr.strip()}")
