@@ -98,9 +98,13 @@ def no_growth(per_h: float, stderr_per_h: float) -> bool:
     return per_h < max(SOAK_RSS_MB_PER_H, 3.0 * stderr_per_h)
 
 
+def _cli(*args: str) -> list[str]:
+    """The argv of a carav command run by this interpreter."""
+    return [sys.executable, "-m", "carav_stream.cli", *args]
+
+
 def _carav(env: dict[str, str], *args: str, timeout_s: float | None = 60) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "carav_stream.cli", *args], env=env, capture_output=True, text=True,
-                          timeout=timeout_s)
+    return subprocess.run(_cli(*args), env=env, capture_output=True, text=True, timeout=timeout_s)
 
 
 def _node_pids(env: dict[str, str]) -> dict[str, int]:
@@ -115,11 +119,18 @@ def _node_pids(env: dict[str, str]) -> dict[str, int]:
             if info.get("pid")}
 
 
-def _swapped(swap: subprocess.Popen, i: int) -> int:
-    """1 for a finished `carav swap` that was applied; raises if it was refused."""
+def _start_swap(env: dict[str, str], i: int) -> subprocess.Popen:
+    """Start swap `i` of the attacker (MODELS in turn); it runs beside the caller."""
+    model, sets = MODELS[i % len(MODELS)]
+    return subprocess.Popen(_cli("swap", "attacker", "attacker", "--set", f"model={model}",
+                                 *sum((["--set", s] for s in sets), [])),
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+def _check_swap(swap: subprocess.Popen, i: int) -> None:
+    """Raise if swap `i`, finished, was refused."""
     if swap.returncode != 0:
-        raise RuntimeError(f"swap {i} refused: {swap.stderr.read().strip()}")
-    return 1
+        raise RuntimeError(f"swap {i} to {MODELS[i % len(MODELS)][0]} refused: {swap.stderr.read().strip()}")
 
 
 def _going(env: dict[str, str]) -> bool:
@@ -136,9 +147,8 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
         env = {**os.environ, "CARAV_RUN_DIR": tmp, "MALLOC_TRIM_THRESHOLD_": str(trim_mb << 20),
                "MALLOC_TOP_PAD_": "0"}          # the user's environment wins over NODE_ENV
         summary_path = Path(tmp) / "summary.json"
-        proc = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "run", str(graph_file("demo")),
-                                 "--cycles", "0", "--set", f"batch={batch}", "--no-progress",
-                                 "--json", str(summary_path)], env=env, start_new_session=True,
+        proc = subprocess.Popen(_cli("run", str(graph_file("demo")), "--cycles", "0", "--set", f"batch={batch}",
+                                     "--no-progress", "--json", str(summary_path)), env=env, start_new_session=True,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         series: dict[tuple[str, int], list[tuple[float, float, int]]] = {}
         swaps = 0
@@ -168,20 +178,18 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                         if f:
                             series.setdefault((node, pids[node]), []).append((now - t0, *f))
                 if swapping is not None and swapping.poll() is not None:
-                    swaps += _swapped(swapping, swaps)
+                    _check_swap(swapping, swaps)
+                    swaps += 1
                     swapping, next_swap = None, now + swap_s
                 if swapping is None and now >= next_swap and now > t0 + 2:
                     # `carav swap` runs beside the sampling: on a loaded machine it takes seconds, and a sampler
                     # waiting for it would leave the second half of the window without samples to judge
-                    model, sets = MODELS[swaps % len(MODELS)]
-                    swapping = subprocess.Popen([sys.executable, "-m", "carav_stream.cli", "swap", "attacker",
-                                                 "attacker", "--set", f"model={model}",
-                                                 *sum((["--set", s] for s in sets), [])],
-                                                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                    swapping = _start_swap(env, swaps)
                 time.sleep(0.05)
             if swapping is not None:
                 swapping.wait()
-                swaps += _swapped(swapping, swaps)
+                _check_swap(swapping, swaps)
+                swaps += 1
             stop = _carav(env, "stop")
             if stop.returncode != 0:
                 raise RuntimeError(f"carav stop failed: {stop.stderr.strip()}")
