@@ -12,8 +12,13 @@ Params  scene (str, graph-wide, required): preset name or scene file
         seed (int, graph-wide, -1): simulation seed; -1 draws the sequences from the OS's secure generator
         activation (str, "auto"): secure | seeded | lfsr (auto: secure without a seed, seeded with one)
         batch (int, 16): cycles per frame (graph-wide `batch = ...` sets it)
+        cycles_per_s (float, 0): release at most this many cycles a second, frame by frame, never catching up
+            after a stall; 0 = as fast as the graph takes them. The radar's own rate is 1 / t_cycle_s
+            (`carav scenes`); a long-running graph watched live, or a test waiting for a few cycles, needs no more
 Graph   source = { type = "chirp_source", batch = 16 }
 """
+import time
+
 from carav_stream.radar.streams import SCENE, SEED, scene_of, seed_streams
 from carav_stream.runtime import Block, Frame, Out, Param
 
@@ -23,7 +28,9 @@ class ChirpSource(Block):
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private: detector only)"))
     params = (SCENE, SEED,
               Param("activation", str, "auto", "activation source", choices=("auto", "secure", "seeded", "lfsr")),
-              Param("batch", int, 16, "cycles per frame", low=1, high=4096))
+              Param("batch", int, 16, "cycles per frame", low=1, high=4096),
+              Param("cycles_per_s", float, 0.0, "at most this many cycles a second (0: unpaced)", unit="1/s",
+                    low=0.0))
 
     def check_params(self) -> None:
         self.n_chirps = scene_of(self.scene).n_chirps
@@ -34,9 +41,20 @@ class ChirpSource(Block):
 
     def start(self) -> None:
         self.streams = seed_streams(self.seed, self.activation, self.instance)
+        self.release_at: float | None = None
+
+    def ready_in(self, seq: int) -> float:
+        if not self.cycles_per_s:
+            return 0.0
+        now = time.monotonic()
+        if self.release_at is None or self.release_at < now:   # the first frame, or after a stall: now
+            self.release_at = now
+        return self.release_at - now
 
     def generate(self, seq: int) -> dict[str, Frame]:
         n = min(self.batch, self.cycle_budget or self.batch)
         rho = self.streams.activation.next(n, self.n_chirps)
+        if self.cycles_per_s:
+            self.release_at += n / self.cycles_per_s
         cycles = {"cycle": seq * self.batch, "cycles": n}   # only a run's last frame is short
         return {"tx": Frame.of(rho, **cycles), "rho": Frame.of(rho.copy(), **cycles)}

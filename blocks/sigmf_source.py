@@ -51,14 +51,15 @@ class SigmfSource(Block):
         self.model = [x.get(f"{NS}:attack_model") for x in a]
         self.t0 = time.monotonic()
 
+    def ready_in(self, seq: int) -> float:
+        return self.t0 + seq * self.batch * self.scene_obj.t_cycle_s - time.monotonic() if self.paced else 0.0
+
     def generate(self, seq: int) -> dict[str, Frame] | None:
         first = seq * self.batch
         n = min(self.batch, self.cycle_budget or self.batch, len(self.rec.cycles) - first)
         if n <= 0:
             return None
         rows = slice(first, first + n)
-        if self.paced:
-            time.sleep(max(0.0, self.t0 + first * self.scene_obj.t_cycle_s - time.monotonic()))
         cycles = self.rec.cycles[rows].tolist()
         per = {k: v[rows] for k, v in self.per.items() if all(x is not None for x in v[rows])}
         if cycles != list(range(cycles[0], cycles[0] + n)):

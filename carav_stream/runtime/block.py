@@ -64,6 +64,9 @@ class Block:
                           before each call the runtime sets `self.cycle_budget`, the cycles still wanted
                           (None = until stopped), so that a source putting several cycles in one frame
                           (header `cycles`) can size its last frame
+      ready_in(seq)       sources only: seconds until frame `seq` may be generated (default 0: at once); the
+                          runtime serves control and heartbeats meanwhile, so a paced source stops and swaps
+                          as promptly as a free-running one
       process(*frames)    one frame per input, all with the same seq; returns a Frame (single output), a dict
                           {port: Frame}, or None (nothing this time)
       unpaired(port, f)   a frame whose partners on the other inputs can no longer arrive; default raises
@@ -133,6 +136,9 @@ class Block:
 
     def generate(self, seq: int) -> Frame | dict[str, Frame] | None:
         raise NotImplementedError(f"{type(self).__name__} has no inputs and must implement generate()")
+
+    def ready_in(self, seq: int) -> float:
+        return 0.0
 
     def process(self, *frames: Frame) -> Frame | dict[str, Frame] | None:
         raise NotImplementedError(f"{type(self).__name__} must implement process()")

@@ -398,7 +398,7 @@ class NodeRunner:
         while not self.ctl.stopping and (not max_cycles or self.cycles_before + self.cycles < max_cycles):
             if self.ctl.pending_swap:
                 self.apply_swap()
-            if not self.within_lease():
+            if not self.within_lease() or not self.release_due():
                 continue
             self.block.cycle_budget = max_cycles - self.cycles_before - self.cycles if max_cycles else None
             if self.cpu_at_first_s is None:
@@ -414,6 +414,15 @@ class NodeRunner:
             self.emit(result, None)
             self.seq += 1
             self.idle()
+
+    def release_due(self) -> bool:
+        """Whether the block's frame `self.seq` may be generated now; if not, wait on control for up to a tick."""
+        wait = self.block.ready_in(self.seq)
+        if wait <= 0:
+            return True
+        self.control.poll(min(wait, transport.TICK_S) * 1000)
+        self.serve_control()
+        return False
 
     def within_lease(self) -> bool:
         """Ask for more seqs half a lease ahead; False (after waiting on control) while `self.seq` is beyond it."""

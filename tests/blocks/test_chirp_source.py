@@ -1,5 +1,6 @@
 """Chirp source: balanced sequences, frames of `batch` cycles, and fresh streams for every block instance."""
 import numpy as np
+import pytest
 
 from carav_blocks.attacker import AttackerBlock
 from carav_blocks.channel import Channel
@@ -34,3 +35,37 @@ def test_a_restarted_or_swapped_in_seeded_block_draws_fresh_streams_never_a_repl
             assert not np.array_equal(a, b), other
     for a, b in zip(draws((1, 0)), draws((1, 0))):                           # and still reproducible
         np.testing.assert_array_equal(a, b)
+
+
+class _Clock:
+    """A stand-in for the time module: monotonic() reads `now`, which the test moves."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def monotonic(self):
+        return self.now
+
+
+def test_a_paced_source_releases_at_most_cycles_per_s_and_never_catches_up_after_a_stall(monkeypatch):
+    import carav_blocks.chirp_source as module
+    clock = _Clock()
+    monkeypatch.setattr(module, "time", clock)
+    src = ChirpSource(scene=SCENE, seed=9, batch=4, cycles_per_s=100.0)
+    src.start()
+    src.cycle_budget = None
+    assert src.ready_in(0) == 0.0                       # the first frame at once
+    src.generate(0)
+    assert src.ready_in(1) == pytest.approx(0.04)       # 4 cycles at 100 a second
+    clock.now += 0.01
+    assert src.ready_in(1) == pytest.approx(0.03)
+    clock.now += 0.03
+    assert src.ready_in(1) == pytest.approx(0.0)
+    src.generate(1)
+    clock.now += 5.0                                    # a stall downstream: the source waited 5 s
+    assert src.ready_in(2) == 0.0
+    src.generate(2)
+    assert src.ready_in(3) == pytest.approx(0.04)       # no burst to make up for the stall
+    unpaced = ChirpSource(scene=SCENE, seed=9, batch=4)
+    unpaced.start()
+    assert unpaced.ready_in(0) == 0.0

@@ -10,10 +10,13 @@ import pytest
 
 from carav_stream.testing.graphs import GraphRun, Graphs, read_jsonl, wait_for
 
-__all__ = ["ROOT", "TOYS", "carav", "read_jsonl", "wait_until"]
+__all__ = ["PACED", "ROOT", "TOYS", "carav", "read_jsonl", "wait_until"]
 
 ROOT = Path(__file__).resolve().parents[2]
 TOYS = ROOT / "tests" / "toy_blocks"
+# A radar graph run until stopped, paced: its test waits for some tens of cycles, and an unpaced source would burn
+# both cores meanwhile (the other pytest worker's too). Every wait still waits on progress, never on this rate.
+PACED = ("--set", "source.cycles_per_s=200")
 
 
 class ProjectGraphs(Graphs):

@@ -12,7 +12,7 @@ import zmq
 
 from carav_stream.runtime.frames import Frame, encode
 from carav_stream.runtime.graph import TRANSPORTS
-from tests.integration.conftest import read_jsonl, wait_until
+from tests.integration.conftest import PACED, read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
 
@@ -113,7 +113,7 @@ def test_forged_clean_verdicts_never_let_an_attacked_cycle_reach_ranging(carav):
     no cycle the detector alarmed on reaches ranging."""
     verdicts = carav.workdir / "verdicts.jsonl"
     run = carav.run(TAPS / "radar_taps.toml", "--cycles", "0", "--set", "attacker.model='smart'",
-                    "--set", "attacker.rarms=3.0", "--set", "attacker.start_cycle=0", "--set", "batch=16")
+                    "--set", "attacker.rarms=3.0", "--set", "attacker.start_cycle=0", "--set", "batch=16", *PACED)
     wait_until(lambda: read_jsonl(verdicts), "the radar graph to start (14 processes importing numpy)", *carav.started)
     advancing(carav, verdicts, "verdicts to flow", more=3)
     real = read_jsonl(verdicts)[-1]

@@ -13,7 +13,7 @@ import pytest
 
 from bench.browser import DEEP_FIND, headless_chromium, missing, model
 from carav_stream.view.server import free_port
-from tests.integration.conftest import ROOT, wait_until
+from tests.integration.conftest import PACED, ROOT, wait_until
 
 pytestmark = pytest.mark.integration
 BATCH = 32   # table1_smart's cycles per frame (radar_chain.toml)
@@ -43,7 +43,7 @@ def handshake(port: int, origin: str | None) -> str:
 def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_attacker(carav):
     from selenium.webdriver.support.ui import Select
     port = free_port("127.0.0.1")
-    run = carav.run(ROOT / "graphs" / "table1_smart.toml", "--view", "--port", str(port), "--cycles", "0")
+    run = carav.run(ROOT / "graphs" / "table1_smart.toml", "--view", "--port", str(port), "--cycles", "0", *PACED)
     wait_until(lambda: "live view at " in run.stderr(), "the page's address", run, interval_s=0.2)
     url = re.search(r"live view at (\S+)", run.stderr()).group(1)
     assert url.startswith(f"http://127.0.0.1:{port}/?token=") and len(url.split("token=")[1]) >= 32

@@ -12,7 +12,7 @@ from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.graph import TRANSPORTS
 from carav_stream.testing.graphs import by_cycle, node_pids
-from tests.integration.conftest import read_jsonl, wait_until
+from tests.integration.conftest import PACED, read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
 
@@ -22,10 +22,12 @@ TAPS = Path(__file__).resolve().parent / "graphs"
 
 def radar(carav, cycles: int, graph: str = "radar_taps.toml", *, seed: int = 21, fidelity: str = "beat",
           batch: int = 16, **attacker):
-    """Run tests/integration/graphs/<graph> (the radar chain with taps) with --set for what the test varies."""
+    """Run tests/integration/graphs/<graph> (the radar chain with taps) with --set for what the test varies; paced
+    when it runs until stopped (cycles 0)."""
     sets = [f"seed={seed}", f"fidelity={fidelity}", f"batch={batch}",
             *(f"attacker.{k}={v!r}" if isinstance(v, str) else f"attacker.{k}={v}" for k, v in attacker.items())]
-    return carav.run(TAPS / graph, "--cycles", str(cycles), *sum((["--set", s] for s in sets), []))
+    return carav.run(TAPS / graph, "--cycles", str(cycles), *sum((["--set", s] for s in sets), []),
+                     *(() if cycles else PACED))
 
 
 def assert_equals_the_library(carav, run, lib, n: int, batch: int = 16) -> dict:
@@ -336,6 +338,18 @@ def test_demo_graph_runs_and_reports_detection_figures(carav):
     assert s["range_error_m"]["n"] == 150 and s["range_error_m"]["rmse"] < 0.05
     out = run.stdout()
     assert "(detection rate 100 %)" in out and "frames lost 0" in out and "None" not in out
+
+
+def test_a_paced_source_waits_for_its_release_and_still_stops_at_once(carav):
+    """One cycle a frame at 0.001 cycles a second: the first frame goes at once, the next is due in 1000 s. The
+    runtime generates nothing before its release (the run holds one cycle) and serves control while it waits (the
+    stop ends the run; it would wait 1000 s for the release otherwise, and the run outlive the test's cap)."""
+    run = carav.run(TAPS / "radar_taps.toml", "--set", "batch=1", "--set", "source.cycles_per_s=0.001")
+    wait_until(lambda: read_jsonl(carav.workdir / "judged.jsonl"), "the first cycle to be judged", run)
+    assert carav.cli("stop").returncode == 0
+    assert run.wait() == 0, run.stderr()
+    s = run.summary()
+    assert s["cycles"] == 1 and s["cycles_judged"] == 1 and s["lost"] == 0
 
 
 def _free_port_base() -> int:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.integration.conftest import wait_until
+from tests.integration.conftest import PACED, wait_until
 
 pytestmark = pytest.mark.integration
 TAPS = Path(__file__).resolve().parent / "graphs" / "radar_taps.toml"
@@ -20,7 +20,7 @@ def status_of(carav) -> dict:
 
 
 def test_applied_and_refused_swaps_are_named_with_their_model_in_reply_status_and_summary(carav):
-    run = carav.run(TAPS, "--cycles", "0", "--set", "batch=4")
+    run = carav.run(TAPS, "--cycles", "0", "--set", "batch=4", *PACED)
     wait_until(lambda: status_of(carav).get("cycles", 0) > 40, "cycles before the swaps", *carav.started)
     refused = carav.cli("swap", "attacker", "attacker", "--set", "model=smart", "--set", "rarms=-3")
     assert refused.returncode == 3 and "rarms" in refused.stderr, refused.stderr
