@@ -1,5 +1,5 @@
-"""`python3 dev.py bench soak --minutes N`: the demo graph at full speed for N minutes, its attacker swapped every
-few seconds.
+"""`python3 dev.py bench soak --minutes N`: the demo graph at full speed (or paced, `--cycles-per-s`) for N minutes,
+its attacker swapped every few seconds.
 
 The graph (graphs/demo.toml, until stopped) runs as `carav run` in a process group of its own, with a private
 run folder. Every `--sample-s` seconds the benchmark reads each node's resident memory (VmRSS) and open file
@@ -51,6 +51,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--swap-s", type=number(0.5), default=5.0, help="seconds between attacker swaps")
     parser.add_argument("--sample-s", type=number(0.1), default=2.0, help="seconds between memory samples")
     parser.add_argument("--batch", type=count(1), default=32, help="cycles per frame")
+    parser.add_argument("--cycles-per-s", type=number(0.0), default=0.0,
+                        help="pace the source to at most this many cycles a second (default 0: full speed)")
     parser.add_argument("--trim-mb", type=count(0), default=0,
                         help="glibc's trim threshold in the nodes, MB (the node default is 512; see the module doc)")
     parser.add_argument("--floor-s", type=number(0.1), default=30.0,
@@ -141,14 +143,15 @@ def _going(env: dict[str, str]) -> bool:
 
 
 def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: int = 0,
-         floor_s: float = 30.0) -> dict[str, Any]:
+         floor_s: float = 30.0, cycles_per_s: float = 0.0) -> dict[str, Any]:
     from carav_graphs import graph_file
     with tempfile.TemporaryDirectory(prefix="cs", dir="/tmp") as tmp:     # ipc paths must stay short
         env = {**os.environ, "CARAV_RUN_DIR": tmp, "MALLOC_TRIM_THRESHOLD_": str(trim_mb << 20),
                "MALLOC_TOP_PAD_": "0"}          # the user's environment wins over NODE_ENV
         summary_path = Path(tmp) / "summary.json"
         proc = subprocess.Popen(_cli("run", str(graph_file("demo")), "--cycles", "0", "--set", f"batch={batch}",
-                                     "--no-progress", "--json", str(summary_path)), env=env, start_new_session=True,
+                                     "--set", f"source.cycles_per_s={cycles_per_s}", "--no-progress",
+                                     "--json", str(summary_path)), env=env, start_new_session=True,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         series: dict[tuple[str, int], list[tuple[float, float, int]]] = {}
         swaps = 0
@@ -217,13 +220,13 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                                    "rss_floor_mb_per_h_stderr": floor_err,
                                    "fds_start": fds[0], "fds_end": fds[-1], "fds_per_h": growth_per_hour(t, fds)[0]}
     return {"minutes": minutes, "trim_mb": trim_mb, "floor_s": floor_s, "elapsed_s": elapsed, "swaps": swaps,
-            "cycles": summary["cycles"],
+            "paced_cycles_per_s": cycles_per_s, "cycles": summary["cycles"],
             "cycles_per_s": summary["throughput_cycles_per_s"], "lost": summary["lost"],
             "failures": summary["failures"], "rejected": summary["rejected"], "processes": nodes}
 
 
 def run(args: argparse.Namespace) -> int:
-    rec = soak(args.minutes, args.swap_s, args.sample_s, args.batch, args.trim_mb, args.floor_s)
+    rec = soak(args.minutes, args.swap_s, args.sample_s, args.batch, args.trim_mb, args.floor_s, args.cycles_per_s)
     print(f"soak: {rec['elapsed_s']:.0f} s, {rec['cycles']} cycles ({rec['cycles_per_s']:.0f} cycles/s), "
           f"{rec['swaps']} swaps, lost {rec['lost']}, rejected {rec['rejected']}, failures {len(rec['failures'])}")
     print(f"{'process':<24}{'RSS MB start':>13}{'end':>8}{'floor MB/h':>12}{'+-':>7}{'fds':>6}{'end':>5}{'fds/h':>8}")

@@ -38,9 +38,10 @@ def test_process_figures_come_from_proc():
 def test_a_short_soak_swaps_the_attacker_samples_every_node_and_loses_nothing(tmp_path):
     out = tmp_path / "soak.json"
     assert run_bench(["soak", "--minutes", "0.3", "--swap-s", "2", "--sample-s", "0.25", "--batch", "8",
-                  "--json", str(out)]) == 0
+                      "--cycles-per-s", "400", "--json", str(out)]) == 0
     rec = json.loads(out.read_text())["records"][0]
     assert rec["lost"] == 0 and not rec["failures"] and rec["swaps"] >= 3 and rec["cycles"] > 0
+    assert rec["paced_cycles_per_s"] == 400 and rec["cycles_per_s"] <= 400 * 1.05   # never faster than paced
     nodes = {p["node"] for p in rec["processes"].values()}
     assert nodes == {"source", "channel", "attacker", "adc", "detector", "gate", "ranging", "summary"}
     assert all(p["rss_mb_end"] > 1 and p["fds_end"] > 0 for p in rec["processes"].values())
