@@ -30,6 +30,7 @@ import os
 import sys
 
 from carav_stream.console.errors import EXIT_CODES_HELP, CommandError, Exit
+from carav_stream.core.allocator import keep_freed_memory
 
 COMMANDS = {
     "run": ("carav_stream.cli.run", "run a graph and print its summary"),
@@ -98,6 +99,7 @@ def build_parser(argv: list[str] = (), *, prog: str = "carav", description: str 
 def main(argv: list[str] | None = None, **tables) -> int:
     """Run one command line (default sys.argv); `tables` as build_parser's (prog, description, commands, groups)."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    keep_freed_memory()             # the studies' kernels allocate megabytes per call: reuse, do not fault in again
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
     parser = build_parser(argv, **tables)

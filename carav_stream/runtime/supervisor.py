@@ -25,6 +25,7 @@ from typing import Any
 import zmq
 
 from carav_stream import node_start
+from carav_stream.core.allocator import MALLOC_ENV
 from carav_stream.runtime import transport
 from carav_stream.runtime.admin_server import AdminServer
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
@@ -35,15 +36,11 @@ from carav_stream.runtime.report import RunReport
 from carav_stream.runtime.rundir import RUN_ID_ENV, remove_stale_runs, run_root
 
 # The environment of node processes (settings in the user's environment win):
-# - glibc malloc keeps freed buffers for reuse rather than handing them back to the OS after every frame.
-#   Large frames would otherwise be mmap'ed and unmapped each time, and every page of every new buffer faulted
-#   in again (measured on an 8-node radar graph with 4.5 MB frames: 70-80 page faults and about 200 us of
-#   kernel time per cycle fewer). Other C libraries ignore these variables.
+# - glibc malloc keeps freed buffers for reuse rather than handing them back to the OS after every frame
+#   (core.allocator: large frames would otherwise be mmap'ed, faulted in and unmapped again every time).
 # - BLAS libraries run one thread: a graph's parallelism is its processes, and a threaded BLAS call in one
 #   node competing with the other nodes for the cores can stall for milliseconds.
-NODE_ENV = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
-            "MALLOC_TOP_PAD_": str(64 << 20), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-            "MKL_NUM_THREADS": "1"}
+NODE_ENV = {**MALLOC_ENV, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
 class Supervisor:

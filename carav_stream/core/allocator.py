@@ -1,0 +1,30 @@
+"""glibc malloc settings for processes that allocate large numpy arrays over and over.
+
+By default glibc serves every block above a threshold (128 kB, raised as large blocks are freed, up to 32 MB) with
+its own mmap and hands it back to the OS when it is freed, and trims the top of its heap beyond 128 kB of free
+space: a kernel whose temporaries are megabytes then faults every page of every temporary in again, every call.
+These settings keep freed memory for reuse instead (up to MALLOC_TRIM_THRESHOLD_ of it):
+`carav experiment cfar --trials 100`, 1.89 s of kernel time against 0.48 s with them, the same user time; a
+graph's node, 70-80 page faults and about 200 us of kernel time per 4.5 MB cycle fewer. Other C libraries
+ignore them.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+from collections.abc import Mapping
+
+MALLOC_ENV = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
+              "MALLOC_TOP_PAD_": str(64 << 20)}
+_MALLOPT = {"MALLOC_TRIM_THRESHOLD_": -1, "MALLOC_TOP_PAD_": -2, "MALLOC_MMAP_THRESHOLD_": -3}   # glibc's M_*
+
+
+def keep_freed_memory(env: Mapping[str, str] = os.environ) -> list[str]:
+    """Apply MALLOC_ENV to this running process (mallopt), except the settings `env` gives (the user's win: glibc
+    has read them at start-up); returns the names applied. Nothing where the C library has no mallopt."""
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (OSError, AttributeError):
+        return []
+    return [name for name, value in MALLOC_ENV.items()
+            if name not in env and mallopt(_MALLOPT[name], int(value)) == 1]
