@@ -121,14 +121,28 @@ def test_cycles_whose_rho_never_came_are_counted_and_the_replay_refuses_the_reco
         open_recording(tmp_path / "rec")
 
 
-def test_a_paced_replay_releases_cycles_no_sooner_than_the_radar_made_them(tmp_path):
-    import time
+def test_a_paced_replay_releases_cycles_no_sooner_than_the_radar_made_them(tmp_path, monkeypatch):
+    import carav_blocks.sigmf_source as module
+
+    class Clock:                                         # the block's time module, moved by the test
+        now = 100.0
+
+        def monotonic(self):
+            return self.now
+
+    clock = Clock()
+    monkeypatch.setattr(module, "time", clock)
     record(tmp_path / "rec")
     text = (GOLDEN / "adc_small_iq.toml").read_text()
     slow = tmp_path / "slow.toml"                        # the same samples, a cycle every 50 ms
     slow.write_text(text.replace("n_chirps = 4\n", "n_chirps = 4\nt_cycle_s = 0.05\n"))
     src = SigmfSource(path=str(tmp_path / "rec"), scene=str(slow), batch=2, paced=True)
     src.start()
-    t0 = time.monotonic()
+    # frame s holds cycles 2s, 2s + 1: due 2s cycle periods after the start (the runtime waits on ready_in)
+    assert [src.ready_in(s) for s in range(3)] == pytest.approx([0.0, 0.1, 0.2])
+    clock.now += 0.15
+    assert src.ready_in(1) <= 0 and src.ready_in(2) == pytest.approx(0.05)
     assert [src.generate(s)["frames"].cycle for s in range(3)] == [0, 2, 4]
-    assert time.monotonic() - t0 >= 4 * 0.05              # cycle 4 leaves 4 cycle periods after cycle 0
+    unpaced = SigmfSource(path=str(tmp_path / "rec"), scene=str(slow), batch=2)
+    unpaced.start()
+    assert unpaced.ready_in(2) == 0.0
