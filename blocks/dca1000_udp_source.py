@@ -9,7 +9,7 @@ dca1000_source (lanes, encoding, real or complex: carav_stream/capture/dca1000.p
 sends them with their activation sequences. Every cycle touched by a lost, truncated, duplicated, reordered or
 overlapping packet, and the cycle the sender stops within, is sent with per_cycle `nonfinite` = its sample count
 (none of its samples is trusted: rms_detector judges it invalid, gate refuses it, never judged clean) and its
-reasons in `damage`; all are counted in the summary. The stream ends when no packet has come for idle_timeout_s.
+reasons in `damage`. The stream ends when no packet has come for idle_timeout_s (and none waits in the socket).
 
 The socket: blocks never touch the runtime's sockets, files or processes; this one is the radar's data, as
 dca1000_source's .bin file is. It is opened in start(), inside the block's own process, by a capture-side helper
@@ -20,6 +20,11 @@ Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's cod
                      (its reasons, comma-separated; "" for a whole, clean cycle)
         out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
 Params  declared below; activation and pattern: exactly one (as for dca1000_source)
+Summary run.live_capture: packets, bytes, cycles, damaged_cycles, late_packets, bytes_before_first_cycle, a count
+        per reason, sender_stopped; dropped_by_host, the datagrams this host's kernel dropped because the receiver did
+        not drain its socket in time (its drop counter; null where it cannot be read): of `lost`, these are the
+        host's and the rest the link's, the cycles refused either way; rcvbuf_granted_bytes, the receive buffer the
+        kernel granted
 Graph   radar = { type = "dca1000_udp_source", port = 4098, n_rx = 4, pattern = "1010..." }
 """
 import ipaddress
@@ -83,9 +88,12 @@ class Dca1000UdpSource(Block):
         self.receiver.close()
 
     def summary(self) -> dict:
+        self.receiver.note_host_drops()
         c = self.receiver.reassembler.counts
         live = {"packets": c["packets"], "bytes": c["bytes"], "cycles": c["cycles"],
                 "damaged_cycles": c["damaged_cycles"], "late_packets": c["late"],
                 "bytes_before_first_cycle": c["skipped_bytes"], **{k: c[k] for k in REASONS},
+                "dropped_by_host": c.get("dropped_by_host"),
+                "rcvbuf_granted_bytes": self.receiver.rcvbuf_granted_bytes,
                 "sender_stopped": self.receiver.stopped}
         return {"run": {"live_capture": live}}

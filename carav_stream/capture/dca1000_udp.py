@@ -25,8 +25,21 @@ is damaged: its samples are not trusted (missing bytes are zeros; a late packet 
 released with its reasons, and everything is counted. Pure logic, no socket: testable datagram by datagram.
 
 UdpReceiver binds the socket and feeds a Reassembler from a thread of its own (the kernel's receive buffer then
-only has to cover the thread's pauses, not the consumer's); Replayer sends a capture's packets to 127.0.0.1 at a
-given rate, with faults, and refuses any other address (it is a test instrument, not a radar).
+only has to cover the thread's pauses, not the consumer's). A packet the card's link loses and one this host's
+kernel drops look alike in the stream (a sequence jump, counted `lost`); the receiver tells them apart with the
+socket's own drop counter (Linux: the `drops` column of /proc/net/udp), counted `dropped_by_host`:
+
+    dropped_by_host   datagrams that reached this socket and found its receive buffer full (the receiver did not
+                      drain in time); lost - dropped_by_host went missing before this socket (the card, the cable,
+                      a switch, or the host's own NIC ring and backlog, which the socket's counter does not see)
+
+Either way the cycles they touch are damaged. The buffer: a datagram dropped is lost for good (the card does not
+resend), so the receiver asks for its buffer with SO_RCVBUFFORCE, which a privileged process (CAP_NET_ADMIN) gets
+beyond net.core.rmem_max, and with SO_RCVBUF, capped at rmem_max, otherwise; `rcvbuf_granted_bytes` is what the
+kernel granted (getsockopt SO_RCVBUF: Linux doubles the request, and charges each datagram with its own overhead).
+
+Replayer sends a capture's packets to 127.0.0.1 at a given rate, with faults, optionally no faster than the
+receiver drains, and refuses any other address (it is a test instrument, not a radar).
 
 Cost: a packet is a slice copy into the cycle buffer and a few integer checks, about 2 to 5 us of Python; the
 receiver's rate is measured by `python3 dev.py bench dca1000-udp` (docs/CAPTURE.md).
@@ -34,16 +47,25 @@ receiver's rate is measured by `python3 dev.py bench dca1000-udp` (docs/CAPTURE.
 from __future__ import annotations
 
 import ipaddress
+import os
+import platform
+import select
 import socket
+import sys
 import threading
 import time
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 DATA_PORT = 4098
 HEADER_BYTES = 10
 MAX_PAYLOAD = 1456
 REASONS = ("lost", "truncated", "duplicated", "reordered", "overlapping", "incomplete")
+# Python names no SO_RCVBUFFORCE; 33 is its number in asm-generic/socket.h (x86, ARM, ...), not on alpha, parisc or
+# sparc, where the receiver asks with SO_RCVBUF only
+SO_RCVBUFFORCE = getattr(socket, "SO_RCVBUFFORCE", None) or (
+    33 if sys.platform == "linux" and not platform.machine().startswith(("alpha", "parisc", "sparc")) else None)
 
 
 def header(seq: int, byte_count: int) -> bytes:
@@ -165,13 +187,34 @@ class Reassembler:
         return self.take(1)
 
 
+def socket_drops(sock: socket.socket) -> int | None:
+    """The kernel's running count of datagrams it dropped for this UDP socket (IPv4): the `drops` column of its line
+    in /proc/net/udp, found by the socket's inode; None where that cannot be read (not Linux)."""
+    inode = str(os.fstat(sock.fileno()).st_ino)
+    try:
+        with open("/proc/net/udp") as fh:
+            for line in fh:
+                fields = line.split()      # sl local rem st tx:rx tr:when retrnsmt uid timeout inode ref ptr drops
+                if len(fields) >= 13 and fields[9] == inode:
+                    return int(fields[12])
+    except (OSError, ValueError):
+        pass
+    return None
+
+
 class UdpReceiver:
-    """A bound UDP socket feeding a Reassembler from its own thread; take() waits for whole cycles."""
+    """A bound UDP socket feeding a Reassembler from its own thread; take() waits for whole cycles.
+
+    rcvbuf_granted_bytes is the receive buffer the kernel granted; reassembler.counts["dropped_by_host"] the
+    datagrams the kernel dropped for the socket, copied from its counter when the stream stops and on close()
+    (note_host_drops(); absent where the counter cannot be read)."""
 
     def __init__(self, address: str, port: int, reassembler: Reassembler, rcvbuf_bytes: int = 8 << 20) -> None:
         self.reassembler = reassembler
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf_bytes)
+        if not self._force_rcvbuf(rcvbuf_bytes):     # unprivileged: what rmem_max allows
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf_bytes)
+        self.rcvbuf_granted_bytes = self.sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF)
         self.sock.bind((address, port))
         self.sock.settimeout(0.05)
         self.address = self.sock.getsockname()
@@ -181,6 +224,16 @@ class UdpReceiver:
         self.stopped = False
         self.thread = threading.Thread(target=self._receive, name="dca1000-udp", daemon=True)
         self.thread.start()
+
+    def _force_rcvbuf(self, rcvbuf_bytes: int) -> bool:
+        """The buffer asked for, beyond rmem_max, if this process may (CAP_NET_ADMIN)."""
+        if SO_RCVBUFFORCE is None:
+            return False
+        try:
+            self.sock.setsockopt(socket.SOL_SOCKET, SO_RCVBUFFORCE, rcvbuf_bytes)
+        except OSError:          # EPERM without the capability
+            return False
+        return True
 
     def _receive(self) -> None:
         scratch = bytearray(65536)
@@ -199,23 +252,44 @@ class UdpReceiver:
                 if self.reassembler.complete() > before:
                     self.cond.notify()
 
+    def queued(self) -> bool:
+        """A datagram waits in the socket's buffer for the receiving thread (False once the thread or the socket
+        has ended: nothing will read it)."""
+        if self.sock.fileno() < 0 or not self.thread.is_alive():
+            return False
+        poll = select.poll()
+        poll.register(self.sock, select.POLLIN)
+        return any(events & select.POLLIN for _, events in poll.poll(0))
+
     def take(self, max_cycles: int, want: int, idle_timeout_s: float) -> Released | None:
         """Up to max_cycles whole cycles once `want` are ready; fewer if the sender falls silent for idle_timeout_s,
-        then the cycle it stopped within (damaged); None once nothing is left after it stopped."""
+        then the cycle it stopped within (damaged); None once nothing is left after it stopped. Silent means no
+        packet for idle_timeout_s and none waiting in the socket: a receiving thread starved of CPU is not a
+        sender that stopped."""
         with self.cond:
             while self.reassembler.complete() < want and not self.stopped:
-                if time.monotonic() - self.last_packet >= idle_timeout_s:
+                if time.monotonic() - self.last_packet >= idle_timeout_s and not self.queued():
                     self.stopped = True
                     break
                 self.cond.wait(0.05)
+            if self.stopped:
+                self.note_host_drops()
             got = self.reassembler.take(max_cycles)
             if got is None and self.stopped:
                 return self.reassembler.flush()
             return got
 
+    def note_host_drops(self) -> None:
+        """Copy the socket's drop counter into reassembler.counts["dropped_by_host"] (while the socket is open)."""
+        if self.sock.fileno() < 0 or (drops := socket_drops(self.sock)) is None:
+            return
+        with self.cond:
+            self.reassembler.counts["dropped_by_host"] = drops
+
     def close(self) -> None:
         self.running = False
         self.thread.join(1.0)
+        self.note_host_drops()
         self.sock.close()
 
 
@@ -258,19 +332,27 @@ class Replayer:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4 << 20)
 
-    def send(self, packets: list[bytes], bytes_per_s: float | None = None) -> float:
+    def send(self, packets: list[bytes], bytes_per_s: float | None = None,
+             room: Callable[[], bool] | None = None) -> float:
         """Send every packet; returns the seconds it took. Paced: packet i leaves no earlier than the time its
-        bytes take at bytes_per_s (checked every packet, slept in steps of at least 1 ms)."""
-        start = time.perf_counter()
+        bytes take at bytes_per_s (checked every packet, slept in steps of at least 1 ms). With `room`, asked
+        before every packet whether the receiver can take it: while it says no, the sender waits in 1 ms sleeps,
+        and the pace starts afresh after a wait (bytes_per_s stays an upper bound: no burst to catch up). `room`
+        ends a wait that can never end by raising."""
+        first = start = time.perf_counter()
         sent = 0
         for p in packets:
+            if room is not None and not room():
+                while not room():
+                    time.sleep(1e-3)
+                start, sent = time.perf_counter(), 0
             if bytes_per_s:
                 ahead = sent / bytes_per_s - (time.perf_counter() - start)
                 if ahead > 1e-3:
                     time.sleep(ahead)
             self.sock.sendto(p, self.target)
             sent += len(p)
-        return time.perf_counter() - start
+        return time.perf_counter() - first
 
     def close(self) -> None:
         self.sock.close()

@@ -1,12 +1,14 @@
 """The DCA1000 UDP stream: cycles reassembled from packets written as TI describes them (a 4-byte sequence number
 from 1, a 6-byte count of the bytes sent before, up to 1456 data bytes), and every cycle touched by a lost,
 truncated, duplicated or reordered packet, or left unfinished by a sender that stops, released as damaged: never
-clean. Without sockets first, then over loopback through the replayer, then through the block, the detector and
-the gate."""
+clean. Without sockets first, then over loopback through the replayer (datagrams this host's kernel drops counted
+apart from those the link loses, and the receive buffer granted), then through the block, the detector and the
+gate."""
 from __future__ import annotations
 
 import socket
 import struct
+import time
 
 import numpy as np
 import pytest
@@ -156,6 +158,95 @@ def test_over_loopback_the_replayer_s_faults_reach_the_receiver_and_a_stop_ends_
     assert all(got[c][0] == stream[c * B:(c + 1) * B] for c in clean)
 
 
+def kernel_udp(port: int) -> tuple[int, int]:
+    """(rx_queue bytes, drops) of the socket bound to 127.0.0.1:port, from /proc/net/udp (by port, not by inode as
+    the receiver looks itself up)."""
+    with open("/proc/net/udp") as fh:
+        for f in map(str.split, fh.readlines()[1:]):
+            if f[1] == f"0100007F:{port:04X}":
+                return int(f[4].split(":")[1], 16), int(f[12])
+    raise AssertionError(f"no UDP socket bound to 127.0.0.1:{port}")
+
+
+def rmem_max() -> int:
+    with open("/proc/sys/net/core/rmem_max") as fh:
+        return int(fh.read())
+
+
+def test_datagrams_the_host_drops_are_counted_as_the_host_s_and_every_cycle_they_touch_is_damaged():
+    stream = stream_of(12, 5)
+    packets = ti_packets(stream)                                      # 34 packets
+    rx = UdpReceiver("127.0.0.1", 0, Reassembler(B), rcvbuf_bytes=4096)   # granted 8192: three datagrams
+    port = rx.address[1]
+    tx = Replayer("127.0.0.1", port)
+    got = {}
+    try:
+        with rx.cond:      # the receiving thread cannot feed the reassembler: the socket fills and the kernel drops
+            tx.send(packets[:20])
+            dropped = kernel_udp(port)[1]
+        tx.send(packets[20:], room=lambda: not rx.queued())          # the rest, no faster than the receiver drains
+        while (r := rx.take(4, 4, idle_timeout_s=0.5)) is not None:
+            for j, d in enumerate(r.damage):
+                got[r.first_cycle + j] = (r.data[j * B:(j + 1) * B], d)
+        assert kernel_udp(port)[1] == dropped                         # none after the burst
+    finally:
+        tx.close()
+        rx.close()
+    counts = rx.reassembler.counts
+    assert dropped >= 10, dropped                                     # 20 sent, at most 4 held (3 queued, 1 read)
+    assert counts["dropped_by_host"] == dropped and counts["lost"] == dropped
+    assert counts["packets"] == len(packets) - dropped
+    assert sorted(got) == list(range(12))
+    damaged = {c for c, (_, d) in got.items() if d}
+    assert damaged and all(got[c][1] == ("lost",) for c in damaged)
+    assert all(got[c][0] == stream[c * B:(c + 1) * B] for c in set(got) - damaged)   # no missing byte in them
+    assert counts["damaged_cycles"] == len(damaged)
+
+
+def test_the_receiver_gets_the_buffer_it_asks_for_beyond_rmem_max_when_privileged_and_says_what_it_got():
+    limit = rmem_max()
+    asked = limit + (1 << 20)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.setsockopt(socket.SOL_SOCKET, 33, asked)            # SO_RCVBUFFORCE: needs CAP_NET_ADMIN
+            privileged = True
+        except PermissionError:
+            privileged = False
+    rx = UdpReceiver("127.0.0.1", 0, Reassembler(B), rcvbuf_bytes=asked)
+    try:
+        # Linux doubles the request for its bookkeeping; unprivileged, the request is capped at rmem_max first
+        assert rx.rcvbuf_granted_bytes == 2 * (asked if privileged else limit)
+        assert rx.rcvbuf_granted_bytes == rx.sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF)
+    finally:
+        rx.close()
+
+
+def test_the_replayer_waits_while_the_receiver_has_no_room_and_then_keeps_its_pace_without_a_burst():
+    sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sink.bind(("127.0.0.1", 0))
+    tx = Replayer("127.0.0.1", sink.getsockname()[1])
+    calls = []
+
+    def room() -> bool:
+        calls.append(kernel_udp(sink.getsockname()[1])[0])
+        if len(calls) == 6:           # before packet 5: no room for 0.3 s
+            time.sleep(0.3)
+            return False
+        return True
+
+    packets = ti_packets(stream_of(4, 6))[:10]
+    try:
+        seconds = tx.send(packets, bytes_per_s=20 * (10 + PAYLOAD), room=room)   # 20 packets/s
+        received = [sink.recv(2048) for _ in packets]
+    finally:
+        tx.close()
+        sink.close()
+    assert received == packets and len(calls) == 11                 # asked before every packet, and once more
+    # packets 0-4 take 0.2 s, the wait 0.3 s, then packets 5-9 0.2 s more: a sender that caught up on its schedule
+    # after the wait would send packets 5-9 at once and finish in 0.5 s
+    assert seconds >= 0.2 + 0.3 + 0.2 - 0.01, seconds
+
+
 def test_the_replayer_refuses_an_address_off_this_host():
     with pytest.raises(ValueError, match="loopback address only"):
         Replayer("192.0.2.1", 4098)
@@ -214,3 +305,4 @@ def test_the_block_sends_damaged_cycles_that_the_detector_judges_invalid_and_the
     assert judged["clean"].header["cycles"] == 8 - len(hit)
     summary = block.summary()["run"]["live_capture"]
     assert summary["duplicated"] == 1 and summary["damaged_cycles"] == len(hit) and summary["cycles"] == 8
+    assert summary["dropped_by_host"] == 0 and summary["rcvbuf_granted_bytes"] >= 2 * min(8 << 20, rmem_max()), summary
