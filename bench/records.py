@@ -19,26 +19,17 @@ from typing import Any
 
 import numpy as np
 
-from carav_stream.runtime.supervisor import NODE_ENV
+from carav_stream.core.allocator import keep_freed_memory
 
 OUTPUT_OPTIONS = ("--json", "--plot")      # options naming output files: not part of what was measured
 
 
-_MALLOPT = {"MALLOC_TRIM_THRESHOLD_": -1, "MALLOC_TOP_PAD_": -2, "MALLOC_MMAP_THRESHOLD_": -3}   # glibc's M_* numbers
-
-
 def use_node_allocator() -> bool:
-    """Give this process the allocator settings a graph's nodes start with (supervisor.NODE_ENV's glibc malloc
-    thresholds, through mallopt), so that an in-process benchmark times the kernels as a node runs them: with
-    glibc's defaults, batch-sized buffers are fresh mmaps that fault every page in, until glibc raises its
-    threshold, so the first cases timed would pay what the later ones do not. False where there is no glibc."""
-    import ctypes
-
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
-        return False
-    return all(mallopt(code, int(os.environ.get(name, NODE_ENV[name]))) == 1 for name, code in _MALLOPT.items())
+    """Give this process the allocator settings a graph's nodes start with (core.allocator), so that an in-process
+    benchmark times the kernels as a node runs them: with glibc's defaults, batch-sized buffers are fresh mmaps
+    that fault every page in, until glibc raises its threshold, so the first cases timed would pay what the later
+    ones do not. False where there is no glibc."""
+    return keep_freed_memory()
 
 
 SIMD_LEVELS = ("avx512f", "avx2", "sse4_2")    # widest first: numpy's float32 kernels (log, tan, exp) scale with it

@@ -19,12 +19,11 @@ MALLOC_ENV = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_"
 _MALLOPT = {"MALLOC_TRIM_THRESHOLD_": -1, "MALLOC_TOP_PAD_": -2, "MALLOC_MMAP_THRESHOLD_": -3}   # glibc's M_*
 
 
-def keep_freed_memory(env: Mapping[str, str] = os.environ) -> list[str]:
-    """Apply MALLOC_ENV to this running process (mallopt), except the settings `env` gives (the user's win: glibc
-    has read them at start-up); returns the names applied. Nothing where the C library has no mallopt."""
+def keep_freed_memory(env: Mapping[str, str] = os.environ) -> bool:
+    """Apply MALLOC_ENV to this running process with mallopt, each setting `env` gives with the user's value (glibc
+    read it at start-up already); False where the C library has no mallopt or refuses a value."""
     try:
         mallopt = ctypes.CDLL(None).mallopt
     except (OSError, AttributeError):
-        return []
-    return [name for name, value in MALLOC_ENV.items()
-            if name not in env and mallopt(_MALLOPT[name], int(value)) == 1]
+        return False
+    return all([mallopt(code, int(env.get(name, MALLOC_ENV[name]))) == 1 for name, code in _MALLOPT.items()])
