@@ -8,6 +8,7 @@ turns codes into samples in sqrt(W), `adc_step` is the lsb a detector needs to r
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 
@@ -50,7 +51,16 @@ def with_nonfinite(frames: np.ndarray, rx: np.ndarray, nonfinite: np.ndarray) ->
     return frames
 
 
-CHUNK_ELEMENTS = 1 << 16   # float32 elements of rx quantised at a time (256 KiB: stays in the core's L2 cache)
+CHUNK_ELEMENTS = 1 << 18   # float32 elements of rx quantised at a time (1 MiB: the L2 cache of one core)
+_local = threading.local()
+
+
+def _scratch(n: int) -> np.ndarray:
+    """This thread's float32 scratch buffer of at least n elements (grown, never shrunk)."""
+    buf = getattr(_local, "buf", None)
+    if buf is None or buf.size < n:
+        buf = _local.buf = np.empty(n, np.float32)
+    return buf[:n]
 
 
 def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
@@ -65,8 +75,17 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
     instead (float32 | complex64; non-finite samples stay as they are and are counted). ``out``: an int16 array
     of the codes' shape to write them into (ignored for an ideal ADC). ``add``: a signal of rx's dtype that
     broadcasts to rx (the attack, (1 | n_cycles, 1 | n_chirps, n_samples)), added at the ADC input: the codes
-    of ``rx + add`` without that sum's temporary. Work goes a few cycles at a time (``CHUNK_ELEMENTS``), so
-    the intermediate values stay in cache: the same numbers as one pass over the whole batch.
+    of ``rx + add`` without that sum's temporary. Work goes a few cycles at a time (``CHUNK_ELEMENTS``) in a
+    reused scratch buffer, so the intermediate values stay in cache: the same numbers as one pass over the
+    whole batch.
+
+    Cost: numpy passes over a chunk for (rx + add), * 1/lsb, rint, the cast to int16, and a max and a min over
+    the whole chunk that tell whether any of its cycles hit a rail or holds a NaN/Inf (only then are its cycles
+    counted and fixed one by one). On an AMD EPYC (Zen 4, AVX-512, 2 cores) a table1 frame (32 cycles of
+    64 x 1080 samples) in cache costs about 0.4 ns per sample without attack and 0.6 with one (one cast pass
+    float32 -> int16 over the same samples: 0.07); chunks of one cycle (256 KiB) cost about 0.1 ns per sample
+    more there, in calls and in cache misses on the inputs. A compiled one-pass loop (numba, not a
+    dependency) took about 0.25 ns.
     """
     n_cycles = rx.shape[0]
     if add is not None and (add.dtype != rx.dtype or add.ndim != rx.ndim
@@ -92,7 +111,7 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
     clipped = np.zeros(n_cycles, dtype=np.int64)
     nonfinite = np.zeros(n_cycles, dtype=np.int64)
     step = max(1, CHUNK_ELEMENTS // max(per, 1))
-    buf = np.empty(min(step, n_cycles) * per, np.float32)
+    buf = _scratch(min(step, n_cycles) * per)
     for a in range(0, n_cycles, step):
         b = min(a + step, n_cycles)
         codes = buf[:(b - a) * per].reshape(b - a, per)
@@ -102,8 +121,14 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
             np.add(rx[a:b], add if add.shape[0] == 1 else add[a:b], out=codes.view(rx.dtype).reshape(rx[a:b].shape))
             codes *= scale
         np.rint(codes, out=codes)
-        # two fast reductions find the cycles that hit a rail or hold a NaN/Inf (NaN propagates through max);
-        # only those are counted and fixed
+        # two fast reductions over the whole chunk tell whether a cycle hit a rail or holds a NaN/Inf (NaN
+        # propagates through max and min, and fails both tests); only then are its cycles looked at one by one,
+        # and only those are counted and fixed
+        top = np.maximum.reduce(codes, axis=None, initial=lo)
+        bottom = np.minimum.reduce(codes, axis=None, initial=hi)
+        if top <= hi and bottom >= lo:
+            np.copyto(out[a:b], codes.reshape((b - a,) + shape[1:]), casting="unsafe")
+            continue
         top, bottom = codes.max(axis=1, initial=lo), codes.min(axis=1, initial=hi)
         for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
             row = codes[i]
