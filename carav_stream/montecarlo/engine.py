@@ -85,6 +85,8 @@ class PaperSource:
     def draw_q(self, n_cycles, attack, rarms, rng, method):
         if method == "energy" and paper_model.exchangeable(self.scene, attack):
             return paper_model.sample_q_fast(self.scene, n_cycles, rng, attack, rarms)
+        if method == "energy" and attack == "smart":
+            return paper_model.sample_q_smart(self.scene, n_cycles, rng, rarms)
         rms, rho = self.draw(n_cycles, attack, rarms, rng, method)
         det = detect_from_rms(rms, rho, self.sigma_n, 1.0)
         return det.q, det.by_d1
