@@ -42,7 +42,7 @@ def _receiver(bytes_per_cycle: int, cycles: int, ready, out) -> None:
     while rx.take(cycles, cycles, idle_timeout_s=1.0) is not None:
         pass
     rx.close()
-    out.put(dict(rx.reassembler.counts))
+    out.put({**rx.reassembler.counts, "rcvbuf_granted_bytes": rx.rcvbuf_granted_bytes})
 
 
 def receiver_run(stream: bytes, bytes_per_cycle: int, cycles: int, bytes_per_s: float | None) -> dict:
@@ -64,7 +64,8 @@ def receiver_run(stream: bytes, bytes_per_cycle: int, cycles: int, bytes_per_s: 
     return {"packets_sent": len(packets), "packets_received": counts.get("packets", 0),
             "packets_lost": counts.get("lost", 0), "cycles_sent": cycles, "cycles_received": counts.get("cycles", 0),
             "damaged_cycles": counts.get("damaged_cycles", 0), "offered_mb_per_s": len(stream) / seconds / 1e6,
-            "send_seconds": seconds}
+            "send_seconds": seconds, "packets_dropped_by_host": counts.get("dropped_by_host"),
+            "rcvbuf_granted_bytes": counts["rcvbuf_granted_bytes"]}
 
 
 def replayer_limit(stream: bytes) -> dict:
@@ -96,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
         records.append(r)
         print(f"receiver at {'unpaced' if multiple <= 0 else f'{multiple:g} x AWR1642'}: offered "
               f"{r['offered_mb_per_s']:.1f} MB/s, {r['packets_received']} of {r['packets_sent']} packets, "
-              f"{r['cycles_received']} cycles, {r['damaged_cycles']} damaged")
+              f"{r['cycles_received']} cycles, {r['damaged_cycles']} damaged, "
+              f"{r['packets_dropped_by_host']} dropped by this host (receive buffer {r['rcvbuf_granted_bytes']} bytes)")
     if args.json:
         bench_records.write(args.json, args, records, awr1642_mb_per_s=rate / 1e6, bytes_per_cycle=bytes_per_cycle)
     return 0

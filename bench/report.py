@@ -88,6 +88,9 @@ def udp_rows(doc: dict) -> list[Row]:
             f" ({r['offered_mb_per_s']:.1f} MB/s offered)"
         got = (f"{r['packets_received']} of {r['packets_sent']} packets, {r['damaged_cycles']} of "
                f"{r['cycles_sent']} cycles damaged")
+        if r.get("packets_dropped_by_host") is not None:
+            got += (f"; {r['packets_dropped_by_host']} dropped by this host's kernel "
+                    f"({r['rcvbuf_granted_bytes'] / 2 ** 20:g} MiB receive buffer)")
         if paced:
             met = r["packets_lost"] == 0 and r["damaged_cycles"] == 0
             rows.append((what, got, "every packet, no cycle damaged", "yes" if met else "NO"))
