@@ -1,4 +1,5 @@
-"""glibc malloc settings for processes that allocate large numpy arrays over and over.
+"""Memory for processes that allocate large numpy arrays over and over: glibc malloc settings, and per-thread
+scratch buffers for kernels that work a chunk at a time.
 
 By default glibc serves every block above a threshold (128 kB, raised as large blocks are freed, up to 32 MB) with
 its own mmap and hands it back to the OS when it is freed, and trims the top of its heap beyond 128 kB of free
@@ -12,7 +13,10 @@ from __future__ import annotations
 
 import ctypes
 import os
+import threading
 from collections.abc import Mapping
+
+import numpy as np
 
 MALLOC_ENV = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
               "MALLOC_TOP_PAD_": str(64 << 20)}
@@ -27,3 +31,17 @@ def keep_freed_memory(env: Mapping[str, str] = os.environ) -> bool:
     except (OSError, AttributeError):
         return False
     return all([mallopt(code, int(env.get(name, MALLOC_ENV[name]))) == 1 for name, code in _MALLOPT.items()])
+
+
+_local = threading.local()
+
+
+def scratch(name: str, n: int, dtype) -> np.ndarray:
+    """This thread's reused buffer `name`: n elements of dtype, uninitialised (grown, never shrunk). A kernel that
+    works a chunk at a time keeps its temporaries here: a fresh multi-megabyte temporary costs more in page faults
+    than the arithmetic on it. Each kernel names its own buffers, so no two kernels write into one."""
+    bufs = _local.__dict__.setdefault("bufs", {})
+    buf = bufs.get(name)
+    if buf is None or buf.size < n or buf.dtype != dtype:
+        buf = bufs[name] = np.empty(n, dtype)
+    return buf[:n]

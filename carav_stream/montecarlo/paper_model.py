@@ -31,7 +31,8 @@ from functools import cached_property
 
 import numpy as np
 
-from carav_stream.montecarlo.samplers import balanced_mask, chi2_and_normal, scratch
+from carav_stream.core.allocator import scratch
+from carav_stream.montecarlo.samplers import balanced_mask, chi2_and_normal
 from carav_stream.radar.scene_loader import load_scene
 
 __all__ = ["PaperScene", "paper_scene", "simulate_frames", "sample_rms", "sample_q_fast", "sample_q_smart",

@@ -1,5 +1,4 @@
-"""Vectorised exact generators for the Monte Carlo of the smart attack (`paper_model.sample_q_smart`), and the
-per-thread scratch buffers the paper model's draws reuse.
+"""Vectorised exact generators for the Monte Carlo of the smart attack (`paper_model.sample_q_smart`).
 
 Each generator's law is exact and tested against scipy's (tests/montecarlo/test_paper_model_draws.py); each is
 there because numpy's own draw of the same law cost more, by the measurement in its docstring.
@@ -7,22 +6,10 @@ there because numpy's own draw of the same law cost more, by the measurement in 
 from __future__ import annotations
 
 import math
-import threading
 
 import numpy as np
 
-_local = threading.local()
-
-
-def scratch(name: str, n: int, dtype) -> np.ndarray:
-    """This thread's reused buffer `name`, n elements of dtype (grown, never shrunk): a fresh multi-megabyte
-    temporary costs more in page faults than the arithmetic on it (as in radar/noise.py)."""
-    bufs = _local.__dict__.setdefault("bufs", {})
-    buf = bufs.get(name)
-    if buf is None or buf.size < n or buf.dtype != dtype:
-        buf = bufs[name] = np.empty(n, dtype)
-    return buf[:n]
-
+from carav_stream.core.allocator import scratch
 
 X_MAX = 8.6     # bound on |x| in chi2_and_normal: sqrt(-2 ln 2^-53) = 8.572, plus float32 rounding
 

@@ -8,10 +8,10 @@ turns codes into samples in sqrt(W), `adc_step` is the lsb a detector needs to r
 from __future__ import annotations
 
 import math
-import threading
 
 import numpy as np
 
+from carav_stream.core.allocator import scratch
 from carav_stream.radar.scene import Scene
 
 __all__ = ["adc", "adc_codes", "adc_step", "from_codes", "output_noise_rms", "with_nonfinite"]
@@ -52,15 +52,6 @@ def with_nonfinite(frames: np.ndarray, rx: np.ndarray, nonfinite: np.ndarray) ->
 
 
 CHUNK_ELEMENTS = 1 << 18   # float32 elements of rx quantised at a time (1 MiB: the L2 cache of one core)
-_local = threading.local()
-
-
-def _scratch(n: int) -> np.ndarray:
-    """This thread's float32 scratch buffer of at least n elements (grown, never shrunk)."""
-    buf = getattr(_local, "buf", None)
-    if buf is None or buf.size < n:
-        buf = _local.buf = np.empty(n, np.float32)
-    return buf[:n]
 
 
 def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
@@ -111,7 +102,7 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
     clipped = np.zeros(n_cycles, dtype=np.int64)
     nonfinite = np.zeros(n_cycles, dtype=np.int64)
     step = max(1, CHUNK_ELEMENTS // max(per, 1))
-    buf = _scratch(min(step, n_cycles) * per)
+    buf = scratch("adc", min(step, n_cycles) * per, np.float32)
     for a in range(0, n_cycles, step):
         b = min(a + step, n_cycles)
         codes = buf[:(b - a) * per].reshape(b - a, per)

@@ -24,23 +24,14 @@ the arithmetic).
 """
 from __future__ import annotations
 
-import threading
-
 import numpy as np
+
+from carav_stream.core.allocator import scratch
 
 CHUNK_WORDS = 1 << 15                        # 256 KiB of raw words per chunk (at least one row)
 _U32 = np.float32(2.0 ** -32)
 _HALF_U32 = np.float32(2.0 ** -33)
 _ANGLE = np.float32(2.0 * np.pi * 2.0 ** -32)
-_local = threading.local()
-
-
-def _scratch(n: int) -> np.ndarray:
-    """This thread's float32 scratch buffer of at least n elements (grown, never shrunk)."""
-    buf = getattr(_local, "buf", None)
-    if buf is None or buf.size < n:
-        buf = _local.buf = np.empty(n, np.float32)
-    return buf[:n]
 
 
 def standard_normal_rows(rng: np.random.Generator, n_rows: int, n_per_row: int, scale: float = 1.0, *,
@@ -66,7 +57,7 @@ def standard_normal_rows(rng: np.random.Generator, n_rows: int, n_per_row: int, 
     for a in range(0, n_rows, m_max):
         m = min(m_max, n_rows - a)
         u = bits.random_raw(m * h).view(np.uint32).reshape(m, 2 * h)
-        buf = _scratch(m * (h if even else 3 * h))
+        buf = scratch("noise", m * (h if even else 3 * h), np.float32)
         r = buf[:m * h].reshape(m, h)
         z = out[a: a + m] if even else buf[m * h:].reshape(m, 2 * h)
         c, s = z[:, :h], z[:, h:]
