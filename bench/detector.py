@@ -3,7 +3,8 @@
     stress    largest relative error of Q against an exact reference (samples taken as exact rationals, sums of
               squares exact, square roots in 40-digit decimal arithmetic) across scales 1e-30..1e30 (and 1e+-300
               for float64) and the four dtypes
-    kernel    detect() in ns per sample per dtype, next to the memory bandwidth of np.copyto measured in the same run
+    kernel    detect() in ns per sample per dtype, next to the memory bandwidth of np.copyto measured in the same run;
+              adc_chirp_rms on int16 table1 codes in ns per code, beside numpy's floor for its exact sums and a copy
     sweep     table1, 5 RARMS x 1000 trials x 200 eta, full sample simulation (radar chain and paper model)
     energy    sufficient-statistic cycles per second (exact energy laws), table1
 
@@ -20,10 +21,11 @@ import numpy as np
 
 from bench import records as bench_records
 from carav_stream.console.options import count, output_file
-from carav_stream.detect.detector import chirp_rms, detect
+from carav_stream.detect.detector import adc_chirp_rms, chirp_rms, detect
 from carav_stream.montecarlo.engine import PaperSource, eta_grid, simulate_q, sweep
 from carav_stream.montecarlo.paper_model import paper_scene
 from carav_stream.montecarlo.radar_source import RadarSource
+from carav_stream.radar.adc import adc_step
 from carav_stream.radar.scene_loader import load_scene
 
 __all__ = ["configure", "run", "exact_q"]
@@ -128,6 +130,39 @@ def bench_kernel(quick: bool, repeat: int) -> list[dict]:
     return out
 
 
+def bench_codes(repeat: int, n_cycles: int = 32) -> dict:
+    """The int16 path the graph's detector takes (adc_chirp_rms on the ADC's codes) on a table1 frame of
+    `n_cycles` cycles of receiver noise, in ns per code, beside numpy's floor for its exact sums (the kernel's own
+    formulation alone: chunks of 256 chirps cast to float64 with astype, one np.matmul row dot product per chirp)
+    and a plain read of the codes (np.copyto into another int16 array: read + write)."""
+    scene = load_scene("table1")
+    lsb = adc_step(scene)
+    rng = np.random.default_rng(2)
+    limit = 2 ** (scene.adc_bits - 1)
+    codes = np.clip(np.rint(rng.standard_normal((n_cycles, scene.n_chirps, scene.n_samples)) * scene.sigma_n / lsb),
+                    -limit, limit - 1).astype(np.int16)
+    flat, sumsq, copy = codes.reshape(-1, scene.n_samples), np.empty(n_cycles * scene.n_chirps), np.empty_like(codes)
+
+    def exact_sums() -> None:
+        for i in range(0, flat.shape[0], 256):
+            x = flat[i: i + 256].astype(np.float64)
+            np.matmul(x[:, None, :], x[:, :, None], out=sumsq[i: i + 256, None, None])
+
+    n = codes.size
+    many = max(repeat, 15)                    # a frame takes well under a millisecond: more repeats, same budget
+    timed = {}
+    for name, fn in (("kernel", lambda: adc_chirp_rms(codes, lsb, False)), ("bound", exact_sums),
+                     ("read", lambda: np.copyto(copy, codes))):
+        fn()                                  # warm: pages touched, allocator's threshold raised
+        timed[name] = _median_time(fn, many) / n * 1e9
+    return {"bench": "kernel_codes", "preset": "table1", "dtype": "int16", "shape": list(codes.shape), "codes": n,
+            "ns_per_code": timed["kernel"], "bound_ns_per_code": timed["bound"],
+            "x_bound": timed["kernel"] / timed["bound"],
+            "bound": "astype float64 in chunks of 256 chirps + np.matmul row dot products",
+            "read_ns_per_code": timed["read"], "x_read": timed["kernel"] / timed["read"],
+            "read": "np.copyto int16 -> int16, read + write"}
+
+
 def bench_sweep(quick: bool, repeat: int) -> list[dict]:
     out = []
     eta = eta_grid("0.5:2.49:0.01")            # 200 values
@@ -173,6 +208,10 @@ def _print(records: list[dict]) -> None:
             print(f"kernel  {r['dtype']:<11} detect {r['ns_per_sample_detect']:.3f} ns/sample "
                   f"({r['ns_per_cycle_detect'] / 1e3:.1f} us/cycle of 64x1100, {r['gb_per_s_read']:.2f} GB/s read; "
                   f"chirp_rms alone {r['ns_per_sample_rms']:.3f} ns/sample)")
+        elif b == "kernel_codes":
+            print(f"kernel  int16 codes adc_chirp_rms {r['ns_per_code']:.3f} ns/code ({r['preset']}, "
+                  f"{' x '.join(map(str, r['shape']))}); bound {r['bound_ns_per_code']:.3f} ns/code ({r['bound']}), "
+                  f"x{r['x_bound']:.2f}; read {r['read_ns_per_code']:.3f} ns/code ({r['read']}), x{r['x_read']:.1f}")
         elif b == "sweep":
             print(f"sweep   table1 {r['source']:<12} {r['rarms']} RARMS x {r['trials']} trials x {r['eta']} eta, "
                   f"full samples: {r['seconds']:.2f} s ({r['cycles_per_s']:.0f} cycles/s)")
@@ -184,9 +223,11 @@ def _print(records: list[dict]) -> None:
 def run(args: argparse.Namespace) -> int:
     import os
 
+    print(bench_records.header(), flush=True)
     records = [{"bench": "machine", "cpus": os.cpu_count(), "loadavg_1min": os.getloadavg()[0]}]
     records += bench_stress(args.quick)
     records += bench_kernel(args.quick, args.repeat)
+    records.append(bench_codes(args.repeat))
     if not args.skip_sweep:
         records += bench_sweep(args.quick, args.repeat)
     records += bench_energy(args.quick, args.repeat)

@@ -8,7 +8,9 @@ For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mod
                  work per cycle, the same vectorisation; scene templates built before the clock starts, as
                  the channel node builds them before the run starts)
 Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
-rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time.
+rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time. Each
+node's busy time is also given per sample (us per cycle over the cycle's real values, table1 64 x 1080), to set
+beside the kernels' costs and bounds of `bench synth` and `bench detector`.
 Noise and attacks are fresh and i.i.d. in every cycle and every cycle is processed in full.
 """
 from __future__ import annotations
@@ -154,11 +156,14 @@ def run(args: argparse.Namespace) -> int:
     batches = [int(b) for b in str(args.batch).split(",")]
     modes = {"pipeline", "fused", *args.with_modes}
     records = []
+    print(bench_records.header(), flush=True)
     for preset, fidelity, n in CASES:
         if wanted and (preset, fidelity) not in wanted:
             continue
         n = max(20, int(n * args.scale))
-        rate_radar = scene_of(preset).cycles_per_s
+        scene = scene_of(preset)
+        rate_radar = scene.cycles_per_s
+        samples = scene.n_chirps * scene.n_samples * (2 if scene.iq else 1)    # real values a cycle
         first = args.transport[0]
         for batch in batches:
             # (mode, transport) -> rates; the fused chain has no data plane
@@ -204,6 +209,8 @@ def run(args: argparse.Namespace) -> int:
                     busy = {node: statistics.median(b[node] for b in b_runs) for node in b_runs[0]}
                     rec["bottleneck_node"] = bottleneck = max(busy, key=busy.get)
                     rec["busy_us_per_cycle"] = busy
+                    rec["samples_per_cycle"] = samples
+                    rec["busy_ns_per_sample"] = {node: us * 1e3 / samples for node, us in busy.items()}
                     note = f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)"
                     if mode == "pipeline":
                         o_runs = outside_runs[transport]
@@ -218,6 +225,11 @@ def run(args: argparse.Namespace) -> int:
                 print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {transport:<4} {rate:9.1f} cycles/s  "
                       f"real-time x{rate / rate_radar:6.3f}  vs fused x{rec['speedup_over_fused']:5.2f}{note}",
                       flush=True)
+                if "busy_ns_per_sample" in rec:
+                    per_node = ", ".join(f"{node} {busy[node]:.0f} ({ns:.2f})"
+                                         for node, ns in rec["busy_ns_per_sample"].items())
+                    print(f"    busy us/cycle (ns/sample, {scene.n_chirps} x {scene.n_samples} a cycle): {per_node}",
+                          flush=True)
     if args.json:
         bench_records.write(args.json, args, records)
     return 0

@@ -56,6 +56,20 @@ def machine() -> dict[str, Any]:
             "load_average": [round(x, 2) for x in os.getloadavg()]}
 
 
+def describe(m: dict[str, Any]) -> str:
+    """One line for a `machine()`: CPU (widest SIMD extension), cores, memory, Python and numpy, load average."""
+    mem = f", {m['memory_gib']:g} GiB" if m.get("memory_gib") else ""
+    load = " / ".join(f"{x:g}" for x in m.get("load_average", []))
+    simd = f" ({m['simd'] or 'SIMD not detected'})" if "simd" in m else ""
+    return (f"{m['cpu']}{simd}, {m['cores']} cores{mem}; Python {m['python']}, numpy {m['numpy']}; "
+            f"load average (1 / 5 / 15 min) {load}")
+
+
+def header() -> str:
+    """What a benchmark prints first: the machine it is about to measure, as its record will state it."""
+    return f"machine: {describe(machine())} at start"
+
+
 def command_line(args: argparse.Namespace) -> str:
     """`carav ARGS` as given, without the output options and their values."""
     argv = list(getattr(args, "argv", []))

@@ -143,10 +143,14 @@ def _synth_case(r: dict) -> str:
 
 
 def synth_rows(doc: dict) -> list[Row]:
-    return [(f"signal chain, {_synth_case(r)}, one core",
+    rows = [(f"signal chain, {_synth_case(r)}, one core",
              f"{r['cpu_time_per_cycle_s'] * 1e6:.0f} us CPU per cycle = {r['realtime_factor']:.3g} x real time",
              "report", "-")
             for r in doc["records"] if r["bench"] == "synth"]
+    return rows + [(f"{r['stage']} stage of one beat cycle, {r['preset']} {'I/Q' if r['iq'] else 'I'}, per {r['per']}",
+                    f"{r['ns_per_sample']:.2f} ns = {r['x_bound']:.2f} x its bound measured beside it "
+                    f"({r['bound_ns_per_sample']:.2f} ns: {r['bound']})", "report", "-")
+                   for r in doc["records"] if r["bench"] == "synth_stage" and "ns_per_sample" in r]
 
 
 def synth_table(doc: dict) -> list[str]:
@@ -166,6 +170,15 @@ def synth_table(doc: dict) -> list[str]:
         for preset, iq in keys:
             cells = [f"{r['time_per_cycle_s'] * 1e6:.0f}" for r in stages if (r["preset"], r["iq"]) == (preset, iq)]
             lines.append(f"| {preset} | {'I/Q' if iq else 'I'} | " + " | ".join(cells) + " |")
+    bounded = [r for r in stages if "ns_per_sample" in r]
+    if bounded:
+        lines += ["", "The same stages per sample (I/Q: per real value), each beside its bound measured in the same "
+                  "run on the same shapes:", "",
+                  "| preset | I/Q | stage | us/cycle | ns/sample | bound ns/sample | x bound | bound |",
+                  "|---|---|---|---:|---:|---:|---:|---|"]
+        lines += [f"| {r['preset']} | {'I/Q' if r['iq'] else 'I'} | {r['stage']} | {r['time_per_cycle_s'] * 1e6:.0f} | "
+                  f"{r['ns_per_sample']:.3f} | {r['bound_ns_per_sample']:.3f} | {r['x_bound']:.2f} | {r['bound']} |"
+                  for r in bounded]
     return lines
 
 
@@ -185,6 +198,12 @@ def detector_rows(doc: dict) -> list[Row]:
         if r["bench"] == "kernel":
             rows.append((f"detect() cost, {r['dtype']}", f"{r['ns_per_sample_detect']:.2f} ns/sample "
                          f"(memory copy bandwidth {r['memory_gb_per_s']:.1f} GB/s)", "report", "-"))
+        elif r["bench"] == "kernel_codes":
+            rows.append((f"adc_chirp_rms() cost, int16 codes (the graph's path), {r['preset']} "
+                         f"{' x '.join(map(str, r['shape']))}",
+                         f"{r['ns_per_code']:.3f} ns/code = {r['x_bound']:.2f} x its bound "
+                         f"({r['bound_ns_per_code']:.3f} ns: {r['bound']}) = {r['x_read']:.1f} x a read "
+                         f"({r['read_ns_per_code']:.3f} ns: {r['read']})", "report", "-"))
         elif r["bench"] == "sweep":
             rows.append((f"table1 sweep, {r['source']}, {r['rarms']} RARMS x {r['trials']} trials x {r['eta']} eta, "
                          "full samples", f"{r['seconds']:.2f} s", "<= 10 s", _met(r["seconds"] <= 10)))
@@ -207,6 +226,10 @@ def detector_table(doc: dict) -> list[str]:
             lines.append(f"| kernel | {r['dtype']} | detect {r['ns_per_sample_detect']:.3f} ns/sample "
                          f"({r['ns_per_cycle_detect'] / 1e3:.1f} us per Table I cycle, {r['gb_per_s_read']:.1f} GB/s); "
                          f"chirp_rms {r['ns_per_sample_rms']:.3f} ns/sample |")
+        elif b == "kernel_codes":
+            lines.append(f"| kernel | int16 codes, {r['preset']} {' x '.join(map(str, r['shape']))} | adc_chirp_rms "
+                         f"{r['ns_per_code']:.3f} ns/code; bound {r['bound_ns_per_code']:.3f} ({r['bound']}), "
+                         f"x {r['x_bound']:.2f}; read {r['read_ns_per_code']:.3f} ({r['read']}), x {r['x_read']:.1f} |")
         elif b == "sweep":
             lines.append(f"| sweep | table1 {r['source']}, {r['rarms']} RARMS x {r['trials']} trials x {r['eta']} "
                          f"eta | {r['seconds']:.2f} s ({r['cycles_per_s']:.0f} cycles/s) |")
@@ -287,6 +310,10 @@ def pipeline_rows(doc: dict) -> list[Row]:
         rows.append((f"pipeline ({plane}) against the same chain in one process, {case}",
                      f"{r['speedup_over_fused']:.2f} x{at_top}", f">= {fused:g} x",
                      _met(r["speedup_over_fused"] >= fused)))
+        if "busy_ns_per_sample" in r:
+            rows.append((f"each node's block per sample ({plane}), {case}",
+                         "; ".join(f"{node} {ns:.2f}" for node, ns in r["busy_ns_per_sample"].items())
+                         + f" ns/sample (busy us/cycle over {r['samples_per_cycle']} samples a cycle)", "report", "-"))
     return rows
 
 
@@ -298,6 +325,8 @@ def pipeline_table(doc: dict) -> list[str]:
         runs = ", ".join(f"{x:.0f}" for x in r["runs_cycles_per_s"])
         extra = (f"{r['bottleneck_node']} ({r['busy_us_per_cycle'][r['bottleneck_node']]:.0f})"
                  if "bottleneck_node" in r else f"{r['cpu_us_per_cycle']:.0f} CPU")
+        if "busy_ns_per_sample" in r:
+            extra = extra[:-1] + f" = {r['busy_ns_per_sample'][r['bottleneck_node']]:.2f} ns/sample)"
         if "outside_us_per_cycle" in r:
             extra += f"; outside the blocks {sum(r['outside_us_per_cycle'].values()):.0f}"
         top = _pipeline_ceiling(r, doc)
@@ -308,6 +337,17 @@ def pipeline_table(doc: dict) -> list[str]:
         lines.append(f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} "
                      f"| {r.get('transport', 'zmq')} | {r['cycles_per_s']:.0f} ({runs}) | {r['real_time_factor']:.3g} "
                      f"| {r['speedup_over_fused']:.2f} | {extra} |")
+    nodes = [r for r in doc["records"] if "busy_ns_per_sample" in r]
+    if nodes:
+        lines += ["", "Each node's busy time (inside its block) per cycle and per sample (us/cycle over the samples "
+                  "of a cycle):", "",
+                  "| preset | fidelity | batch | mode | transport | samples/cycle "
+                  "| busy us/cycle (ns/sample) by node |",
+                  "|---|---|---:|---|---|---:|---|"]
+        lines += [f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} | {r['transport']} | "
+                  f"{r['samples_per_cycle']} | "
+                  + ", ".join(f"{node} {r['busy_us_per_cycle'][node]:.0f} ({ns:.2f})"
+                              for node, ns in r["busy_ns_per_sample"].items()) + " |" for r in nodes]
     return lines
 
 
@@ -467,11 +507,7 @@ times vary between runs by more than the ratios do.
 
 
 def _machine(m: dict[str, Any]) -> str:
-    mem = f", {m['memory_gib']:g} GiB" if m.get("memory_gib") else ""
-    load = " / ".join(f"{x:g}" for x in m.get("load_average", []))
-    simd = f" ({m['simd']})" if m.get("simd") else ""
-    return (f"{m['cpu']}{simd}, {m['cores']} cores{mem}; Python {m['python']}, numpy {m['numpy']}; "
-            f"load average (1 / 5 / 15 min) {load} when written")
+    return f"{bench_records.describe(m)} when written"
 
 
 def render(root: Path) -> dict[Path, str]:

@@ -6,6 +6,8 @@ ghost / secondary_antenna (waveform only), I-only (the presets) and I/Q for tabl
 the median time per cycle is reported, with the radar's own cycle rate (Table I: 64 x 7.33 us =
 469 us, 2131 cycles/s) and the real-time factor (simulated cycles per second / radar cycles per
 second, > 1 is faster than the radar). ``cold_s`` is the first batch's extra cost (echo templates).
+Stages of one beat cycle (noise, echo, ADC, the whole cycle) are timed alone and given per sample beside
+a bound measured in the same run on the same shapes (``stage_bounds``).
 One process, numpy single-threaded: one core.
 """
 from __future__ import annotations
@@ -19,7 +21,7 @@ from bench import records as bench_records
 from carav_stream.console.options import count, output_file
 from carav_stream.radar import physics
 from carav_stream.radar.activation import ActivationSource
-from carav_stream.radar.adc import adc
+from carav_stream.radar.adc import CHUNK_ELEMENTS, adc
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.streams import seed_streams
@@ -79,31 +81,98 @@ def time_case(preset: str, fidelity: str, attacker: str, iq: bool, n_cycles: int
             "realtime_factor": 1.0 / per_cycle / radar_rate, "cold_s": max(first - per_cycle * n_cycles, 0.0)}
 
 
+def _per_call(fn, repeats: int) -> float:
+    """Median over ``repeats`` of the mean time of 20 calls, after one call that warms caches and scratch."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(20):
+            fn()
+        times.append((time.perf_counter() - t0) / 20)
+    return float(np.median(times))
+
+
+def stage_bounds(scene, repeats: int) -> dict[str, tuple[float, str]]:
+    """A bound for each stage of one cycle of `scene`: what the named numpy passes alone cost on its shapes, timed
+    like the stages (s per cycle):
+
+    noise  the Box-Muller's vector math alone: np.log and np.sqrt over n/2 float32, np.cos and np.sin over n/2
+           float32 (n the cycle's real values), in noise.py's chunk (CHUNK_WORDS words, at least one row: one
+           cycle is one row, so one chunk); each writes a buffer of its own and reads an input it leaves valid
+           (np.sqrt reads u1, not the logarithm); no generator, no scaling: the floor of that formulation
+    echo   one np.add of a float32 (n_chirps, n_samples) array into another (I/Q: their float32 view)
+    adc    one float32 multiply pass (by 1, values kept) and one float32 -> int16 cast pass over the cycle's
+           real values, in adc.py's chunks (CHUNK_ELEMENTS)
+    """
+    n = scene.n_chirps * scene.n_samples * (2 if scene.iq else 1)
+    rng = np.random.default_rng(0)
+    h = (n + 1) // 2
+    u = (1.0 - rng.random(h, dtype=np.float32)).astype(np.float32)           # u1 in (0, 1]
+    theta = rng.uniform(-np.pi, np.pi, h).astype(np.float32)                 # in [-pi, pi)
+    r, c, sn = (np.empty(h, np.float32) for _ in range(3))
+
+    def box_muller() -> None:
+        np.log(u, out=r)
+        np.sqrt(u, out=r)
+        np.cos(theta, out=c)
+        np.sin(theta, out=sn)
+
+    rx, echo, x = (rng.standard_normal(n, dtype=np.float32).reshape(scene.n_chirps, -1) for _ in range(3))
+    x = x.reshape(-1) * np.float32(100.0)                                     # codes within +-700: no rails
+    step = min(n, CHUNK_ELEMENTS)
+    scaled, codes, one = np.empty(step, np.float32), np.empty(n, np.int16), np.float32(1.0)
+
+    def quantise() -> None:
+        for a in range(0, n, step):
+            m = min(step, n - a)
+            np.multiply(x[a: a + m], one, out=scaled[:m])
+            np.copyto(codes[a: a + m], scaled[:m], casting="unsafe")
+
+    return {"noise": (_per_call(box_muller, repeats), "np.log + np.sqrt on n/2, np.cos + np.sin on n/2 float32"),
+            "echo": (_per_call(lambda: np.add(rx, echo, out=rx), repeats), "one np.add of float32 arrays"),
+            "adc": (_per_call(quantise, repeats), "one float32 multiply pass + one float32 -> int16 cast pass")}
+
+
 def time_stages(preset: str, iq: bool, repeats: int) -> list[dict]:
-    """Where one beat-fidelity cycle goes: noise, echo, ADC (median of ``repeats`` x 20 single cycles)."""
+    """Where one beat-fidelity cycle goes: noise, echo, ADC and the whole cycle (median of ``repeats`` x 20 single
+    cycles), each beside its bound (`stage_bounds`; the whole cycle's is the three bounds' sum), per real value."""
     scene = load_scene(preset, {"iq": iq})
     rho = ActivationSource("seeded", seed=1).next(1, scene.n_chirps)
     rng = seed_streams(0).noise
     rx = draw_noise(scene, rng, 1)
     stages = {"noise": lambda: draw_noise(scene, rng, 1), "echo": lambda: _add_echo(scene, rx, rho, "beat"),
               "adc": lambda: adc(scene, rx), "total": lambda: simulate_cycles(scene, rho, rng, fidelity="beat")}
+    bounds = stage_bounds(scene, repeats)
+    bounds["total"] = (sum(t for t, _ in bounds.values()), "the sum of the noise, echo and adc bounds")
+    values = scene.n_chirps * scene.n_samples * (2 if iq else 1)
     out = []
     for name, fn in stages.items():
-        fn()
-        times = []
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            for _ in range(20):
-                fn()
-            times.append((time.perf_counter() - t0) / 20)
+        t = _per_call(fn, repeats)
+        bound_s, bound_what = bounds[name]
         out.append({"bench": "synth_stage", "preset": preset, "fidelity": "beat", "attacker": "none", "iq": iq,
-                    "stage": name, "time_per_cycle_s": float(np.median(times))})
+                    "stage": name, "n_chirps": scene.n_chirps, "n_samples": scene.n_samples,
+                    "time_per_cycle_s": t, "real_values_per_cycle": values,
+                    "per": "real value (I or Q)" if iq else "sample", "ns_per_sample": t / values * 1e9,
+                    "bound_time_per_cycle_s": bound_s, "bound_ns_per_sample": bound_s / values * 1e9,
+                    "bound": bound_what, "x_bound": t / bound_s})
     return out
+
+
+def print_stages(stages: list[dict]) -> None:
+    r0 = stages[0]
+    print(f"  {r0['preset']} {'I/Q' if r0['iq'] else 'I'}, {r0['n_chirps']} x {r0['n_samples']}"
+          f"{' complex samples, ns per real value' if r0['iq'] else ' samples'}:")
+    print(f"    {'stage':<6} {'us/cycle':>9} {'ns/sample':>10} {'bound ns/sample':>16} {'x bound':>8}  bound")
+    for r in stages:
+        print(f"    {r['stage']:<6} {r['time_per_cycle_s'] * 1e6:9.0f} {r['ns_per_sample']:10.3f} "
+              f"{r['bound_ns_per_sample']:16.3f} {r['x_bound']:8.2f}  {r['bound']}", flush=True)
 
 
 def run(args: argparse.Namespace) -> int:
     presets = [p.strip() for p in args.presets.split(",") if p.strip()]
     records = []
+    print(bench_records.header())
     if not bench_records.use_node_allocator():
         print("note: glibc's mallopt is not available: timed with this allocator's defaults, not a node's")
     print(f"{'preset':<10} {'fidelity':<9} {'attacker':<18} {'iq':<3} {'us/cycle':>9} {'cycles/s':>9} "
@@ -116,13 +185,12 @@ def run(args: argparse.Namespace) -> int:
               f"{r['cpu_time_per_cycle_s'] * 1e6:7.0f} "
               f"{r['cold_s'] * 1e3:8.1f}", flush=True)
     if not args.quick:
-        print("\nbeat fidelity, one cycle at a time, by stage (us):")
+        print("\nbeat fidelity, one cycle at a time, by stage, beside each stage's bound measured the same way:")
         for preset in presets:
             for iq in (False, True):
                 stages = time_stages(preset, iq, args.repeats)
                 records.extend(stages)
-                print(f"  {preset:<10} {'I/Q' if iq else 'I  '}  " + "  ".join(
-                    f"{r['stage']} {r['time_per_cycle_s'] * 1e6:.0f}" for r in stages), flush=True)
+                print_stages(stages)
     if args.json:
         bench_records.write(args.json, args, records)
     return 0

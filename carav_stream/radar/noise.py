@@ -1,9 +1,9 @@
 """Fast float32 Gaussian samples from a numpy Generator's raw bit stream (Box-Muller).
 
 ``Generator.standard_normal(dtype=np.float32)`` costs about 10 ns per sample (the ziggurat's per-sample
-branch); vectorised Box-Muller on the generator's raw 64-bit words costs about 5 ns on an AVX2 machine
-(AMD EPYC, 2 cores; about 1 ns of it the run's SFC64 generator): the noise stage of `carav bench synth
---repeats 15`, 339 us for 64 x 1100 samples (docs/bench/synth.md).
+branch); vectorised Box-Muller on the generator's raw 64-bit words costs about 2.4 ns on an AVX-512 machine
+(AMD EPYC, 2 cores), 164 us for 64 x 1080 samples, beside 0.9 ns for its vector math alone (the noise stage and
+its bound in `python3 dev.py bench synth --repeats 15`, docs/bench/synth.md), and about 5 ns on an AVX2 one.
 
 A row of n samples takes h = ceil(n / 2) consecutive 64-bit words, read as 2h 32-bit integers (little
 endian: word j gives integers 2j and 2j + 1). Pair j (j < h) takes u = integer j, as u1 = (u + 1/2) 2^-32

@@ -1,5 +1,6 @@
 """`python3 dev.py bench pipeline`: the shipped radar chain graph against run_algorithm1 in one process."""
 import json
+import math
 import statistics
 
 import pytest
@@ -32,7 +33,7 @@ def test_the_ceiling_is_the_busiest_node_or_the_cores_whichever_allows_fewer_cyc
 
 
 @pytest.mark.integration
-def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
+def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path, capsys):
     out = tmp_path / "bench.json"
     assert run_bench(["pipeline", "--cases", "awr1642:beat", "--repeats", "1", "--scale", "0.04",
                   "--batch", "4,8", "--json", str(out)]) == 0
@@ -59,3 +60,15 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path):
     # on disk: awr1642's 128 chirps x 256 real int16 codes per cycle, nothing else
     assert all(r["bytes_per_cycle"] == 128 * 256 * 2 for r in records if r["mode"] in ("record", "replay"))
     assert all("recorder" in r["busy_us_per_cycle"] for r in records if r["mode"] == "record")
+    # each node's busy time per sample: us per cycle over awr1642's 128 x 256 samples, for every graph mode
+    graphs = [r for r in records if r["mode"] != "fused"]
+    assert graphs and all(r["samples_per_cycle"] == 128 * 256 for r in graphs)
+    for r in graphs:
+        assert set(r["busy_ns_per_sample"]) == set(r["busy_us_per_cycle"])
+        for node, ns in r["busy_ns_per_sample"].items():
+            assert math.isfinite(ns) and ns > 0, (node, ns)
+            assert ns == pytest.approx(r["busy_us_per_cycle"][node] * 1e3 / (128 * 256), rel=1e-12)
+    printed = capsys.readouterr().out
+    assert printed.startswith("machine: ") and f"({doc['machine']['simd']})" in printed.splitlines()[0]
+    channel = graphs[0]["busy_ns_per_sample"]["channel"]
+    assert "busy us/cycle (ns/sample, 128 x 256 a cycle): " in printed and f"({channel:.2f})" in printed

@@ -88,3 +88,58 @@ def test_no_committed_pipeline_run_beats_its_ceiling():
     ratios = {(r["preset"], r["fidelity"], r["batch"], r["transport"]): r["cycles_per_s"] / top[0]
               for r in doc["records"] if (top := report._pipeline_ceiling(r, doc)) is not None}
     assert ratios and max(ratios.values()) <= 1.05, ratios
+
+
+def render_one(tmp_path: Path, name: str, records: list[dict], **machine) -> tuple[str, str]:
+    """BENCHMARKS.md and docs/bench/NAME.md as `records` (one benchmark's) render them."""
+    (tmp_path / "docs" / "bench" / "records").mkdir(parents=True)
+    doc = transport_doc(1.0)
+    doc.update(command=f"python3 dev.py bench {name}", records=records, machine={**doc["machine"], **machine})
+    (tmp_path / "docs" / "bench" / "records" / f"{name}.json").write_text(json.dumps(doc))
+    (tmp_path / "docs" / "bench" / f"{name}.md").write_text(f"# {name}\n\n{report.BEGIN}\n{report.END}\n")
+    docs = report.render(tmp_path)
+    return docs[tmp_path / "BENCHMARKS.md"], docs[tmp_path / "docs" / "bench" / f"{name}.md"]
+
+
+def test_the_machine_line_names_the_widest_simd_extension(tmp_path):
+    summary, page = render_one(tmp_path, "transport", transport_doc(1.0)["records"], simd="AVX512F")
+    for text in (summary, page):
+        assert "Machine: test cpu (AVX512F), 2 cores, 1 GiB; Python 3, numpy 2;" in text
+    assert bench_records.header().startswith(f"machine: {bench_records.machine()['cpu']} "
+                                             f"({bench_records.machine()['simd']}), ")
+
+
+def test_a_synth_stage_renders_per_sample_beside_its_bound(tmp_path):
+    stage = {"bench": "synth_stage", "preset": "table1", "fidelity": "beat", "attacker": "none", "iq": True,
+             "stage": "noise", "n_chirps": 64, "n_samples": 1080, "time_per_cycle_s": 669e-6,
+             "real_values_per_cycle": 138240, "per": "real value (I or Q)", "ns_per_sample": 4.84,
+             "bound_time_per_cycle_s": 180e-6, "bound_ns_per_sample": 1.30, "bound": "log, sqrt, cos, sin",
+             "x_bound": 3.72}
+    summary, page = render_one(tmp_path, "synth", [stage])
+    assert ("| noise stage of one beat cycle, table1 I/Q, per real value (I or Q) | 4.84 ns = 3.72 x its bound "
+            "measured beside it (1.30 ns: log, sqrt, cos, sin) | report | - |") in summary
+    assert "| table1 | I/Q | noise | 669 | 4.840 | 1.300 | 3.72 | log, sqrt, cos, sin |" in page
+
+
+def test_the_int16_detector_path_renders_per_code_beside_its_bound_and_a_read(tmp_path):
+    codes = {"bench": "kernel_codes", "preset": "table1", "dtype": "int16", "shape": [32, 64, 1080],
+             "codes": 2211840, "ns_per_code": 0.283, "bound_ns_per_code": 0.270, "x_bound": 1.048,
+             "bound": "astype + matmul", "read_ns_per_code": 0.043, "x_read": 6.58, "read": "np.copyto"}
+    summary, page = render_one(tmp_path, "detector", [codes])
+    assert ("| adc_chirp_rms() cost, int16 codes (the graph's path), table1 32 x 64 x 1080 | 0.283 ns/code = 1.05 x "
+            "its bound (0.270 ns: astype + matmul) = 6.6 x a read (0.043 ns: np.copyto) | report | - |") in summary
+    assert ("| kernel | int16 codes, table1 32 x 64 x 1080 | adc_chirp_rms 0.283 ns/code; bound 0.270 "
+            "(astype + matmul), x 1.05; read 0.043 (np.copyto), x 6.6 |") in page
+
+
+def test_each_nodes_busy_time_renders_per_sample(tmp_path):
+    rec = {"preset": "table1", "fidelity": "beat", "batch": 32, "mode": "pipeline", "transport": "shm",
+           "cycles_per_s": 1600.0, "runs_cycles_per_s": [1600.0], "real_time_factor": 0.75,
+           "radar_cycles_per_s": 2131.0, "speedup_over_fused": 1.3, "bottleneck_node": "channel",
+           "busy_us_per_cycle": {"channel": 550.0, "adc": 150.0}, "samples_per_cycle": 69120,
+           "busy_ns_per_sample": {"channel": 550e3 / 69120, "adc": 150e3 / 69120}}
+    summary, page = render_one(tmp_path, "pipeline", [rec])
+    assert ("| each node's block per sample (arrays in shared memory), table1 beat, batch 32 | channel 7.96; adc 2.17 "
+            "ns/sample (busy us/cycle over 69120 samples a cycle) | report | - |") in summary
+    assert "| channel (550 = 7.96 ns/sample) |" in page
+    assert "| table1 | beat | 32 | pipeline | shm | 69120 | channel 550 (7.96), adc 150 (2.17) |" in page
