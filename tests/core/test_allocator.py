@@ -32,4 +32,6 @@ def _faults(mode: str) -> int:
 def test_a_large_temporary_allocated_again_is_reused_instead_of_faulted_in_again_unless_the_user_says_otherwise():
     untuned, tuned = _faults("default"), _faults("{}")
     users = _faults(json.dumps({"MALLOC_MMAP_THRESHOLD_": str(1 << 20)}))   # the user's 1 MB threshold wins
-    assert untuned > 500 and tuned < 50 and users > 500, (untuned, tuned, users)
+    # the counts depend on the page size the kernel backs the temporary with (huge pages: fewer faults), the
+    # ratios do not: reused, it faults in almost nothing again
+    assert untuned > 20 and tuned < untuned / 10 and users > untuned / 3, (untuned, tuned, users)
