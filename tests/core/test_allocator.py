@@ -35,3 +35,22 @@ def test_a_large_temporary_allocated_again_is_reused_instead_of_faulted_in_again
     # the counts depend on the page size the kernel backs the temporary with (huge pages: fewer faults), the
     # ratios do not: reused, it faults in almost nothing again
     assert untuned > 20 and tuned < untuned / 10 and users > untuned / 3, (untuned, tuned, users)
+
+
+def test_a_scratch_buffer_is_reused_per_name_and_thread_grown_when_asked_for_more():
+    import threading
+
+    import numpy as np
+
+    from carav_stream.core.allocator import scratch
+    a = scratch("test-a", 100, np.float32)
+    assert a.shape == (100,) and a.dtype == np.float32
+    assert np.shares_memory(scratch("test-a", 50, np.float32), a)          # reused, a view of the same memory
+    assert not np.shares_memory(scratch("test-b", 50, np.float32), a)      # another name, another buffer
+    assert scratch("test-a", 50, np.float64).dtype == np.float64           # another dtype, a new buffer
+    assert scratch("test-a", 1000, np.float64).shape == (1000,)            # grown
+    other = []
+    t = threading.Thread(target=lambda: other.append(scratch("test-a", 100, np.float64)))
+    t.start()
+    t.join()
+    assert not np.shares_memory(other[0], scratch("test-a", 100, np.float64))   # each thread its own
