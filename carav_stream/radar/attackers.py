@@ -208,7 +208,12 @@ class Attacker:
 
 
 class NoAttacker(Attacker):
+    """Silent: never switched on, so every batch is None (no signal to carry between nodes or add at the ADC)."""
+
     kind = "none"
+
+    def is_on(self, cycle: int) -> bool:
+        return False
 
 
 class RandomAttacker(Attacker):
