@@ -113,3 +113,142 @@ def test_verdicts_equal_the_formulas_chirp_by_chirp_whatever_form_sigma_takes(ca
             assert (det.q[i], det.k_max[i], det.by_d1[i], det.invalid[i], det.alarm[i]) == (q, k_max, by_d1,
                                                                                              invalid, alarm)
             assert det.c[i] == q / eta
+
+
+# chirp_rms_codes sums the squares in float32 first and redoes in float64 every chirp whose float32 sum is not below
+# 2^24 (the float32 sum is exact below it, and not below it whenever the true sum is not); once a chunk (32 chirps,
+# then 256) is more than a sixth loud, the rest of the frame goes to float64 at once. The tests below pin the sums
+# bit for bit at and around 2^24, on the rails, on silent chirps and across quiet and loud chunks.
+
+TWO24 = 2 ** 24
+
+
+def exact_sums(codes: np.ndarray, iq: bool) -> np.ndarray:
+    """Exact integer sums of code^2 per chirp (I/Q: over I and Q too)."""
+    sq = codes.astype(np.int64) ** 2
+    return sq.sum(axis=(-2, -1)) if iq else sq.sum(axis=-1)
+
+
+def assert_exact(codes: np.ndarray, iq: bool = False, lsb: float = 1.0) -> None:
+    n = codes.shape[-2] if iq else codes.shape[-1]
+    want = float(lsb) * np.sqrt(exact_sums(codes, iq) / n)
+    got = chirp_rms_codes(codes, lsb, iq=iq)
+    assert got.dtype == np.float64 and got.shape == want.shape
+    bad = np.flatnonzero(got.reshape(-1) != want.reshape(-1))
+    assert bad.size == 0, (f"{bad.size} chirps differ, first at {bad[:5]}: exact sums "
+                           f"{exact_sums(codes, iq).reshape(-1)[bad[:5]]}, got {got.reshape(-1)[bad[:5]]}")
+
+
+def chirp_with_sum(target: int, n: int, amp: float, rng) -> np.ndarray:
+    """n int16 codes whose squares sum to exactly `target`: random codes of RMS about `amp` (kept below the target)
+    topped up by a few greedy squares, at shuffled positions with random signs."""
+    base = np.rint(rng.standard_normal(n - 12) * amp).astype(np.int64)
+    while int((base ** 2).sum()) > target:
+        base //= 2
+    rest, top = target - int((base ** 2).sum()), []
+    while rest:
+        top.append(math.isqrt(rest))
+        rest -= top[-1] ** 2
+    assert len(top) <= 12
+    c = np.concatenate([base, top, np.zeros(12 - len(top), np.int64)]) * rng.choice([-1, 1], n)
+    c = rng.permutation(c).astype(np.int16)
+    assert int((c.astype(np.int64) ** 2).sum()) == target
+    return c
+
+
+def test_small_codes_are_exact_bit_for_bit():
+    rng = np.random.default_rng(11)
+    for shape, top in (((7, 130, 1080), 64), ((3, 64, 1), 4096), ((1, 1, 1081), 124), ((600, 5), 2047)):
+        assert_exact(rng.integers(-top, top + 1, size=shape).astype(np.int16))
+    assert_exact(np.rint(rng.standard_normal((8, 64, 1080)) * 40).astype(np.int16), lsb=2.916976976379289e-06)
+
+
+def test_chirp_sums_at_and_around_2_24_are_exact_bit_for_bit():
+    rng = np.random.default_rng(12)
+    n = 1080
+    targets = [TWO24 - 2, TWO24 - 1, TWO24, TWO24 + 1, TWO24 + 2, TWO24 + 3, TWO24 + 7, 2 * TWO24 + 1]
+    special = [chirp_with_sum(t, n, amp, rng) for t in targets for amp in (0.0, 40.0, 124.0)]
+    special.append(np.full(n, 125, np.int16))                              # 1080 * 125^2 > 2^24, no term near it
+    special.append(np.full(n, 124, np.int16))                              # 1080 * 124^2 < 2^24
+    for k, c in enumerate(((4096,), (4096, 1), (4095, 90, 9, 3), (4095, 90, 9, 2), (4095, 90, 9, 4))):
+        special.append(np.r_[c, np.zeros(n - len(c))].astype(np.int16)[np.roll(np.arange(n), k)])
+    special = np.array(special)
+    assert {TWO24 - 1, TWO24, TWO24 + 1} <= set(exact_sums(special, False).tolist())
+    quiet = np.rint(rng.standard_normal((2, 400, n)) * 40).astype(np.int16)
+    slots = rng.choice(quiet[0].size // n, size=len(special), replace=False)
+    quiet[0, slots] = special                                              # a few loud chirps in quiet chunks
+    quiet[1, ::37] = special[: quiet[1, ::37].shape[0]]
+    assert_exact(quiet)
+    assert_exact(special)                                                  # every chunk loud
+    assert_exact(special[:, None, :])
+    assert_exact(np.tile(special, (12, 1)))
+
+
+def test_a_single_code_on_either_rail_is_exact_bit_for_bit():
+    n = 1080
+    for code in (-32768, 32767, -32767, 4096, -4096, 4095):
+        for other in (0, 1, -1, 3):
+            c = np.zeros((300, n), np.int16)                               # the chirp alone in a quiet chunk
+            c[5, 17] = code
+            c[5, 900] = other
+            c[200, 0] = code
+            assert_exact(c)
+            assert_exact(c[5])
+            loud = np.zeros((3, 256, n), np.int16)                         # and in loud chunks
+            loud[:, :, 3] = code
+            loud[:, 1::2, 700] = other
+            assert_exact(loud)
+
+
+def test_all_zero_chirps_are_exact_zeros_among_quiet_and_loud_ones():
+    rng = np.random.default_rng(13)
+    n = 1080
+    assert_exact(np.zeros((4, 64, n), np.int16))
+    assert_exact(np.zeros((0, 64, n), np.int16))
+    frame = np.rint(rng.standard_normal((16, 64, n)) * 40).astype(np.int16)
+    frame[4:8] = np.clip(rng.standard_normal((4, 64, n)) * 3000, -32768, 32767).astype(np.int16)  # loud chunk
+    frame[9:12, ::2] = -32768                                              # a loud chunk of half rails
+    frame[:, ::3] = 0                                                      # silent chirps everywhere
+    frame[13] = 0
+    got = chirp_rms_codes(frame, 1.0)
+    assert np.all(got[:, ::3] == 0.0) and np.all(got[13] == 0.0)
+    assert_exact(frame)
+
+
+def test_iq_codes_are_exact_bit_for_bit_at_and_around_2_24():
+    rng = np.random.default_rng(14)
+    n = 540
+    special = np.zeros((12, n, 2), np.int16)
+    special[0, 7] = (4096, 0)                                              # 2^24
+    special[1, 7] = (4096, 1)                                              # 2^24 + 1
+    special[2, 7], special[2, 8] = (4095, 90), (9, 3)                      # 2^24 - 1 over I and Q
+    special[3, 7], special[3, 300] = (4095, 90), (9, 4)                    # 2^24 + 6
+    special[4, 0] = (-32768, 32767)
+    special[5, 1] = (0, -32768)
+    special[6, 2] = (1, 32767)
+    for k, t in enumerate((TWO24 - 1, TWO24, TWO24 + 1, TWO24 + 3, 3 * TWO24 + 1)):
+        special[7 + k] = chirp_with_sum(t, 2 * n, 80.0, rng).reshape(n, 2)
+    assert {TWO24 - 1, TWO24, TWO24 + 1} <= set(exact_sums(special, True).tolist())
+    quiet = np.rint(rng.standard_normal((3, 256, n, 2)) * 28).astype(np.int16)
+    quiet[1, 40: 40 + len(special)] = special
+    assert_exact(quiet, iq=True)
+    assert_exact(special, iq=True)
+    assert_exact(np.tile(special, (30, 1, 1)), iq=True)
+    assert_exact(special[3], iq=True)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.booleans())
+def test_frames_mixing_quiet_straddling_and_loud_chunks_are_exact_bit_for_bit(seed, iq):
+    """Runs of chirps at RMS levels from silent to the rails (around 2^24 at 1080 samples: 124.6 codes), so that
+    frames switch to float64 at any chunk, or never, with loud chirps redone before the switch."""
+    rng = np.random.default_rng(seed)
+    n_samples = int(rng.choice([540, 1080, 1081]))
+    n_chirps = int(rng.integers(1, 1300))
+    levels = np.array([0.0, 1.0, 40.0, 118.0, 124.0, 125.0, 131.0, 2000.0, 40000.0])
+    runs = rng.integers(1, 300, size=n_chirps)
+    per_chirp = np.repeat(rng.choice(levels, size=runs.size), runs)[:n_chirps]
+    shape = (n_chirps, n_samples // 2, 2) if iq else (n_chirps, n_samples)
+    amp = per_chirp.reshape((-1,) + (1,) * (len(shape) - 1)) / (math.sqrt(2) if iq else 1.0)
+    codes = np.clip(np.rint(rng.standard_normal(shape) * amp), -32768, 32767).astype(np.int16)
+    assert_exact(codes, iq=iq)
