@@ -33,7 +33,7 @@ import numpy as np
 from carav_stream.estimate.estimators import METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.firmware.target_list import KINDS, target_list
-from carav_stream.radar.adc import from_codes
+from carav_stream.radar.adc import adc_step, from_codes
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, pick
 
@@ -70,13 +70,18 @@ class RangeEstimator(Block):
         if frames.header.get("verdict") != "clean" or rho is None or frames.payload is None:
             self.refused += n
             return frames.derive(None, refused=True, reason="no clean verdict")
-        x = from_codes(self.scene_obj, frames.payload)
-        if x.ndim != 3 or rho.shape != x.shape[:2] or x.shape[0] != n:
+        x, lsb = frames.payload, None
+        if x.dtype == np.int16 and self.detection == "strongest":   # the estimator reads the active chirps' codes
+            lsb = adc_step(self.scene_obj)
+        else:
+            x = from_codes(self.scene_obj, x)
+        shape = x.shape[:3] if lsb is not None and self.scene_obj.iq else x.shape
+        if len(shape) != 3 or rho.shape != shape[:2] or shape[0] != n:
             raise ValueError(f"frame seq {frames.seq}: {n} cycles, frames {x.shape} and rho {rho.shape} disagree")
         rho = np.asarray(rho, dtype=bool)
         if self.detection == "strongest":
             est = estimate(x, rho, self.geometry, method=self.method, n_targets=self.n_targets,
-                           max_speed_mps=self.max_speed_mps)
+                           max_speed_mps=self.max_speed_mps, lsb=lsb)
             return frames.derive(None, method=self.method, detection=self.detection, per_cycle=pick(
                 frames, range(n), range_m=_plain(est.range_m), velocity_mps=_plain(est.velocity_mps)))
         tl = target_list(x, rho, self.geometry, self.sigma_n or self.scene_obj.sigma_n, detection=self.detection,

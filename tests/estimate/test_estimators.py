@@ -259,3 +259,48 @@ def test_non_finite_samples_in_silent_chirps_are_never_read():
     a, b = estimate(x, rho, SMALL), estimate(broken, rho, SMALL)
     np.testing.assert_array_equal(a.range_m, b.range_m)
     np.testing.assert_array_equal(a.velocity_mps, b.velocity_mps)
+
+
+def _codes(g, lsb, seed, n_cycles=9):
+    """ADC codes (I/Q: last axis 2) of two targets in noise, 40 codes RMS, and uneven activation patterns."""
+    rng = np.random.default_rng(seed)
+    rho = _uneven_rho(rng, n_cycles, 32)
+    x = synth_beat(g, rho, [[24.0, 41.0]], [[3.0, -8.0]], amplitudes=[[1.0, 0.6]], snr_sample_db=5.0, rng=rng)
+    x *= np.float32(40 * lsb / np.sqrt(np.mean(np.abs(x[rho]) ** 2)))
+    parts = np.stack([x.real, x.imag], axis=-1) if g.iq else x
+    codes = np.clip(np.rint(parts / lsb), -2048, 2047).astype(np.int16)
+    codes[~rho] = 2047                                   # silent chirps are never read
+    return codes, rho
+
+
+@pytest.mark.parametrize("iq", [True, False])
+@pytest.mark.parametrize("method,n_targets,max_speed", [("ml", 1, 0.0), ("ml", 2, 0.0), ("fft_interp", None, 0.0),
+                                                         ("root_music", 1, 0.0), ("ml", 1, 30.0)])
+def test_codes_with_their_step_give_what_their_samples_give(iq, method, n_targets, max_speed):
+    # estimate(codes, lsb=) converts the active chirps only: every figure equals estimate(from_codes(codes)) exactly
+    from carav_stream.radar.adc import from_codes
+
+    g = SMALL if iq else SMALL_REAL
+    lsb = 0.0123
+    codes, rho = _codes(g, lsb, 31)
+    scene = type("AdcOf", (), {"adc_full_scale": lsb * 2048, "adc_bits": 12, "iq": iq})()
+    samples = from_codes(scene, codes)
+    assert samples.dtype == (np.complex64 if iq else np.float32) and samples.shape == rho.shape + (128,)
+    kwargs = dict(method=method, n_targets=n_targets, max_speed_mps=max_speed)
+    want, got = estimate(samples, rho, g, **kwargs), estimate(codes, rho, g, lsb=lsb, **kwargs)
+    assert np.isfinite(want.range_m[2:, 0]).all()
+    for field in ("range_m", "velocity_mps", "beat_hz", "amplitude", "n_found"):
+        np.testing.assert_array_equal(getattr(got, field), getattr(want, field), err_msg=field)
+
+
+def test_codes_are_checked_against_their_step_and_the_receiver():
+    codes, rho = _codes(SMALL, 0.01, 32)
+    with pytest.raises(TypeError, match="int16 codes, got float32"):
+        estimate(codes.astype(np.float32), rho, SMALL, lsb=0.01)
+    for lsb in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="lsb must be a finite step above 0"):
+            estimate(codes, rho, SMALL, lsb=lsb)
+    with pytest.raises(ValueError, match=r"I/Q codes must be \(n_cycles, n_chirps, n_samples, 2\)"):
+        estimate(codes[..., 0], rho, SMALL, lsb=0.01)
+    with pytest.raises(ValueError, match="frames must be"):
+        estimate(codes, rho, SMALL_REAL, lsb=0.01)
