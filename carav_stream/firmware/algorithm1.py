@@ -60,7 +60,9 @@ def run_algorithm1(scene: Scene, n_cycles: int, *, seed: int | None = None, atta
         vel = np.full((n, n_targets), np.nan)
         clean = ~det.alarm
         if clean.any():
-            est = estimate(cyc.frames[clean], rho[clean], geometry, method=method, n_targets=n_targets)
+            lsb = adc_step(scene)   # the ADC's codes, as the graph's range estimator reads them, or its samples
+            est = estimate((cyc.frames if lsb is None else cyc.codes)[clean], rho[clean], geometry, method=method,
+                           n_targets=n_targets, lsb=lsb)
             rng[clean], vel[clean] = est.range_m, est.velocity_mps
         for key, value in (("rho", rho), ("q", det.q), ("alarm", det.alarm), ("invalid", det.invalid),
                            ("attack_active", cyc.attack_active), ("clipped", cyc.clipped), ("range_m", rng),
