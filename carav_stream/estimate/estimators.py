@@ -144,8 +144,9 @@ def _normalise(frames, chirps: _Chirps, lsb: float | None = None):
     Returns x (C, A, N) complex64 or float32 (compacted, see _Chirps), scale (C,) float64 and valid (C,) bool.
     Silent chirps are never read, whatever they hold. With `lsb`, frames are int16 ADC codes (_check_inputs):
     the active chirps' codes are gathered first and turned into samples there, code * float32(lsb) as
-    radar.adc.from_codes does (the same float32 values, for half the chirps and half the bytes gathered: a
-    table1 frame of 32 cycles costs about 17 us a cycle instead of 55 from samples on an AMD EPYC, Zen 4)."""
+    radar.adc.from_codes does (the same float32 values, for half the chirps and half the bytes gathered: the
+    conversion and compaction of a table1 frame of 32 cycles cost about 17 us a cycle instead of 55 from all the
+    samples, on an AMD EPYC, Zen 4, with the nodes' allocator settings)."""
     if lsb is None:
         x = chirps.gather(frames).astype(np.complex64 if np.iscomplexobj(frames) else np.float32, copy=False)
     else:
@@ -353,7 +354,7 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
     couple        remove the range-Doppler coupling from range_m (beat_hz is always the raw beat)
     max_speed_mps > 0: range migration compensated: the fft_peak cells of the strongest maxima, each refined along
                   its range walk (refine_at), velocities unaliased within +-max_speed_mps (method ignored)
-    lsb           frames are an ADC's int16 codes (I/Q: last axis 2, I then Q) of this step: the samples are
+    lsb           the ADC's step: frames are then its int16 codes (I/Q: a last axis of 2, I then Q), the samples
                   code * lsb (radar.adc.from_codes), converted for the active chirps only; the same result
     Returns Estimates; raises ValueError/TypeError naming the bad argument.
     """
