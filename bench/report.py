@@ -329,6 +329,8 @@ def pipeline_table(doc: dict) -> list[str]:
             extra = extra[:-1] + f" = {r['busy_ns_per_sample'][r['bottleneck_node']]:.2f} ns/sample)"
         if "outside_us_per_cycle" in r:
             extra += f"; outside the blocks {sum(r['outside_us_per_cycle'].values()):.0f}"
+            if "cpu_us_per_cycle" in r:
+                extra += f"; all the nodes' CPU {r['cpu_us_per_cycle']:.0f}"
         top = _pipeline_ceiling(r, doc)
         if top is not None:
             extra += f"; ceiling {top[0]:.0f} cycles/s ({top[1]}), {r['cycles_per_s'] / top[0]:.0%} of it reached"

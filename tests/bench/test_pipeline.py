@@ -52,6 +52,11 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path, capsys
     assert all(set(r["outside_us_per_cycle"]) == set(r["busy_us_per_cycle"]) and r["outside_us_per_cycle"]["gate"] > 0
                for r in records if r["mode"] == "pipeline")
     assert all(r["cpu_us_per_cycle"] > 0 for r in records if r["mode"] == "fused")   # measured in its own process
+    # the graph's CPU per cycle: every node's, in and outside its block (one repeat: that run's sum)
+    for r in records:
+        if r["mode"] == "pipeline":
+            total = sum(r["busy_us_per_cycle"].values()) + sum(r["outside_us_per_cycle"].values())
+            assert r["cpu_us_per_cycle"] == pytest.approx(total, rel=1e-12)
     # against the fused chain of the same repeat, repeat by repeat, and the median of those ratios
     fused = {r["batch"]: r["runs_cycles_per_s"] for r in records if r["mode"] == "fused"}
     for r in records:

@@ -63,7 +63,7 @@ def test_the_pipeline_over_shared_memory_is_judged_against_its_own_targets(tmp_p
            "cycles_per_s": 2131.0 * rtf, "runs_cycles_per_s": [2131.0 * rtf], "real_time_factor": rtf,
            "radar_cycles_per_s": 2131.0, "speedup_over_fused": speedup, "bottleneck_node": "channel",
            "busy_us_per_cycle": {"channel": 250.0, "adc": 150.0},
-           "outside_us_per_cycle": {"channel": 20.0, "adc": 30.0}}
+           "outside_us_per_cycle": {"channel": 20.0, "adc": 30.0}, "cpu_us_per_cycle": 450.0}
     (tmp_path / "docs" / "bench" / "records").mkdir(parents=True)
     (tmp_path / "docs" / "bench" / "records" / "pipeline.json").write_text(json.dumps(
         {**transport_doc(1.0), "command": "python3 dev.py bench pipeline", "records": [rec]}))
@@ -78,7 +78,8 @@ def test_the_pipeline_over_shared_memory_is_judged_against_its_own_targets(tmp_p
     assert (f"| {speedup:.2f} x ({speedup * top / (2131 * rtf):.2f} x at its ceiling) | >= {targets[1]} x | {met[1]} |"
             in summary)
     page = docs[tmp_path / "docs" / "bench" / "pipeline.md"]
-    assert f"ceiling {top:.0f} cycles/s (channel), {2131 * rtf / top:.0%} of it reached |" in page
+    assert f"outside the blocks 50; all the nodes' CPU 450; ceiling {top:.0f} cycles/s (channel), " \
+           f"{2131 * rtf / top:.0%} of it reached |" in page
 
 
 def test_no_committed_pipeline_run_beats_its_ceiling():
