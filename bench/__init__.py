@@ -11,6 +11,7 @@ study        carav study on 1 and 2 local Dask workers; the scheduler's cost per
 view         what the live view costs the radar chain, with and without a browser
 dca1000_udp  the live DCA1000 UDP receiver fed by the project's replayer, against the AWR1642's data rate
 soak         the demo graph for minutes with live swaps: memory and descriptor growth, lost cycles
+compare      one benchmark on an older revision and on this tree, alternated round by round: medians and ratios
 report       BENCHMARKS.md and docs/bench/*.md rendered from the records
 records      what every benchmark writes with --json: command, machine, records
 browser      the headless Chromium (Selenium) that the view benchmark and the live view's browser test drive
@@ -31,6 +32,7 @@ BENCHES = {
     "dca1000-udp": ("bench.dca1000_udp", "the live DCA1000 receiver against the AWR1642's data rate"),
     "chaos": ("bench.chaos", "SIGKILL a random node every 2 s on both planes: nothing judged twice, counts right"),
     "soak": ("bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
+    "compare": ("bench.compare", "one benchmark on an older revision and on this tree, alternated: medians, ratios"),
     "report": ("bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }
 
