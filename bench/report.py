@@ -504,7 +504,8 @@ Rendered by `python3 dev.py bench report` from the records in `docs/bench/record
 shown with its section, `--json docs/bench/records/NAME.json`); do not edit by hand: rerun the benchmark, then
 `python3 dev.py bench report`. Methods and the full tables: `docs/bench/NAME.md`. Figures are medians over several
 runs and comparisons are ratios measured in the same run, modes interleaved: the machines are shared, and absolute
-times vary between runs by more than the ratios do.
+times vary between runs by more than the ratios do. Older code against newer: `python3 dev.py bench compare REV --
+NAME [OPTIONS]` runs both in turn, round by round.
 """
 
 
