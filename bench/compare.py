@@ -11,7 +11,8 @@ blocks); a graph's nodes inherit both. This tree runs as it is, uncommitted chan
 
 The two sides' records are matched by position (the same options give the same cases in the same order; a
 different count is an error). Every numeric field of a record, one level of nested dicts flattened
-(`busy_us_per_cycle.channel`), whose name matches one of the --fields globs is compared. Each side's output goes to
+(`busy_us_per_cycle.channel`), whose name matches one of the --fields globs is compared; a field that one side's
+code does not record is left out (a new field has nothing to be compared with). Each side's output goes to
 a log beside its records in the temporary folder; a failed run shows the end of its log.
 """
 from __future__ import annotations
