@@ -190,7 +190,7 @@ def bench_energy(quick: bool, repeat: int) -> list[dict]:
     for attack, rarms in (("none", 0.0), ("random", 1.0), ("smart", 1.0)):
         for workers in (1, 2):
             t = _median_time(lambda: simulate_q(src, attack, rarms, n, np.random.SeedSequence(1), method="energy",
-                                                workers=workers), max(1, min(repeat, 3)))
+                                                workers=workers), repeat)
             out.append({"bench": "energy", "scene": "table1 (paper model)", "attack": attack, "workers": workers,
                         "cycles": n, "seconds": t, "cycles_per_s": n / t})
     return out
