@@ -19,18 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from carav_stream.core.allocator import keep_freed_memory
-
 OUTPUT_OPTIONS = ("--json", "--plot")      # options naming output files: not part of what was measured
-
-
-def use_node_allocator() -> bool:
-    """Give this process the allocator settings a graph's nodes start with (core.allocator), so that an in-process
-    benchmark times the kernels as a node runs them: with glibc's defaults, batch-sized buffers are fresh mmaps
-    that fault every page in, until glibc raises its threshold, so the first cases timed would pay what the later
-    ones do not. False where there is no glibc."""
-    return keep_freed_memory()
-
 
 SIMD_LEVELS = ("avx512f", "avx2", "sse4_2")    # widest first: numpy's float32 kernels (log, tan, exp) scale with it
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from bench import records as bench_records
 from carav_stream.console.options import count, output_file
+from carav_stream.core.allocator import keep_freed_memory
 from carav_stream.radar import physics
 from carav_stream.radar.activation import ActivationSource
 from carav_stream.radar.adc import CHUNK_ELEMENTS, adc
@@ -173,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
     presets = [p.strip() for p in args.presets.split(",") if p.strip()]
     records = []
     print(bench_records.header())
-    if not bench_records.use_node_allocator():
+    if not keep_freed_memory():   # a node's allocator settings (`dev.py bench` applies them too; this says if not)
         print("note: glibc's mallopt is not available: timed with this allocator's defaults, not a node's")
     print(f"{'preset':<10} {'fidelity':<9} {'attacker':<18} {'iq':<3} {'us/cycle':>9} {'cycles/s':>9} "
           f"{'radar/s':>8} {'x realtime':>10} {'cpu us':>7} {'cold ms':>8}")
