@@ -29,8 +29,8 @@ from carav_stream.radar.scene import Scene
 FIDELITIES = ("auto", "beat", "waveform")
 CHUNK_BYTES = 2 << 20
 # The channel draws noise and adds echoes a few cycles at a time, about one core's L2 cache (1 MiB): table1
-# (276 kB a cycle) goes 3 cycles at a time, 215 -> 193 us a cycle against one at a time (fewer numpy calls; the
-# chunk is still in cache when its echoes are added) and 306 with the whole 32-cycle frame at once (AMD EPYC).
+# (276 kB a cycle) goes 3 cycles at a time. Into output frames not in cache (the graph's shared-memory slots;
+# medians of 8 runs, AMD EPYC): 211 us a cycle one cycle at a time, 200 three at a time, 320 seven at a time.
 CHANNEL_CHUNK_BYTES = 1 << 20
 
 
