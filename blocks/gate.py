@@ -14,6 +14,8 @@ A frame whose verdict never comes (detector down), or whose verdict does not say
 "invalid: false" for a cycle in so many words, is refused for that cycle, never passed.
 Graph   gate = { type = "gate" }
 """
+import numpy as np
+
 from carav_stream.runtime import Block, Frame, In, Out, n_cycles, pick
 
 
@@ -55,8 +57,11 @@ class Gate(Block):
         refused = [i for i in range(n) if reasons[i] is not None]
         out: dict[str, Frame] = {}
         if keep:
-            whole = not refused   # every cycle clean: the frame goes on as it came, no copy
-            out["clean"] = frames.derive(data if whole else data[keep], arrays={"rho": rho if whole else rho[keep]},
+            whole = not refused   # every cycle clean: the frame goes on as it came
+            if not whole:         # the clean cycles gathered straight into the output (its shared-memory slot)
+                slot = self.output_buffer("clean", (len(keep),) + data.shape[1:], data.dtype)
+                data = np.take(data, keep, axis=0, out=slot, mode="clip")   # "raise" would copy twice
+            out["clean"] = frames.derive(data, arrays={"rho": rho if whole else rho[keep]},
                                          verdict="clean", eta=verdict.header.get("eta"), cycles=len(keep),
                                          per_cycle=pick(frames, keep, q=[q[i] for i in keep]))
         if refused:
