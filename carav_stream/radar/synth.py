@@ -135,7 +135,6 @@ def _add_echo(scene: Scene, rx: np.ndarray, rho: np.ndarray, fidelity: str,
     if gains is None:
         # rx[i, k] += template[k] where on[i, k], all the chunk's cycles at once: gather the active chirps'
         # rows, add, scatter back (the same float32 additions as np.add(..., where=on), which costs more)
-        rows = rx.reshape(-1, rx.shape[-1])
         for template, on in ((tpl.main_sum, rho), (tpl.tail_sum, rho_prev)):
             if template is None or not on.any():
                 continue
@@ -143,10 +142,9 @@ def _add_echo(scene: Scene, rx: np.ndarray, rho: np.ndarray, fidelity: str,
                 rx += template
                 continue
             cycle, k = np.nonzero(on)
-            at = cycle * on.shape[1] + k
-            part = rows[at]
+            part = rx[cycle, k]
             part += template[k]
-            rows[at] = part
+            rx[cycle, k] = part
         return
     for t in range(len(scene.targets)):
         g = gains[t]

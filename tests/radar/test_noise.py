@@ -71,7 +71,9 @@ def test_noise_scale_outside_float32_square_range(scale):
 
 @pytest.mark.parametrize("preset, iq, fidelity", [("table1", False, "beat"), ("table1", True, "waveform"),
                                                   ("awr1642", False, "beat")])
-def test_channel_equals_noise_plus_masked_echo_bit_for_bit(preset, iq, fidelity):
+@pytest.mark.parametrize("chunk_bytes", [1, synth.CHANNEL_CHUNK_BYTES])   # one cycle a chunk; several
+def test_channel_equals_noise_plus_masked_echo_bit_for_bit(monkeypatch, preset, iq, fidelity, chunk_bytes):
+    monkeypatch.setattr(synth, "CHANNEL_CHUNK_BYTES", chunk_bytes)
     s = load_scene(preset, {"iq": iq, "n_chirps": 16})
     rho = ActivationSource("seeded", seed=3).next(5, s.n_chirps)
     rho[1] = True                                      # an all-on cycle and an all-off one
