@@ -49,18 +49,18 @@ def run_algorithm1(scene: Scene, n_cycles: int, *, seed: int | None = None, atta
     attacker = make_attacker(attack, scene, **(attack_params or {})) if attack != "none" else None
     geometry = Geometry.from_scene(scene)
     sigma = scene.sigma_n if sigma_n is None else sigma_n
+    lsb = adc_step(scene)   # the ADC's step: detector and estimator read its codes, as the graph's nodes do
     out = {k: [] for k in ("rho", "q", "alarm", "invalid", "attack_active", "clipped", "range_m", "velocity_mps")}
     for c0 in range(0, n_cycles, batch):
         n = min(batch, n_cycles - c0)
         rho = streams.activation.next(n, scene.n_chirps)
         cyc = simulate_cycles(scene, rho, streams.noise, attacker=attacker, rng_attack=streams.attack,
                               fidelity=fidelity, cycle0=c0)
-        det = detect_from_rms(adc_chirp_rms(cyc.codes, adc_step(scene), scene.iq, cyc.nonfinite), rho, sigma, eta)
+        det = detect_from_rms(adc_chirp_rms(cyc.codes, lsb, scene.iq, cyc.nonfinite), rho, sigma, eta)
         rng = np.full((n, n_targets), np.nan)
         vel = np.full((n, n_targets), np.nan)
         clean = ~det.alarm
         if clean.any():
-            lsb = adc_step(scene)   # the ADC's codes, as the graph's range estimator reads them, or its samples
             est = estimate((cyc.frames if lsb is None else cyc.codes)[clean], rho[clean], geometry, method=method,
                            n_targets=n_targets, lsb=lsb)
             rng[clean], vel[clean] = est.range_m, est.velocity_mps
