@@ -5,6 +5,7 @@ BENCHMARKS.md and docs/bench/*.md from them.
 transport    frames/s and CPU per hop through a chain of processes, against raw pyzmq
 synth        signal-chain time per cycle by preset, fidelity and attacker
 detector     detector: numerical stability, ns/sample, Monte Carlo speed
+compiled     the hot kernels in numpy against numba-compiled loops (AVX-512 and AVX2 code), numba's start cost
 estimators   run time against error, beside the Cramer-Rao bound
 pipeline     the multi-process radar graph against the same chain in one process
 study        carav study on 1 and 2 local Dask workers; the scheduler's cost per task
@@ -25,6 +26,7 @@ BENCHES = {
     "transport": ("bench.transport", "frames/s, GB/s and latency through a chain of processes"),
     "synth": ("bench.synth", "signal-chain time per cycle by preset, fidelity and attacker"),
     "detector": ("bench.detector", "detector stability, ns/sample and Monte Carlo speed"),
+    "compiled": ("bench.compiled", "the hot kernels in numpy against numba loops; numba's start cost"),
     "estimators": ("bench.estimators", "run time against error of the range/velocity estimators"),
     "pipeline": ("bench.pipeline", "cycles/s of the multi-process graph against one process"),
     "study": ("bench.study", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),

@@ -19,6 +19,7 @@ from typing import Any
 
 from bench import records as bench_records
 from bench.chaos import met as chaos_met
+from bench.compiled import KERNELS, choice
 from bench.estimators import LISTS, TARGET_RATIO, TARGET_TIME_FACTOR, scores
 from bench.pipeline import ceiling
 from bench.soak import SOAK_RSS_MB_PER_H, no_growth
@@ -179,6 +180,51 @@ def synth_table(doc: dict) -> list[str]:
         lines += [f"| {r['preset']} | {'I/Q' if r['iq'] else 'I'} | {r['stage']} | {r['time_per_cycle_s'] * 1e6:.0f} | "
                   f"{r['ns_per_sample']:.3f} | {r['bound_ns_per_sample']:.3f} | {r['x_bound']:.2f} | {r['bound']} |"
                   for r in bounded]
+    return lines
+
+
+def _compiled_case(r: dict) -> str:
+    cpu = "this CPU" if r["numba_cpu"] == "host" else r["numba_cpu"]
+    code = ("AVX-512" if r["numpy_avx512"] else "AVX2") + " numpy, numba for " + cpu
+    return f"{r['kernel']}, {r['target']} ({code})"
+
+
+def _same(r: dict) -> str:
+    if r["difference_eps"] == 0:
+        return "the same result"
+    return f"results within {r['difference_eps']:.3g} float32 eps of each sample's magnitude"
+
+
+def compiled_rows(doc: dict) -> list[Row]:
+    recs = doc["records"]
+    rows = [(f"{_compiled_case(r)}, per table1 sample",
+             f"numpy {r['numpy_ns_per_sample']:.3f} ns, numba {r['numba_ns_per_sample']:.3f} ns "
+             f"({r['ratio']:.2f} x); {_same(r)}", "report", "-") for r in recs if r["bench"] == "kernel"]
+    rows += [(f"numba at a node's start, {r['kernel']} loop, cache {r['cache']}",
+              f"{r['cpu_s']:.2f} s CPU (import {r['import_cpu_s']:.2f} s)", "report", "-")
+             for r in recs if r["bench"] == "start"]
+    runs = doc["default_run_cycles"]
+    rows += [(f"{kernel}: numpy or numba", choice(recs, kernel, runs),
+              f"numba if faster on every target and repaid within a default run ({runs} cycles)", "-")
+             for kernel in KERNELS]
+    return rows
+
+
+def compiled_table(doc: dict) -> list[str]:
+    lines = ["| kernel | target | numpy | numba | numpy us/cycle | numba us/cycle | numba / numpy "
+             "| ns/sample numpy | numba | result | break-even cycles |",
+             "|---|---|---|---|---:|---:|---:|---:|---:|---|---:|"]
+    for r in doc["records"]:
+        if r["bench"] == "kernel":
+            even = f"{r['break_even_cycles']:.3g}" if r["break_even_cycles"] else "never"
+            lines.append(f"| {r['kernel']} | {r['target']} | {'AVX-512' if r['numpy_avx512'] else 'AVX2'} "
+                         f"| {r['numba']} for {r['numba_cpu']}{', SVML' if r['svml'] else ''} "
+                         f"| {r['numpy_us_per_cycle']:.1f} | {r['numba_us_per_cycle']:.1f} | {r['ratio']:.2f} "
+                         f"| {r['numpy_ns_per_sample']:.3f} | {r['numba_ns_per_sample']:.3f} | {_same(r)} | {even} |")
+    lines += ["", "numba's cost at a process's start (CPU seconds, median of the processes):", "",
+              "| loop | cache | processes | CPU s | of which import s | wall s |", "|---|---|---:|---:|---:|---:|"]
+    lines += [f"| {r['kernel']} | {r['cache']} | {r['processes']} | {r['cpu_s']:.2f} | {r['import_cpu_s']:.2f} "
+              f"| {r['wall_s']:.2f} |" for r in doc["records"] if r["bench"] == "start"]
     return lines
 
 
@@ -486,6 +532,7 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], l
     "zerocopy": ("Zero copy: one same-host hop by three data planes", zerocopy_rows, zerocopy_table),
     "synth": ("Signal chain per simulated cycle", synth_rows, synth_table),
     "detector": ("Detector: numerical stability, cost, Monte Carlo speed", detector_rows, detector_table),
+    "compiled": ("Compiled kernels: numpy against numba, on AVX-512 and AVX2 code", compiled_rows, compiled_table),
     "estimators": ("Estimators: error against run time", estimators_rows, estimators_table),
     "pipeline": ("Pipeline: the multi-process radar graph", pipeline_rows, pipeline_table),
     "soak": ("Soak: the demo graph for minutes with live swaps", soak_rows, soak_table),

@@ -175,9 +175,9 @@ def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
     # every chirp loud (RMS 200) 0.32 against 0.30 (0.55 without the switch to float64); with 10 % of the chirps
     # loud or more, 3 to 10 % above float64 only (an attack that starts mid-frame the most). Every formulation
     # without a float copy measured slower (einsum with a float64 dtype 0.7 ns, vecdot casting int16 2.8 ns); smaller
-    # chunks cost more in calls than they save in cache. A compiled one-pass loop with int64 sums (numba 0.68) took
-    # about 0.065 ns on AVX-512 and with code for AVX2 alike, but numba's import and first call cost about 0.7 s of
-    # CPU in every process (radar/adc.py's adc_codes: the same trade).
+    # chunks cost more in calls than they save in cache. A compiled one-pass loop with int64 sums is about 4 x
+    # faster on AVX-512 and AVX2 code alike, but numba's import and first call cost every process more CPU than the
+    # loop saves in a default run (`python3 dev.py bench compiled`, docs/bench/compiled.md: the figures and the rule).
     sumsq = np.empty(n_rows)
     s32 = np.empty((n_rows, 1, 1), np.float32)
     j = n_rows                                                  # the chirps from j on go to float64 at once

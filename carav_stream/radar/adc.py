@@ -75,11 +75,10 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
     counted and fixed one by one). On an AMD EPYC (Zen 4, AVX-512, 2 cores) a table1 frame (32 cycles of
     64 x 1080 samples) in cache costs about 0.4 ns per sample without attack and 0.6 with one (one cast pass
     float32 -> int16 over the same samples: 0.07); chunks of one cycle (256 KiB) cost about 0.1 ns per sample
-    more there, in calls and in cache misses on the inputs. A compiled one-pass loop (numba 0.68) gives the same
-    codes in about 0.22 ns with an attack, on AVX-512 and with code for AVX2 (NUMBA_CPU_NAME=haswell, numpy's
-    AVX-512 loops off) alike; it is not used because numba's import and first call cost about 0.7 s of CPU in every
-    process even with its cache warm, what the loop saves over some 26 000 table1 cycles (a graph runs 300 to a
-    few thousand).
+    more there, in calls and in cache misses on the inputs. A compiled one-pass loop gives the same codes in about
+    half the time, on AVX-512 and AVX2 code alike, but numba's import and first call cost every process more CPU
+    than the loop saves in a default run (`python3 dev.py bench compiled`, docs/bench/compiled.md: the figures and
+    the rule), so the ADC stays numpy.
     """
     n_cycles = rx.shape[0]
     if add is not None and (add.dtype != rx.dtype or add.ndim != rx.ndim

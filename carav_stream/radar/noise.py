@@ -4,6 +4,8 @@
 branch); vectorised Box-Muller on the generator's raw 64-bit words costs about 2.4 ns on an AVX-512 machine
 (AMD EPYC, 2 cores), 164 us for 64 x 1080 samples, beside 0.9 ns for its vector math alone (the noise stage and
 its bound in `python3 dev.py bench synth --repeats 15`, docs/bench/synth.md), and about 5 ns on an AVX2 one.
+The same steps compiled in one loop with numba are several times slower on both (the C library's log, cos and
+sin one value at a time: `python3 dev.py bench compiled`, docs/bench/compiled.md).
 
 A row of n samples takes h = ceil(n / 2) consecutive 64-bit words, read as 2h 32-bit integers (little
 endian: word j gives integers 2j and 2j + 1). Pair j (j < h) takes u = integer j, as u1 = (u + 1/2) 2^-32
