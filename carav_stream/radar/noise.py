@@ -41,6 +41,19 @@ _HALF_U32 = np.float32(2.0 ** -33)
 _ANGLE = np.float32(2.0 * np.pi * 2.0 ** -32)
 
 
+def words(rng: np.random.Generator, n: int) -> np.ndarray:
+    """The generator's next n 64-bit words, uint64: what ``rng.bit_generator.random_raw(n)`` gives for numpy's
+    64-bit bit generators (PCG64, PCG64DXSM, SFC64, Philox), by the faster of two paths that give the same words.
+    For SFC64, ``Generator.integers`` over the whole uint64 range (about 1.9 ns a word on an AMD EPYC, Zen 4,
+    numpy 2.4, against 4.8 for its random_raw: 65 against 167 us for a table1 cycle's 34 560 words); for the
+    others random_raw (PCG64 2.5 ns a word against 2.7 by integers). MT19937 is a 32-bit generator: its raw
+    values are 32-bit, so its words come from integers (two draws each), not equal to its random_raw."""
+    bits = rng.bit_generator
+    if isinstance(bits, (np.random.SFC64, np.random.MT19937)):
+        return rng.integers(0, 1 << 64, n, dtype=np.uint64)
+    return bits.random_raw(n)
+
+
 def standard_normal_rows(rng: np.random.Generator, n_rows: int, n_per_row: int, scale: float = 1.0, *,
                          out: np.ndarray | None = None) -> np.ndarray:
     """i.i.d. N(0, scale^2) float32 (n_rows, n_per_row), consuming ceil(n_per_row / 2) words per row.
@@ -60,10 +73,9 @@ def standard_normal_rows(rng: np.random.Generator, n_rows: int, n_per_row: int, 
     k = np.float32(-2.0 * (scale * scale if folded else 1.0))   # r^2 = k ln u1, the scale riding on it
     even = 2 * h == n_per_row
     m_max = max(1, CHUNK_WORDS // h)
-    bits = rng.bit_generator
     for a in range(0, n_rows, m_max):
         m = min(m_max, n_rows - a)
-        u = bits.random_raw(m * h).view(np.uint32).reshape(m, 2 * h)
+        u = words(rng, m * h).view(np.uint32).reshape(m, 2 * h)
         buf = scratch("noise", m * (h if even else 3 * h), np.float32)
         r = buf[:m * h].reshape(m, h)
         z = out[a: a + m] if even else buf[m * h:].reshape(m, 2 * h)

@@ -10,10 +10,13 @@ from carav_stream.radar.noise import gaussian, standard_normal_rows
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.scene_loader import load_scene
 
+BIT_GENERATORS = [np.random.PCG64, np.random.SFC64, np.random.Philox]
 
-def test_noise_pairs_have_chi2_radius_and_uniform_angle():
+
+@pytest.mark.parametrize("bit_generator", [*BIT_GENERATORS, np.random.MT19937])
+def test_noise_pairs_have_chi2_radius_and_uniform_angle(bit_generator):
     # sample j and sample h + j of a row come from the same word: (r cos theta, r sin theta)
-    z = standard_normal_rows(np.random.default_rng(11), 8, 60_000).astype(np.float64)
+    z = standard_normal_rows(np.random.Generator(bit_generator(11)), 8, 60_000).astype(np.float64)
     a, b = z[:, :30_000].ravel(), z[:, 30_000:].ravel()
     assert scipy.stats.kstest(a * a + b * b, "chi2", args=(2,)).pvalue > 1e-3
     assert scipy.stats.kstest(np.arctan2(b, a), "uniform", args=(-np.pi, 2 * np.pi)).pvalue > 1e-3
@@ -21,12 +24,14 @@ def test_noise_pairs_have_chi2_radius_and_uniform_angle():
     assert abs(np.corrcoef(z.ravel()[:-1], z.ravel()[1:])[0, 1]) < 0.01
 
 
-def test_noise_equals_box_muller_of_the_words_in_float64():
-    # independent reference: the module docstring's mapping, evaluated in float64 from the same raw words
+@pytest.mark.parametrize("bit_generator", BIT_GENERATORS)
+def test_noise_equals_box_muller_of_the_raw_words_in_float64(bit_generator):
+    # independent reference: the module docstring's mapping, evaluated in float64 from the generator's raw words
+    # (random_raw, whichever path noise.words takes for that generator)
     n_rows, n = 3, 2001
     h = (n + 1) // 2
-    got = standard_normal_rows(np.random.default_rng(21), n_rows, n, 2.5).astype(np.float64)
-    w = np.random.default_rng(21).bit_generator.random_raw(n_rows * h).view(np.uint32).reshape(n_rows, 2 * h)
+    got = standard_normal_rows(np.random.Generator(bit_generator(21)), n_rows, n, 2.5).astype(np.float64)
+    w = bit_generator(21).random_raw(n_rows * h).view(np.uint32).reshape(n_rows, 2 * h)
     r = 2.5 * np.sqrt(-2.0 * np.log((w[:, :h] + 0.5) * 2.0 ** -32))
     theta = 2.0 * np.pi * w[:, h:].view(np.int32) * 2.0 ** -32
     ref = np.concatenate([r * np.cos(theta), r * np.sin(theta)], axis=1)[:, :n]
