@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from carav_stream.core.allocator import scratch
+from carav_stream.radar.noise import words as raw_words
 
 X_MAX = 8.6     # bound on |x| in chi2_and_normal: sqrt(-2 ln 2^-53) = 8.572, plus float32 rounding
 
@@ -99,7 +100,8 @@ def balanced_mask(rng: np.random.Generator, out: np.ndarray) -> np.ndarray:
     p_keep = math.comb(n_chirps, n_chirps // 2) / 2.0 ** n_chirps
     kept, need = [], n_cycles
     while need > 0:
-        words = rng.bit_generator.random_raw((int(need / p_keep * 1.2) + 16, n_words))
+        n_rows = int(need / p_keep * 1.2) + 16
+        words = raw_words(rng, n_rows * n_words).reshape(n_rows, n_words)
         if n_chirps % 64:
             words[:, -1] &= np.uint64((1 << (n_chirps % 64)) - 1)
         ones = popcount(words).sum(axis=1) if n_words > 1 else popcount(words[:, 0])

@@ -114,8 +114,9 @@ def test_marsaglia_tsang_squeeze_never_exceeds_the_acceptance_probability(k):
     assert np.sqrt(-2.0 * np.log(2.0 ** -53)) < samplers.X_MAX        # the largest |x| Box-Muller gives
 
 
-def test_balanced_mask_is_uniform_over_the_balanced_patterns():
-    rng = np.random.default_rng(4)
+@pytest.mark.parametrize("bit_generator", [np.random.PCG64, np.random.SFC64, np.random.MT19937])
+def test_balanced_mask_is_uniform_over_the_balanced_patterns(bit_generator):
+    rng = np.random.Generator(bit_generator(4))
     mask = samplers.balanced_mask(rng, np.empty((6, 60_000), np.float32))
     assert np.all(mask.sum(axis=0) == 3)
     patterns = (2 ** np.arange(6)) @ mask
