@@ -42,14 +42,14 @@ _ANGLE = np.float32(2.0 * np.pi * 2.0 ** -32)
 
 
 def words(rng: np.random.Generator, n: int) -> np.ndarray:
-    """The generator's next n 64-bit words, uint64: what ``rng.bit_generator.random_raw(n)`` gives for numpy's
-    64-bit bit generators (PCG64, PCG64DXSM, SFC64, Philox), by the faster of two paths that give the same words.
-    For SFC64, ``Generator.integers`` over the whole uint64 range (about 1.9 ns a word on an AMD EPYC, Zen 4,
-    numpy 2.4, against 4.8 for its random_raw: 65 against 167 us for a table1 cycle's 34 560 words); for the
-    others random_raw (PCG64 2.5 ns a word against 2.7 by integers). MT19937 is a 32-bit generator: its raw
-    values are 32-bit, so its words come from integers (two draws each), not equal to its random_raw."""
+    """The generator's next n 64-bit words, uint64: ``rng.bit_generator.random_raw(n)`` for numpy's 64-bit bit
+    generators (PCG64, PCG64DXSM, SFC64, Philox). MT19937 is a 32-bit generator, whose raw values are 32-bit:
+    its words come from ``Generator.integers`` over the whole uint64 range (two draws each).
+    ``Generator.integers`` gives the 64-bit generators' raw words too, but it is the slower path in the graph on
+    an AMD EPYC (Zen 4, numpy 2.4): the channel 234 against 225 us per table1 cycle, 7 alternated rounds of
+    `python3 dev.py bench compare`."""
     bits = rng.bit_generator
-    if isinstance(bits, (np.random.SFC64, np.random.MT19937)):
+    if isinstance(bits, np.random.MT19937):
         return rng.integers(0, 1 << 64, n, dtype=np.uint64)
     return bits.random_raw(n)
 
