@@ -47,6 +47,7 @@ from carav_stream.core.allocator import keep_freed_memory
 from carav_stream.detect.detector import chirp_rms_codes
 from carav_stream.radar.adc import adc_codes, adc_step
 from carav_stream.radar.noise import standard_normal_rows
+from carav_stream.radar.noise import words as raw_words
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.runtime.loader import load_graph
 
@@ -168,7 +169,7 @@ def noise_compiled(kernels: dict, rng: np.random.Generator, n_rows: int, n_per_r
                    out: np.ndarray) -> np.ndarray:
     """standard_normal_rows(rng, n_rows, n_per_row, scale, out=out) by the compiled loop (same words, same steps)."""
     h = (n_per_row + 1) // 2
-    words = rng.bit_generator.random_raw(n_rows * h).view(np.uint32).reshape(n_rows, 2 * h)
+    words = raw_words(rng, n_rows * h).view(np.uint32).reshape(n_rows, 2 * h)   # as the package reads them
     k = np.float32(-2.0 * scale * scale)
     kernels["box_muller"](words[:, :h], words[:, h:].view(np.int32), k, out.reshape(n_rows, n_per_row))
     return out
