@@ -183,9 +183,13 @@ def synth_table(doc: dict) -> list[str]:
     return lines
 
 
+def _numba_cpu(r: dict) -> str:
+    """The CPU numba compiled a compiled-kernel record's loops for."""
+    return "this CPU" if r["numba_cpu"] == "host" else r["numba_cpu"]
+
+
 def _compiled_case(r: dict) -> str:
-    cpu = "this CPU" if r["numba_cpu"] == "host" else r["numba_cpu"]
-    code = ("AVX-512" if r["numpy_avx512"] else "AVX2") + " numpy, numba for " + cpu
+    code = ("AVX-512" if r["numpy_avx512"] else "AVX2") + " numpy, numba for " + _numba_cpu(r)
     return f"{r['kernel']}, {r['target']} ({code})"
 
 
@@ -218,7 +222,7 @@ def compiled_table(doc: dict) -> list[str]:
         if r["bench"] == "kernel":
             even = f"{r['break_even_cycles']:.3g}" if r["break_even_cycles"] else "never"
             lines.append(f"| {r['kernel']} | {r['target']} | {'AVX-512' if r['numpy_avx512'] else 'AVX2'} "
-                         f"| {r['numba']} for {r['numba_cpu']}{', SVML' if r['svml'] else ''} "
+                         f"| {r['numba']} for {_numba_cpu(r)}{', SVML' if r['svml'] else ''} "
                          f"| {r['numpy_us_per_cycle']:.1f} | {r['numba_us_per_cycle']:.1f} | {r['ratio']:.2f} "
                          f"| {r['numpy_ns_per_sample']:.3f} | {r['numba_ns_per_sample']:.3f} | {_same(r)} | {even} |")
     lines += ["", "numba's cost at a process's start (CPU seconds, median of the processes):", "",
