@@ -70,7 +70,7 @@ def test_the_activation_sequence_stays_out_of_the_recording_and_its_log_is_priva
     assert "k_max" not in meta and "rbar" not in meta and "rho" not in meta
     assert stat.S_IMODE((tmp_path / "rec.activation").stat().st_mode) == 0o600
     lines = (tmp_path / "rec.activation").read_text().splitlines()
-    assert lines[-1] == "5 " + "".join("1" if b else "0" for b in rho[5])
+    assert lines[-2] == "5 " + "".join("1" if b else "0" for b in rho[5]) and lines[-1].startswith("# sha256 ")
 
 
 def test_a_real_adc_recording_is_ri16(tmp_path):
