@@ -2,13 +2,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 from pathlib import Path
 from typing import Any
 
 from carav_stream.cli.view import view_graph
+from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
@@ -80,7 +80,7 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     summary = with_radar_time(sup.run())
     print_summary(summary)
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=2, default=str))
+        jsonout.write(args.json, summary, indent=2)
     if summary["failures"]:
         return Exit.FAILED
     if summary["lost"]:
