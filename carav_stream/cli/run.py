@@ -155,7 +155,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "radar_cycle_duration_s", "radar_time_s", "real_time_factor",
               "range_error_m", "range_error_attacked_missed_m", "velocity_error_mps", "velocity_ambiguous",
               "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
-              "refused_by_estimator", "unreadable_cycles"}
+              "refused_by_estimator", "unreadable_cycles", "figures_cover"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
                 "estimated_counts", "skipped_by_taps", "transport", "shared_memory"}
