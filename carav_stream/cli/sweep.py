@@ -235,4 +235,5 @@ def run(args: argparse.Namespace) -> int:
         jsonout.write(args.json, result, indent=1)
     if args.plot:
         plot_curves(result, args.plot)
+        print(f"plot: {args.plot} (PF and PM against eta on a log axis, the ROC beneath)")
     return 0
