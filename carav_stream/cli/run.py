@@ -18,7 +18,7 @@ from carav_stream.view.server import free_port, new_token, page_url
 
 
 def configure(p: argparse.ArgumentParser) -> None:
-    p.add_argument("graph", type=Path)
+    p.add_argument("graph", type=graph_file)
     run_options(p)
     p.add_argument("--view", action="store_true", help="watch the run in a browser: a live_view node on taps of "
                    "the gate and the estimator serves a page (a tap never slows the chain)")
@@ -27,9 +27,18 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--view-host", default="127.0.0.1", help="the --view page's address (default loopback only)")
 
 
+def graph_file(text: str) -> Path:
+    """A graph file that exists (argparse refuses any other in one line naming the argument: exit 2, usage)."""
+    path = Path(text)
+    if not path.is_file():
+        what = "is a folder, not a graph file" if path.is_dir() else "no such file"
+        raise argparse.ArgumentTypeError(f"{text}: {what}")
+    return path
+
+
 def run_options(p: argparse.ArgumentParser) -> None:
     """The options of `carav run` (shared by `carav record` and `carav replay`)."""
-    p.add_argument("--cycles", type=int, help="cycles each source generates (a frame may carry several; default: "
+    p.add_argument("--cycles", type=count(0), help="cycles each source generates (a frame may carry several; default: "
                    "the graph's run.cycles; 0 = until stopped)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                    help="override a node's parameter, a graph-wide one with PARAM=VALUE, a [run] setting with "

@@ -34,3 +34,14 @@ def test_a_reader_that_closes_the_pipe_early_ends_the_command_quietly():
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == Exit.INTERRUPTED
     assert err == "", err
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["run", DEMO, "--cycles", "-5"], "argument --cycles: must be >= 0, got -5"),
+    (["run", "no_such_graph.toml"], "argument graph: no_such_graph.toml: no such file"),
+    (["record", str(ROOT / "graphs"), "--out", "x"], "is a folder, not a graph file"),
+])
+def test_a_bad_command_line_is_a_usage_error_naming_the_option(capsys, argv, text):
+    assert carav(argv) == Exit.USAGE
+    err = capsys.readouterr().err
+    assert text in err and err.count("\n") == 1 and "Traceback" not in err, err
