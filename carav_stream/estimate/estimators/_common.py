@@ -110,8 +110,8 @@ def normalise(frames, chirps: Chirps, lsb: float | None = None):
     Returns x (C, A, N) complex64 or float32 (compacted, see Chirps), scale (C,) float64 and valid (C,) bool.
     Silent chirps are never read, whatever they hold. With `lsb`, frames are int16 ADC codes (check_inputs):
     the active chirps' codes are gathered first and turned into samples there, code * float32(lsb) as
-    radar.adc.from_codes does (the same float32 values, for half the chirps and half the bytes gathered; its cost
-    is the ranging stage's in docs/bench/pipeline.md)."""
+    radar.adc.from_codes does (the same float32 values, from half the chirps and half the bytes gathered).
+    Cost: the ranging stage in docs/bench/pipeline.md."""
     if lsb is None:
         x = chirps.gather(frames).astype(np.complex64 if np.iscomplexobj(frames) else np.float32, copy=False)
     else:
