@@ -31,6 +31,7 @@ from carav_stream.capture.sigmf_io import open_recording
 from carav_stream.cli.record import record_graph
 from carav_stream.cli.replay import overrides_for
 from carav_stream.console.options import count, number, output_file
+from carav_stream.estimate import METHODS
 from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.streams import scene_of
@@ -71,7 +72,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scale", type=number(0.0, strict=True), default=1.0, help="multiply the cycles of every case")
     parser.add_argument("--batch", default="16,32", help="cycles per frame (pipeline) and per call (fused); a comma "
                         "list runs each (default: the blocks' default 16 and the table1 graphs' 32)")
-    parser.add_argument("--method", default="ml", help="range estimator of the graph and the fused chain")
+    parser.add_argument("--method", default="ml", choices=METHODS,
+                        help="range estimator of the graph and the fused chain")
     parser.add_argument("--cases", default="all", help="comma list of preset:fidelity, or all")
     parser.add_argument("--transport", default=",".join(TRANSPORTS), type=_transports,
                         help="data planes of the pipeline runs: zmq (arrays in ZeroMQ messages), shm (in shared "

@@ -1,9 +1,9 @@
 """Range estimator: target range and radial velocity of every clean cycle (Algorithm 1, step 6).
 
 Integrates the ACTIVE chirps only (the frame's "rho" array from the gate); velocity from the phase
-progression over the randomly missing active chirps. Methods: fft_peak, fft_zeropad, fft_interp, music,
-root_music, ml (see carav_stream/estimate). A frame that does not carry the gate's clean verdict is refused
-(counted, and reported as a record with refused = true): target processing never runs without a verdict.
+progression over the randomly missing active chirps. Methods: METHODS of carav_stream/estimate/estimators, one
+file each there (its docstring the method's mathematics). A frame that does not carry the gate's clean verdict is
+refused (counted, and reported as a record with refused = true): target processing never runs without a verdict.
 
 Detection: "strongest" reports the n_targets strongest maxima of every cycle; "ca_cfar" | "os_cfar" reports the
 radar's target list (carav_stream/firmware/target_list.py): CFAR on the range-Doppler map of the active chirps at the

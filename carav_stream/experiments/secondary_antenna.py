@@ -28,7 +28,7 @@ import numpy as np
 from carav_stream.console.options import count, number, output_file
 from carav_stream.core.units import KMH
 from carav_stream.detect.detector import detect
-from carav_stream.estimate import Geometry, estimate
+from carav_stream.estimate import METHODS, Geometry, estimate
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
@@ -49,7 +49,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="attacked cycles per power level (and clean cycles)")
     parser.add_argument("--attacker", choices=("secondary_antenna", "ghost", "both"), default="both")
     parser.add_argument("--eta", type=number(0.0, strict=True), default=1.5, help="detector threshold")
-    parser.add_argument("--method", default="music", help="range estimator (carav_stream.estimate METHODS)")
+    parser.add_argument("--method", default="music", choices=METHODS, help="range estimator")
     parser.add_argument("--antenna-range", type=number(0.0, strict=True), default=30.0,
                         help="secondary antenna distance [m]")
     parser.add_argument("--ghost-range", type=number(0.0, strict=True), default=45.0,

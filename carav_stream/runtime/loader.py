@@ -5,7 +5,7 @@
     seed = 7                          # any other top-level value is a graph-wide parameter, given to every
     scene = "table1"                  # block that declares a parameter of that name and does not set it
     block_paths = ["./my_blocks"]     # extra folders of block files, relative to the graph file
-    template = ["source.path"]        # optional: parameters left for whoever runs the graph (validate.py)
+    template = ["source.path"]        # optional: parameters left for whoever runs the graph (validate/)
     connections = ["source.out -> sink.in", ...]
 
     [blocks]
