@@ -6,7 +6,9 @@ from carav_stream.radar.attackers._base import Attacker
 
 
 class NoAttacker(Attacker):
-    """No attack: never switched on, so every batch is None (no signal to carry between nodes or add at the ADC)."""
+    """No attack: nothing on the air.
+
+    Never switched on, so every batch is None (no signal to carry between nodes or add at the ADC)."""
 
     kind = "none"
 
