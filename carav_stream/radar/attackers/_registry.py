@@ -8,6 +8,7 @@ import importlib
 import inspect
 import pkgutil
 from pathlib import Path
+from types import ModuleType
 
 from carav_stream.core.params import suggest
 from carav_stream.radar.attackers._base import Attacker, AttackerError
@@ -17,13 +18,13 @@ PACKAGE = __name__.rpartition(".")[0]
 FIRST = "none"
 
 
-def model_class(name: str) -> type[Attacker]:
-    """Import model file ``name`` of the package and return its one Attacker subclass (checked: one, concrete,
-    of kind ``name``, with a docstring for the listings)."""
-    module = importlib.import_module(f"{PACKAGE}.{name}")
+def model_class(module: ModuleType) -> type[Attacker]:
+    """The one Attacker subclass that model file ``module`` defines, checked: one, concrete, of kind the file's
+    name, with a docstring for the listings. Raises ImportError naming the file otherwise."""
+    name = module.__name__.rpartition(".")[2]
     found = [c for c in vars(module).values()
              if inspect.isclass(c) and issubclass(c, Attacker) and c.__module__ == module.__name__]
-    where = f"attacker model file {module.__file__}"
+    where = f"attacker model file {getattr(module, '__file__', None) or module.__name__}"
     if len(found) != 1:
         raise ImportError(f"{where}: defines {len(found)} Attacker subclasses "
                           f"({', '.join(c.__name__ for c in found) or 'none'}); a model file defines one")
@@ -41,7 +42,7 @@ def _models() -> dict[str, type[Attacker]]:
     names = sorted(m.name for m in pkgutil.iter_modules([str(Path(__file__).parent)])
                    if not m.name.startswith("_") and not m.ispkg)
     names.sort(key=lambda n: n != FIRST)
-    return {name: model_class(name) for name in names}
+    return {name: model_class(importlib.import_module(f"{PACKAGE}.{name}")) for name in names}
 
 
 KINDS: dict[str, type[Attacker]] = _models()
