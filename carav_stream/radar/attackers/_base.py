@@ -39,7 +39,7 @@ class Observation:
     """What an attacker can physically observe of the victim: the on-air emission.
 
     Attackers must only use row i of ``emission`` when emitting for cycles after cycle0 + i (they
-    listen to a cycle, then act on later ones); the reactive repeater may use the current row, but
+    listen to a cycle, then act on later ones); a LiveChirpAttacker may use the current row, but
     only through a reaction latency (its output in a chirp starts L after that chirp reached it).
     The activation sequence itself is never given to an attacker.
     """
@@ -49,6 +49,7 @@ class Observation:
 
 
 def rarms_param(default: float = 3.0) -> Param:
+    """The ``rarms`` parameter the models at a per-sample RMS take, with its meaning and range."""
     return Param("rarms", float, default, "attack RMS over noise RMS, sigma_a / sigma_n, while on", low=0.0)
 
 
