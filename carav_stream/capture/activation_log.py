@@ -53,9 +53,13 @@ def write_log(path: str | Path, cycles: Sequence[int], rho: np.ndarray) -> None:
         fh.write(f"{body}{CHECKSUM}{hashlib.sha256(body.encode()).hexdigest()}\n")
 
 
-def _checked_body(path: Path, text: str) -> str:
-    """The log's text without its checksum line, after checking it (v2); v1 and hand-written logs as they are."""
+def _checked_body(path: Path, text: str, required: bool) -> str:
+    """The log's text without its checksum line, after checking it (v2); v1 and hand-written logs as they are,
+    unless `required` (a recording written with a checksummed log)."""
     if not text.startswith(MAGIC):
+        if required:
+            raise ActivationLogError(f"{path}: activation log is not the checksummed log its recording was written "
+                                     f"with (its first line should be '{MAGIC}...')")
         return text
     body, _, last = text.rstrip("\n").rpartition("\n")
     if not last.startswith(CHECKSUM):
@@ -68,8 +72,9 @@ def _checked_body(path: Path, text: str) -> str:
     return body
 
 
-def read_log(path: str | Path, n_chirps: int) -> tuple[np.ndarray, np.ndarray]:
-    """(cycles int64 (n,), rho bool (n, n_chirps)) from a log; ActivationLogError naming the file and line."""
+def read_log(path: str | Path, n_chirps: int, require_checksum: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(cycles int64 (n,), rho bool (n, n_chirps)) from a log; ActivationLogError naming the file and line.
+    require_checksum  refuse a log without its checksum line (what carav's recordings are written with)."""
     path = Path(path)
     try:
         with open(path, "rb") as fh:
@@ -85,7 +90,7 @@ def read_log(path: str | Path, n_chirps: int) -> tuple[np.ndarray, np.ndarray]:
     except (OSError, UnicodeDecodeError) as exc:
         raise ActivationLogError(f"{path}: activation log cannot be read: {exc}") from None
     cycles, rows = [], []
-    for number, line in enumerate(_checked_body(path, text).splitlines(), 1):
+    for number, line in enumerate(_checked_body(path, text, require_checksum).splitlines(), 1):
         line = line.strip()
         if not line or line.startswith("#"):
             continue
