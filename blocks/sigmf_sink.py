@@ -151,6 +151,7 @@ class SigmfSink(Block):
         self.without_rho = len(self.order) - len(known)
         preset = self.scene in preset_names()
         extra = {"cycles": len(self.order), "batch": self.batch, "activation_log": log_path(self.base).name,
+                 "activation_log_checksum": "sha256",
                  "scene": scene.name if preset else Path(self.scene).name,
                  "graph": json.loads(self.graph) if self.graph else {}}
         if self.seed != NO_SEED:

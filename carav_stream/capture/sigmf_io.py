@@ -18,6 +18,7 @@ no such numbers. Every float is written with Python's shortest round-trip repr, 
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -93,7 +94,10 @@ def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[s
             "annotations": annotations}
     if sha512 is not None:
         glob["core:sha512"] = sha512
-    rec = SigMFFile(metadata=meta, data_file=str(base) + ".sigmf-data", skip_checksum=sha512 is not None)
+    data_file = Path(str(base) + ".sigmf-data")
+    # sigmf maps the data file to check its size: an empty one (a recorder that received no frame) cannot be mapped
+    rec = SigMFFile(metadata=meta, data_file=str(data_file) if data_file.stat().st_size else None,
+                    skip_checksum=sha512 is not None)
     rec.tofile(str(base), overwrite=True)                                    # validates against the schema
     return Path(str(base) + ".sigmf-meta")
 
@@ -156,6 +160,17 @@ def _carav_globals(meta_path: Path, glob: dict) -> None:
                              f"parameters), got {nodes!r:.60}")
 
 
+def _check_layout(meta_path: Path, meta: Any) -> None:
+    """SigMF's top level: a table whose global is a table and whose captures and annotations are lists (what the
+    sigmf library assumes before its schema check runs)."""
+    if type(meta) is not dict:
+        raise RecordingError(f"{meta_path}: not valid SigMF: metadata: expected a table, got {type(meta).__name__}")
+    for key, kind in (("global", dict), ("captures", list), ("annotations", list)):
+        if key in meta and type(meta[key]) is not kind:
+            raise RecordingError(f"{meta_path}: not valid SigMF: {key}: expected a "
+                                 f"{'table' if kind is dict else 'list'}, got {type(meta[key]).__name__}")
+
+
 def _read_meta(meta_path: Path) -> tuple[dict[str, Any], Any]:
     """The metadata of a recording as JSON and as a sigmf.SigMFFile, validated against SigMF's schema."""
     import sigmf
@@ -164,6 +179,7 @@ def _read_meta(meta_path: Path) -> tuple[dict[str, Any], Any]:
 
     try:
         meta = json.loads(meta_path.read_text())
+        _check_layout(meta_path, meta)
         rec = sigmf.SigMFFile(metadata=meta)
         rec.validate()
     except (OSError, UnicodeDecodeError, ValueError) as exc:
@@ -202,16 +218,21 @@ def _cycles(meta_path: Path, data_path: Path, annotations: list, datatype: str, 
 def _verify_hash(rec: Any, data_path: Path) -> None:
     from sigmf.error import SigMFError
 
+    if data_path.stat().st_size == 0:      # a recording of no cycle: sigmf cannot map an empty file
+        if rec.get_global_field("core:sha512") != hashlib.sha512(b"").hexdigest():
+            raise RecordingError(f"{data_path}: empty, but global core:sha512 is not the hash of no data")
+        return
     try:
         rec.set_data_file(str(data_path))   # recomputes the sha512 and compares it with core:sha512
     except SigMFError as exc:
         raise RecordingError(f"{data_path}: {exc} (global core:sha512)") from None
 
 
-def _activation(log: Path, cycles: np.ndarray, n_chirps: int, meta_path: Path) -> np.ndarray:
-    """rho of every recorded cycle from the private log, which must list the recording's cycles, row by row."""
+def _activation(log: Path, cycles: np.ndarray, n_chirps: int, meta_path: Path, checksum: bool) -> np.ndarray:
+    """rho of every recorded cycle from the private log, which must list the recording's cycles, row by row (and
+    carry its checksum when the recording says it was written with one)."""
     try:
-        log_cycles, rho = read_log(log, n_chirps)
+        log_cycles, rho = read_log(log, n_chirps, require_checksum=checksum)
     except ActivationLogError as exc:
         raise RecordingError(str(exc)) from None
     if len(log_cycles) < len(cycles):
@@ -267,7 +288,9 @@ def open_recording(path: str | Path, activation: str | Path | None = None, *, wi
         if not out.scene_file.is_file():
             raise RecordingError(f"{meta_path}: global {NS}:scene_file: {out.scene_file} not found")
     if with_log:
-        out.rho = _activation(Path(activation) if activation else log_path(base), out.cycles, n_chirps, meta_path)
+        checksum = glob.get(f"{NS}:activation_log_checksum") == "sha256"
+        out.rho = _activation(Path(activation) if activation else log_path(base), out.cycles, n_chirps, meta_path,
+                              checksum)
     return out
 
 

@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 
 import numpy as np
 
+from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, float_list, number, output_file
 from carav_stream.detect.opt_in import cusum_threshold, spectral_threshold
@@ -209,5 +209,5 @@ def run(args: argparse.Namespace) -> int:
                     args.ghost_trials)
     _print(result)
     if args.json:
-        args.json.write_text(json.dumps(result, indent=1))
+        jsonout.write(args.json, result, indent=1)
     return 0

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import difflib
-import json
 import os
 import sys
 import tempfile
@@ -19,6 +18,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, output_file, output_folder
 from carav_stream.experiments import doc_outputs
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     text, data = render(args, fig_dir, Path(os.path.relpath(fig_dir, out.parent)).as_posix())
     out.write_text(text)
     if args.json:
-        Path(args.json).write_text(json.dumps(data, indent=1, default=float))
+        jsonout.write(args.json, data, indent=1)
     print(f"wrote {out} and {fig_dir}/repro_*.png in {time.perf_counter() - t0:.0f} s")
     if args.in_place:
         changed = doc_outputs.regenerate(Path("."), log=lambda m: log(args, f"regenerating {m}"))

@@ -89,13 +89,14 @@ def run(args: argparse.Namespace) -> int:
     doc = {"study": str(args.study), "description": study.description, "seed": study.seed, "trials": study.trials,
            "eta": study.eta_text, "groups": groups}
     (out / "study.json").write_text(json.dumps(doc, indent=1))
-    if args.plot:
-        for grp in groups:
-            plot_curves(grp["result"], str(out / f"{grp['scene']}_{grp['detector']}.png"),
-                        title=f"{grp['scene']} ({study.path.stem})")
+    plots = [out / f"{grp['scene']}_{grp['detector']}.png" for grp in groups] if args.plot else []
+    for grp, png in zip(groups, plots):
+        plot_curves(grp["result"], str(png), title=f"{grp['scene']} ({study.path.stem})")
     cycles = len(rows) * study.trials
     print(f"{len(rows)} points, {cycles} cycles, {time.perf_counter() - t0:.1f} s: {out / 'study.csv'}, "
           f"{out / 'study.json'}")
+    for png in plots:
+        print(f"plot: {png} (PF and PM against eta on a log axis, the ROC beneath)")
     for r in rows:
         print(f"  {r['scene']:<10} {r['detector']:<10} {r['attack']:<8} RARMS {r['rarms']:<5g} "
               f"{r['measure']} {r['count']}/{r['trials']} at eta {r['reference_eta']:g} "

@@ -10,12 +10,12 @@ laws where the scene allows it and simulates every sample otherwise.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 
 import numpy as np
 
+from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, float_list, number, output_file
 from carav_stream.console.progress import ProgressBar
@@ -232,8 +232,8 @@ def run(args: argparse.Namespace) -> int:
     result["elapsed_s"] = time.perf_counter() - t0
     result["command"] = " ".join(sys.argv)
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(result, fh, indent=1)
+        jsonout.write(args.json, result, indent=1)
     if args.plot:
         plot_curves(result, args.plot)
+        print(f"plot: {args.plot} (PF and PM against eta on a log axis, the ROC beneath)")
     return 0

@@ -78,7 +78,7 @@ def paper_figures(args, fig_dir: Path, data: dict) -> list[str]:
         res = sweep(src, attacks=[attack], rarms=RARMS, n_trials=args.trials, eta=eta, seed=args.seed,
                     method="samples", progress=bar)
         png = fig_dir / f"repro_fig{fig}_{name}_{attack}.png"
-        plot_curves(res, str(png), title=f"{name} (ours, Fig. {fig})")
+        plot_curves(res, str(png), title=f"{name} (ours, Fig. {fig})", scale="linear")   # as the paper draws them
         tpl = echo_templates(scene, "beat").main_sum
         snr = float(np.mean(np.abs(tpl.astype(np.float64)) ** 2) / scene.sigma_n ** 2)
         dof = scene.n_samples * (2 if scene.iq else 1)

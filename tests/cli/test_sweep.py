@@ -32,7 +32,8 @@ def test_sweep_cli_writes_json_curves_thresholds_and_plot(tmp_path, capsys):
     assert len(c["pf_ci"]) == len(c["eta"]) == 23 and len(c["pm_ci"][0]) == 2
     assert set(res["thresholds"]) == {"minimax", "cfar", "min_sum"}
     assert png.stat().st_size > 10_000
-    assert "minimax" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "minimax" in printed and f"plot: {png} (PF and PM against eta on a log axis, the ROC beneath)" in printed
 
 
 @pytest.mark.slow
