@@ -40,8 +40,8 @@ class RmsDetector(Block):
     def param_warnings(self) -> list[str]:
         """eta is not universal: its false-alarm rate per cycle depends on the scene (firmware/design.py), and a
         scene's echo can leak into the silent slots (firmware/leak.py). Imported here, where graphs are validated:
-        their scipy.stats and scipy.optimize would add about 0.8 s of CPU to every start of the node, which never
-        needs them."""
+        their scipy.stats and scipy.optimize would add their import to every start of the node, which never needs
+        them."""
         from carav_stream.firmware.design import scene_law, threshold_warning
         from carav_stream.firmware.leak import leak_warnings
 
