@@ -17,7 +17,7 @@ Graph   detector = { type = "rms_detector", eta = 1.5 }
 """
 import numpy as np
 
-from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
+from carav_stream.detect.detector import PAPER_ETA, adc_chirp_rms, detect_from_rms
 from carav_stream.radar.adc import adc_step
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import SCENE, scene_of
@@ -28,7 +28,7 @@ class RmsDetector(Block):
     inputs = (In("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64")),
               In("rho", kind="rho", dtypes=("bool",)))
     outputs = (Out("verdict", kind="verdict", dtypes=("bool",)),)
-    params = (Param("eta", float, 1.5, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
+    params = (Param("eta", float, PAPER_ETA, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
               Param("sigma_n", float, 0.0, "noise RMS per sample; 0 = from the scene", low=0.0),
               SCENE)
 

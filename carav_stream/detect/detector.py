@@ -37,7 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Detection", "adc_chirp_rms", "chirp_rms", "chirp_rms_codes", "detect", "detect_from_rms",
-           "estimate_sigma_n", "check_rho", "SUPPORTED_DTYPES"]
+           "estimate_sigma_n", "check_rho", "PAPER_ETA", "SUPPORTED_DTYPES"]
+
+PAPER_ETA = 1.5     # the paper's threshold of C(eta) = Q / eta: the detector's default, the tables' reference
 
 SUPPORTED_DTYPES = (np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.complex64), np.dtype(np.complex128))
 
@@ -277,7 +279,7 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     return out
 
 
-def detect_from_rms(rms, rho, sigma_n, eta: float = 1.5) -> Detection:
+def detect_from_rms(rms, rho, sigma_n, eta: float = PAPER_ETA) -> Detection:
     """CARAV detector from per-chirp RMS values (what `detect` computes after `chirp_rms`).
 
     rms      float (n_chirps,) or (n_cycles, n_chirps), >= 0 or NaN (invalid chirp)
@@ -318,7 +320,7 @@ def detect_from_rms(rms, rho, sigma_n, eta: float = 1.5) -> Detection:
     return Detection(r2, d0, d1, d, rbar, q, c, alarm, invalid, k_max, by_d1, e)
 
 
-def detect(frames, rho, sigma_n, eta: float = 1.5) -> Detection:
+def detect(frames, rho, sigma_n, eta: float = PAPER_ETA) -> Detection:
     """CARAV detector C(eta) on raw ADC frames (Algorithm 1, steps 3-5).
 
     frames   float32 | float64 | complex64 | complex128, (n_chirps, n_samples) for one cycle or
