@@ -12,7 +12,6 @@ Ports   in  frames    ADC frames of the cycles: int16 codes (the scene's lsb mak
                       whose rho never comes get alarm verdicts (reason "no_rho"), never clean ones; a cycle whose
                       rho is not balanced (half its chirps active) or whose ADC reported NaN/Inf input samples
                       (per_cycle nonfinite) gets an invalid verdict
-Params  eta (float, 1.5): threshold; sigma_n (float, 0 = the scene's noise RMS); scene (lsb, noise RMS)
 Graph   detector = { type = "rms_detector", eta = 1.5 }
 """
 import numpy as np

@@ -25,7 +25,6 @@ they cover (`figures_cover`: the first and last cycle counted, the restarts, and
 
 Ports   in  estimates   range_estimator records          (merged in arrival order with alarms)
         in  alarms      gate alarm records
-Params  scene (graph-wide): truth for the errors; every_s (float, 0): print a line every so many seconds
 Graph   summary = { type = "run_summary" }
 """
 import math
