@@ -2,9 +2,9 @@
 
 Why by hand: ``Generator.standard_normal(dtype=np.float32)`` is a ziggurat with a branch per sample, which does
 not vectorise; Box-Muller on the generator's raw 64-bit words is vector math throughout, and costs a small multiple
-of that vector math alone on AVX-512 and AVX2 machines alike. The same steps compiled in one loop with numba are
-slower on both (the C library's log, cos and sin one value at a time). Measured: docs/bench/synth.md (the noise
-stage against its bound), docs/bench/compiled.md (against numba).
+of that vector math alone. The same steps compiled in one loop with numba are slower, on AVX-512 and AVX2 code
+alike (the C library's log, cos and sin one value at a time). Measured: docs/bench/synth.md (the noise stage
+against its bound), docs/bench/compiled.md (against numba).
 
 A row of n samples takes h = ceil(n / 2) consecutive 64-bit words, read as 2h 32-bit integers (little
 endian: word j gives integers 2j and 2j + 1). Pair j (j < h) takes u = integer j, as u1 = (u + 1/2) 2^-32
