@@ -14,8 +14,6 @@ file before the next frame is taken.
 
 Ports   in  estimates   any    frames to record (main stream), written with port "estimates"
         in  alarms      any    optional second stream, written with port "alarms"
-Params  path (str, required): output file, created or truncated when the run starts; "-" for standard output
-        columns (list, see above): the columns after "cycle" and "port"
 Graph   csv = { type = "csv_sink", path = "cycles.csv" }
 """
 import csv

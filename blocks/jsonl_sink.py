@@ -2,13 +2,13 @@
 
     line = {"port": input port, **header, "data": payload as a list if it has at most `max_values` values}
 
+A larger payload is left out: the line holds its header only.
+
 A restarted sink (or one swapped in) appends to the file: only the sink a run starts with creates or truncates
 it, so a restart never erases what was written (each line is written whole as it comes: line buffering).
 
 Ports   in  inp      any    frames to record (main stream)
         in  extra    any    optional second stream (e.g. alarms), recorded with "port": "extra"
-Params  path (str, required): output file, created or truncated when the run starts; "-" for standard output
-        max_values (int, 16): payloads up to this size are written as lists, larger ones only as dtype/shape
 Graph   log = { type = "jsonl_sink", path = "run.jsonl" }
 """
 import json

@@ -18,8 +18,6 @@ Ports   in  frames     ADC frames (int16 codes, or float32 | complex64 samples o
         in  verdict    the detector's verdicts (optional)           (inputs merged in arrival order,
         in  estimates  the range estimator's records (optional)      matched by cycle index)
         in  alarms     the gate's refusals (optional)
-Params  path (str, required): base name of the recording (BASE.sigmf-meta, ...); scene, seed, batch (graph-wide,
-        for the metadata); graph (str): the recorded graph as JSON, for the metadata
 Graph   recorder = { type = "sigmf_sink", path = "rec/recording" }
 """
 import hashlib

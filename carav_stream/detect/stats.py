@@ -47,7 +47,7 @@ def clopper_pearson(k, n, confidence: float = 0.95) -> tuple[np.ndarray, np.ndar
 @lru_cache(maxsize=256)
 def rms_moments(nu: int, nonc: float, t: float = 1.0) -> tuple[float, float]:
     """Mean and variance of ||R||_r / sigma_n for ||R||_r^2 / sigma_n^2 = t ncx2(nu, nonc) / nu (cached: a threshold
-    search asks the same moments at every eta, 40 ms each by quadrature)."""
+    search asks the same moments at every eta, each one a quadrature)."""
     scale = np.sqrt(t / nu)
     if nonc == 0:
         mean1 = np.sqrt(2.0) * np.exp(special.gammaln((nu + 1) / 2) - special.gammaln(nu / 2))

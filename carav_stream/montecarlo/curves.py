@@ -12,12 +12,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from carav_stream.detect.detector import PAPER_ETA
+
 __all__ = ["draw_curves", "plot_curves", "reference_eta"]
 
 
 def reference_eta(detector: str) -> float:
-    """The threshold a table reports at: the paper's 1.5 for C(eta), the PF = 1e-6 design (1) for opt-in ones."""
-    return 1.5 if detector == "carav" else 1.0
+    """The threshold a table reports at: the paper's (PAPER_ETA) for C(eta), the PF = 1e-6 design (1) for opt-in
+    ones."""
+    return PAPER_ETA if detector == "carav" else 1.0
 
 
 def _floor(result: dict, curves: list[dict]) -> float:
@@ -59,7 +62,7 @@ def _pf_pm_panel(ax, result, curves, detector, attack, scale, title, colors):
             lo, hi = np.asarray(c["pm_ci"]).T
             ax.fill_between(eta, lo, hi, color=col, alpha=0.15, lw=0)
         ax.set_ylim(-0.02, 1.02)
-    ax.axvline(ref, color="r", ls="--", lw=1, label=r"$\eta$ = 1.5" if detector == "carav" else "PF = 1e-6 design")
+    ax.axvline(ref, color="r", ls="--", lw=1, label=rf"$\eta$ = {PAPER_ETA:g}" if detector == "carav" else "PF = 1e-6 design")
     ax.set_xlabel(r"threshold $\eta$" if detector == "carav" else f"{detector} threshold / its PF = 1e-6 value")
     ax.set_ylabel("probability")
     label = "" if detector == "carav" else f" ({detector} test)"

@@ -16,6 +16,7 @@ from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.progress import ProgressBar
 from carav_stream.core.params import REQUIRED, Param, problems, resolved
 from carav_stream.detect.stats import clopper_pearson
+from carav_stream.montecarlo.curves import reference_eta
 from carav_stream.montecarlo.detectors import DETECTORS
 from carav_stream.montecarlo.engine import QDraw, assemble, batch_plan, batches_independent, draw_batch, eta_grid
 from carav_stream.montecarlo.sources import source_from_spec
@@ -378,9 +379,6 @@ def execute(study: Study, out: Path, *, workers: int | None = None, scheduler: s
     return draws
 
 
-REFERENCE_ETA = {"carav": 1.5}        # opt-in detectors: 1.0, their PF = 1e-6 threshold
-
-
 def results(study: Study, draws: dict) -> tuple[list[dict], list[dict]]:
     """(JSON result per group, as `carav sweep --json` writes it; CSV rows, one per point)."""
     groups, rows = [], []
@@ -393,7 +391,7 @@ def results(study: Study, draws: dict) -> tuple[list[dict], list[dict]]:
         res = assemble(source, qd, pairs=study.pairs, n_trials=study.trials, eta=study.eta, seed=study.seed,
                        target_pf=study.target_pf, design_rarms=study.design_rarms, detector=group.detector)
         groups.append({"scene": group.label, "detector": group.detector, "spec": group.spec, "result": res})
-        ref = study.reference_eta or REFERENCE_ETA.get(group.detector, 1.0)
+        ref = study.reference_eta or reference_eta(group.detector)
         for (attack, r), d in qd.items():
             k = int(np.sum(d.q >= ref)) if attack == "none" else int(np.sum(d.q < ref))
             lo, hi = clopper_pearson(k, study.trials, 0.95)
