@@ -62,7 +62,8 @@ def _pf_pm_panel(ax, result, curves, detector, attack, scale, title, colors):
             lo, hi = np.asarray(c["pm_ci"]).T
             ax.fill_between(eta, lo, hi, color=col, alpha=0.15, lw=0)
         ax.set_ylim(-0.02, 1.02)
-    ax.axvline(ref, color="r", ls="--", lw=1, label=rf"$\eta$ = {PAPER_ETA:g}" if detector == "carav" else "PF = 1e-6 design")
+    ax.axvline(ref, color="r", ls="--", lw=1,
+               label=rf"$\eta$ = {PAPER_ETA:g}" if detector == "carav" else "PF = 1e-6 design")
     ax.set_xlabel(r"threshold $\eta$" if detector == "carav" else f"{detector} threshold / its PF = 1e-6 value")
     ax.set_ylabel("probability")
     label = "" if detector == "carav" else f" ({detector} test)"
