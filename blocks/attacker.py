@@ -68,6 +68,7 @@ __doc__ += _models_doc()
 class AttackerBlock(Block):
     inputs = (In("air", kind="air", dtypes=("bool",), doc="past cycles' on-air emission"),)
     outputs = (Out("attack", kind="attack", dtypes=("float32", "complex64", "none"), doc="attack signal"),)
+    variant = "model"           # another model starts from its own defaults (runtime/loader.py)
     params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)), SCENE, SEED, FIDELITY,
               *MODEL_PARAMS)
 

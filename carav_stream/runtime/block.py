@@ -89,6 +89,9 @@ class Block:
     # Why a restarted process of this block would leave its output wrong (say, a file whose end it writes from
     # what it held in memory); when set, the graph validator refuses any restart policy but "never" for it.
     not_restartable: ClassVar[str] = ""
+    # The parameter that selects a variant whose other parameters depend on it (the attacker's `model`): a graph
+    # that includes this node, or a --set, and changes it starts from the new variant's defaults (loader.py).
+    variant: ClassVar[str | None] = None
     cycle_budget: int | None = None   # sources: set by the runtime before each generate()
     # (incarnation, generation), set by the runtime before start(): (0, 0) for the block a run starts with; a
     # restarted process counts incarnations, a block swapped in counts generations. A block drawing from a

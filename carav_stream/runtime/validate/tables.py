@@ -178,6 +178,38 @@ def apply_overrides(nodes: dict[str, Node], graph_params: dict[str, Any], overri
             nodes[node].params[param] = parse_value(value.strip())
 
 
+def restart_variants(nodes: dict[str, Node], classes: dict[str, type[Block]], source: Source,
+                     from_file: dict[str, dict[str, Any]], overrides: list[str]) -> list[str]:
+    """A node whose variant (Block.variant: the attacker's `model`) an including graph or a `--set` changed starts
+    from the new variant's own defaults: the parameters it kept from below that change are dropped (the node's
+    `host` and `restart` stay). Returns what was dropped, in words."""
+    set_keys: dict[str, set[str]] = {}
+    for item in overrides:
+        node, dot, param = item.partition("=")[0].strip().partition(".")
+        if dot:
+            set_keys.setdefault(node, set()).add(param)
+    notes = []
+    for name, node in nodes.items():
+        variant = getattr(classes.get(name), "variant", None)
+        if not variant:
+            continue
+        if variant in set_keys.get(name, ()) and node.params.get(variant) != from_file[name].get(variant):
+            kept, below = set_keys[name], f"{source.files[0].name}"
+        elif name in source.bases and variant in source.restated[name] \
+                and source.bases[name].get(variant) != from_file[name].get(variant):
+            kept = source.restated[name] | set_keys.get(name, set())
+            below = ", ".join(p.name for p in source.files[1:])
+        else:
+            continue
+        dropped = sorted(k for k in node.params if k not in kept)
+        for k in dropped:
+            del node.params[k]
+        if dropped:
+            notes.append(f"blocks.{name}: {variant} {node.params.get(variant)!r} starts from its own defaults: "
+                         f"{', '.join(dropped)} of {below} not inherited")
+    return notes
+
+
 def resolve_files(source: Source, nodes: dict[str, Node], classes: dict[str, type[Block]],
                   graph_params: dict[str, Any], from_file: dict[str, dict[str, Any]],
                   graph_from_file: dict[str, Any]) -> None:
