@@ -25,8 +25,8 @@ def test_no_arguments_prints_the_help_with_the_exit_codes(capsys):
 
 
 @pytest.mark.parametrize("argv, code, text", [
-    (["run", DEMO, "--cycles", "-5"], Exit.INVALID, "demo.toml: run.cycles: must be >= 0, got -5"),
-    (["run", str(ROOT / "graphs")], Exit.INVALID, "graphs: is a folder, not a graph file"),
+    (["run", DEMO, "--cycles", "-5"], Exit.USAGE, "argument --cycles: must be >= 0, got -5"),
+    (["run", str(ROOT / "graphs")], Exit.USAGE, "graphs: is a folder, not a graph file"),
     (["run", DEMO, "--set", "detector.eta=nan"], Exit.INVALID, "blocks.detector.eta: must be a finite number, got nan"),
     (["run", DEMO, "--set", "batch=0"], Exit.INVALID, "batch: must be >= 1, got 0"),
     (["run", DEMO, "--blocks", "/nonexistent"], Exit.INVALID, "block folder '/nonexistent' does not exist"),
@@ -34,7 +34,7 @@ def test_no_arguments_prints_the_help_with_the_exit_codes(capsys):
     (["validate", DEMO, "--set", "attacker.rarms=-1"], Exit.INVALID, "blocks.attacker.rarms: must be >= 0, got -1"),
     (["run", DEMO, "--json", "/nonexistent/dir/out.json"], Exit.USAGE,
      "argument --json: /nonexistent/dir/out.json: folder '/nonexistent/dir' does not exist"),
-    (["run", DEMO, "--cycles", "x"], Exit.USAGE, "argument --cycles: invalid int value: 'x'"),
+    (["run", DEMO, "--cycles", "x"], Exit.USAGE, "argument --cycles: expected a whole number, got 'x'"),
     (["experiment", "secondary-antenna", "--trials", "0"], Exit.USAGE, "argument --trials: must be >= 1, got 0"),
     (["stop", "no-such-run"], Exit.USAGE, "carav stop: no running graph matches 'no-such-run'"),
     (["nosuchcommand"], Exit.USAGE, "invalid choice: 'nosuchcommand'"),
