@@ -53,7 +53,7 @@ EXPERIMENTS = {
     "secondary-antenna": ("carav_stream.experiments.secondary_antenna", "the paper's Figures 6 to 8"),
     "matlab-table1": ("carav_stream.cli.experiment.matlab_table1", "MATLAB's FMCWExample result beside our estimators"),
     "interference": ("carav_stream.cli.experiment.interference", "another car's FMCW radar: false alarms by detector"),
-    "cfar": ("carav_stream.experiments.cfar_experiment", "the radar's CFAR target detection against its design"),
+    "cfar": ("carav_stream.cli.experiment.cfar", "the radar's CFAR target detection against its design"),
     "clutter": ("carav_stream.cli.experiment.clutter", "several targets and clutter: false alarms, the target list"),
     "latency": ("carav_stream.cli.experiment.latency", "spill test: PF over echo power, PM over repeater latency"),
     "near-echoes": ("carav_stream.cli.experiment.near_echoes", "a near car's echo against every detector, attack-free"),
