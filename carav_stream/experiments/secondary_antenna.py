@@ -33,7 +33,7 @@ from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["experiment", "json_ready", "plot", "POWER_RARMS", "simulate_level"]
+__all__ = ["experiment", "json_ready", "plot", "POWER_RARMS", "TRUE_RANGE_M", "simulate_level"]
 
 POWER_RARMS = {"low": 0.3, "medium": 1.05, "high": 3.0}
 
