@@ -51,16 +51,16 @@ COMMANDS = {
     "design": ("carav_stream.cli.design", "detector thresholds of a scene for a target false-alarm rate"),
     "new": ("carav_stream.cli.new", "a new block to start from, its test (with the test kit) and a graph wiring it"),
 }
-EXPERIMENTS = {
-    "secondary-antenna": ("carav_stream.experiments.secondary_antenna", "the paper's Figures 6 to 8"),
-    "matlab-table1": ("carav_stream.experiments.matlab_table1", "MATLAB's FMCWExample result beside our estimators"),
-    "interference": ("carav_stream.experiments.interference", "another car's FMCW radar: false alarms by detector"),
-    "cfar": ("carav_stream.experiments.cfar_experiment", "the radar's CFAR target detection against its design"),
-    "clutter": ("carav_stream.experiments.clutter", "several targets and clutter: false alarms, the target list"),
-    "latency": ("carav_stream.experiments.latency", "spill test: PF over echo power, PM over repeater latency"),
-    "near-echoes": ("carav_stream.experiments.near_echoes", "a near car's echo against every detector, attack-free"),
-    "blind-zones": ("carav_stream.experiments.blind_zones", "what each detector misses of the weak attacks, per scene"),
-}
+EXPERIMENTS = {name: (f"carav_stream.cli.experiment.{name.replace('-', '_')}", text) for name, text in {
+    "secondary-antenna": "the paper's Figures 6 to 8",
+    "matlab-table1": "MATLAB's FMCWExample result beside our estimators",
+    "interference": "another car's FMCW radar: false alarms by detector",
+    "cfar": "the radar's CFAR target detection against its design",
+    "clutter": "several targets and clutter: false alarms, the target list",
+    "latency": "spill test: PF over echo power, PM over repeater latency",
+    "near-echoes": "a near car's echo against every detector, attack-free",
+    "blind-zones": "what each detector misses of the weak attacks, per scene",
+}.items()}   # each in cli/experiment/, its engine in carav_stream/experiments/
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 
 

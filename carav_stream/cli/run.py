@@ -13,6 +13,7 @@ from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
 from carav_stream.runtime.loader import load_graph
+from carav_stream.runtime.rundir import RunRootError
 from carav_stream.runtime.supervisor import Supervisor
 from carav_stream.view.server import free_port, new_token, page_url
 
@@ -85,7 +86,10 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     for w in graph.warnings:
         print(f"carav {command}: warning: {w}", file=sys.stderr)
-    sup = Supervisor(graph, host=args.host, progress=args.progress)
+    try:
+        sup = Supervisor(graph, host=args.host, progress=args.progress)
+    except RunRootError as exc:           # the run folder is not the user's own: nothing started
+        raise CommandError(str(exc), Exit.FAILED) from None
     summary = with_radar_time(sup.run())
     print_summary(summary)
     if args.json:

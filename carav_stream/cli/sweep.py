@@ -24,7 +24,8 @@ from carav_stream.montecarlo.curves import plot_curves, reference_eta
 from carav_stream.montecarlo.detectors import DETECTORS
 from carav_stream.montecarlo.engine import eta_grid, sweep
 from carav_stream.montecarlo.sources import source_from_spec
-from carav_stream.montecarlo.study import Group, Study, execute, results
+from carav_stream.montecarlo.study import execute, results
+from carav_stream.montecarlo.study_file import Group, Study
 from carav_stream.radar.synth import FIDELITIES
 
 __all__ = ["configure", "run", "build_source", "sweep_spec"]
@@ -170,8 +171,8 @@ def _on_dask(args, source, attacks, rarms, eta, detectors) -> list[dict]:
                   [Group(source.name, d, spec) for d in detectors], [(a, float(r)) for a in attacks for r in rarms])
     try:
         with tempfile.TemporaryDirectory(prefix="carav-sweep-") as folder:
-            draws = execute(study, Path(folder), scheduler=args.scheduler, progress=ProgressBar.wanted(args.quiet),
-                            log=lambda text: None)
+            bar = ProgressBar(f"study {study.path.stem}") if ProgressBar.wanted(args.quiet) else None
+            draws = execute(study, Path(folder), scheduler=args.scheduler, progress=bar)
         return [g["result"] for g in results(study, draws)[0]]
     except ValueError as exc:              # a detector the source or method cannot serve
         raise CommandError(f"--detector: {exc}", Exit.USAGE) from None

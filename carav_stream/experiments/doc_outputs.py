@@ -26,7 +26,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from carav_stream.console.errors import CommandError
+from carav_stream.experiments.errors import ExperimentError
 
 __all__ = ["Quote", "quotes", "all_quotes", "output", "regenerate", "stale", "DOCUMENTS"]
 
@@ -65,7 +65,7 @@ def all_quotes(root: Path) -> list[Quote]:
 
 def output(q: Quote, root: Path, scratch: Path | None) -> str:
     """What `q`'s command prints now, run from `root`; with `scratch` (a folder), the files it would write go there
-    instead of where the command names them."""
+    instead of where the command names them. ExperimentError, naming the document and the command, if it fails."""
     argv = shlex.split(q.command)[1:]
     if scratch is not None:          # a check writes nothing in the tree
         argv = [str(scratch / Path(argv[i]).name) if i and argv[i - 1] in WRITES else a for i, a in enumerate(argv)]
@@ -74,10 +74,10 @@ def output(q: Quote, root: Path, scratch: Path | None) -> str:
         done = subprocess.run([sys.executable, "-m", "carav_stream.cli", *argv], cwd=root, capture_output=True,
                               text=True, timeout=1800, env={**os.environ, "COLUMNS": "120"})
     except subprocess.TimeoutExpired:
-        raise CommandError(f"{where} did not finish in 30 min") from None
+        raise ExperimentError(f"{where} did not finish in 30 min") from None
     if done.returncode:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
-        raise CommandError(f"{where} failed (exit {done.returncode}): {last}")
+        raise ExperimentError(f"{where} failed (exit {done.returncode}): {last}")
     return done.stdout
 
 

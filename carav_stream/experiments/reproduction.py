@@ -6,14 +6,12 @@ simulation only).
 """
 from __future__ import annotations
 
-import argparse
 import functools
 from pathlib import Path
 
 import numpy as np
 from scipy import optimize
 
-from carav_stream.console.progress import ProgressBar
 from carav_stream.detect.stats import pf_pm_closed_form
 from carav_stream.experiments.beyond_paper import (
     ATTACKER_NOTES,
@@ -26,7 +24,7 @@ from carav_stream.experiments.beyond_paper import (
     nuisance_table,
     reactive_and_ramp,
 )
-from carav_stream.experiments.reporting import radar_scene, radar_source, rate
+from carav_stream.experiments.reporting import Reproduction, radar_scene, radar_source, rate
 from carav_stream.montecarlo.curves import plot_curves
 from carav_stream.montecarlo.engine import eta_grid, sweep
 from carav_stream.radar.physics import echo_templates
@@ -67,14 +65,14 @@ def _separation_rarms(n_chirps: int, dof: int, snr: float) -> dict:
     return {"rarms_pm_1e-3_at_eta_1_5": r15, "rarms_pm_0.4_at_eta_1_5": r40, "rarms_separation_1e-3": r_sep}
 
 
-def paper_figures(args, fig_dir: Path, data: dict) -> list[str]:
+def paper_figures(args: Reproduction, fig_dir: Path, data: dict) -> list[str]:
     md = []
     eta = eta_grid(ETA)
     i15 = int(np.argmin(np.abs(eta - 1.5)))
     for fig, name, attack, caption in FIGS:
         scene = radar_scene(name)
         src = radar_source(scene)
-        bar = ProgressBar(f"fig {fig} {name} {attack}") if ProgressBar.wanted(args.quiet) else None
+        bar = args.progress(f"fig {fig} {name} {attack}") if args.progress is not None else None
         res = sweep(src, attacks=[attack], rarms=RARMS, n_trials=args.trials, eta=eta, seed=args.seed,
                     method="samples", progress=bar)
         png = fig_dir / f"repro_fig{fig}_{name}_{attack}.png"
@@ -242,9 +240,9 @@ the band's lower edge sits at about 1.1 (where attack-free D0 ends) and its uppe
 """
 
 
-def render(args: argparse.Namespace, fig_dir: Path, figure_link: str) -> tuple[str, dict]:
-    """The report's markdown (figures drawn into fig_dir, linked as figure_link/NAME) and every number as a dict."""
-    args.figure_link = figure_link
+def render(args: Reproduction, fig_dir: Path) -> tuple[str, dict]:
+    """The report's markdown (figures drawn into fig_dir, linked as args.figure_link/NAME) and every number as a
+    dict."""
     data: dict = {}
     body = ["## The paper's figures, reproduced", ""]
     body += paper_figures(args, fig_dir, data)

@@ -1,5 +1,6 @@
 """Bad input on the command line: one line naming the option, file or field, the documented exit code, and no
 work started (so nothing is lost or left behind). Exit codes: console.errors.Exit."""
+import os
 from pathlib import Path
 
 import pytest
@@ -115,3 +116,16 @@ def test_validate_passes_every_shipped_graph_and_names_what_a_template_leaves_op
     assert "a template" not in out.replace("replay.toml: ok (5 nodes, 7 connections; a template", "")
     assert carav(["run", str(ROOT / "graphs" / "replay.toml")]) == Exit.INVALID     # run, it needs its recording
     assert "give it with --set source.path=VALUE" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["status"], ["stop"], ["run", DEMO, "--cycles", "10"]])
+def test_a_run_folder_open_to_others_is_refused_in_one_line_before_anything_runs(capsys, tmp_path, monkeypatch,
+                                                                                   argv):
+    monkeypatch.setenv("CARAV_RUN_DIR", str(tmp_path))
+    root = tmp_path / f"carav-{os.getuid()}"
+    root.mkdir()
+    root.chmod(0o755)
+    assert carav(argv) == Exit.FAILED
+    err = error_of(capsys)
+    assert err.startswith(f"carav {argv[0]}: run folder {root} has mode 0755, not 0700") and err.count("\n") == 1
+    assert list(root.iterdir()) == []

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from carav_stream.console.errors import CommandError
 from carav_stream.experiments import doc_outputs
+from carav_stream.experiments.errors import ExperimentError
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.radar.scene_loader import load_scene
 
@@ -51,7 +51,7 @@ def test_a_quoted_command_that_fails_names_the_document_and_the_command(tmp_path
     (tmp_path / "docs").mkdir()
     (tmp_path / "docs" / "Y.md").write_text("<!-- output of: carav design --pf 7 -->\n```\n```\n"
                                             "<!-- end of output -->\n")
-    with pytest.raises(CommandError, match=r"docs/Y.md: `carav design --pf 7` failed \(exit 2\): .*--pf"):
+    with pytest.raises(ExperimentError, match=r"docs/Y.md: `carav design --pf 7` failed \(exit 2\): .*--pf"):
         doc_outputs.stale(tmp_path)
 
 
