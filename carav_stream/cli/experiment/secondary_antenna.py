@@ -11,11 +11,11 @@ import argparse
 
 import numpy as np
 
-from carav_stream.detect.detector import PAPER_ETA
-from carav_stream.estimate import METHODS
 from carav_stream.cli.experiment import write_json
 from carav_stream.console.errors import CommandError
 from carav_stream.console.options import count, number, output_file
+from carav_stream.detect.detector import PAPER_ETA
+from carav_stream.estimate import METHODS
 from carav_stream.experiments.errors import ExperimentError
 from carav_stream.experiments.secondary_antenna import TRUE_RANGE_M, experiment, json_ready, plot
 
