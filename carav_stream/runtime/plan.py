@@ -1,6 +1,6 @@
 """A run's plan: the NodeSpec of every node of a graph that runs on this host, with its endpoints and what its
-data plane gave its ports (runtime/planes/). The supervisor writes each spec to the run folder and starts a node
-on it.
+data plane gave its ports (runtime/planes/), and the highest seq each input can carry (input_bounds). The
+supervisor writes each spec to the run folder and starts a node on it.
 
 Endpoints: an edge between two nodes of one host is an ipc endpoint in the run folder, named after its input
 (`<node>.<port>`); an edge across hosts is a TCP port of the receiving host, counted up from its port_base in
