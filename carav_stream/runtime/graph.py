@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from carav_stream.runtime import planes
 from carav_stream.runtime.block import Block
 from carav_stream.runtime.registry import Registry
 
@@ -14,8 +15,10 @@ TOP_KEYS = {"include", "description", "connections", "remove_connections", "bloc
             "security", "block_paths", "template"}
 NODE_KEYS = {"type", "host", "restart"}
 RUN_DEFAULTS: dict[str, Any] = {"cycles": 0, "queue_frames": 8, "heartbeat_timeout_s": 15.0,
-                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": "zmq"}
-TRANSPORTS = ("zmq", "shm")   # data plane of same-host edges: arrays in ZeroMQ messages, or in shared memory
+                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": planes.DEFAULT}
+# the data planes of same-host edges a graph may name (runtime/planes/: arrays in ZeroMQ messages, in shared
+# memory, and those of CARAV_PLANE_PATH's folders when this module is first imported)
+TRANSPORTS = planes.names()
 RESTART_POLICIES = ("never", "on-failure")
 LOCAL_HOST = "local"
 

@@ -13,7 +13,8 @@
     sink   = { type = "jsonl_sink", path = "out.jsonl", restart = "on-failure", host = "b" }
 
     [run]      cycles, queue_frames, heartbeat_timeout_s, drain_timeout_s, ready_timeout_s,
-               transport = "zmq" | "shm" (same-host arrays in ZeroMQ messages or in shared memory: runtime/shm.py)
+               transport = "zmq" | "shm" | a plane of CARAV_PLANE_PATH (the data plane of same-host arrays: in
+               ZeroMQ messages, in shared memory, ...: runtime/planes/)
     [restart]  policy = "never" | "on-failure", max_restarts
     [hosts.b]  address = "127.0.0.1", bind = "127.0.0.1", port_base = 47000
     [security] curve_server_cert, curve_client_cert, curve_authorized   (ZeroMQ CURVE on tcp edges)
