@@ -15,12 +15,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 SCANNED = ("carav_stream", "blocks")
 
-# Files whose timing figures other branches are moving out; each entry must still hold one (the test says when an
-# entry is no longer needed). Empty this list once those branches are merged.
-OWNED_ELSEWHERE = (
-    "carav_stream/runtime/transport.py",
-)
-
 _NUM = r"\d+(?:\.\d+)?(?:e[-+]?\d+)?"
 _UNIT = r"(?:ns|us|µs|ms|s|seconds?|milliseconds?|microseconds?|nanoseconds?)"
 _SPAN = rf"{_NUM}\s*(?:(?:-|to)\s*{_NUM}\s*)?{_UNIT}\b"          # "0.4 ns", "2 to 5 us", "0.3-1 s"
@@ -80,16 +74,9 @@ def _modules() -> dict[str, Path]:
 
 
 def test_no_docstring_or_comment_states_a_timing_figure():
-    found = [f"{name}:{hit}" for name, path in _modules().items() if name not in OWNED_ELSEWHERE
-             for hit in timing_figures(path.read_text())]
+    found = [f"{name}:{hit}" for name, path in _modules().items() for hit in timing_figures(path.read_text())]
     assert found == [], ("measured run times belong in a benchmark record and its docs/bench page; say the reason "
                          "in words and name the page:\n" + "\n".join(found))
-
-
-def test_every_file_left_to_another_branch_still_needs_its_entry():
-    modules = _modules()
-    stale = [name for name in OWNED_ELSEWHERE if name not in modules or not timing_figures(modules[name].read_text())]
-    assert stale == [], f"no timing figure left in {stale}: remove them from OWNED_ELSEWHERE"
 
 
 @pytest.mark.parametrize("text", [
