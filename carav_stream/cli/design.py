@@ -31,6 +31,7 @@ import numpy as np
 from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, float_list, number, output_file
+from carav_stream.detect.detector import PAPER_ETA
 from carav_stream.detect.opt_in import cusum_threshold, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
@@ -43,7 +44,6 @@ from carav_stream.radar.scene_loader import load_scene
 
 __all__ = ["configure", "run", "design"]
 
-PAPER_ETA = 1.5
 GHOST_RANGE_M = 25.0
 GHOST_RARMS = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 3.0)
 

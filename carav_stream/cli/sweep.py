@@ -19,6 +19,7 @@ from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, float_list, number, output_file
 from carav_stream.console.progress import ProgressBar
+from carav_stream.detect.detector import PAPER_ETA
 from carav_stream.firmware.design import scene_law, threshold_warning
 from carav_stream.montecarlo.curves import plot_curves, reference_eta
 from carav_stream.montecarlo.detectors import DETECTORS
@@ -205,7 +206,7 @@ def run(args: argparse.Namespace) -> int:
     hint = "carav design " + (f"--scene {args.scene}" if args.scene else f"--preset {args.preset or 'table1'}")
     hint += "".join(f" --{k} {v}" for k, v in (("nr", args.nr), ("ns", args.ns)) if v is not None)
     hint += " --iq" if args.iq else ""
-    warning = threshold_warning(scene_law(source.scene), 1.5, source.sigma_n, who="the paper's", design_hint=hint)
+    warning = threshold_warning(scene_law(source.scene), PAPER_ETA, source.sigma_n, who="the paper's", design_hint=hint)
     if warning:
         print(f"carav sweep: warning: {warning}", file=sys.stderr)
     t0 = time.perf_counter()

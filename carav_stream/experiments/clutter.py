@@ -25,7 +25,7 @@ from collections.abc import Callable
 import numpy as np
 
 from carav_stream.detect import opt_in
-from carav_stream.detect.detector import detect
+from carav_stream.detect.detector import PAPER_ETA, detect
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.target_list import associate, gates, target_list
@@ -84,7 +84,7 @@ def _measure(scene, fidelity: str, n: int, rng, eta_design: float, max_speed: fl
         near = np.abs(r - car.range_m) <= r_gate
         if in_range and near.any():
             err.append(float(r[near][np.argmin(np.abs(r[near] - car.range_m))] - car.range_m))
-    return {"c_1_5": float(np.mean(q >= 1.5)), "c_design": float(np.mean(q >= eta_design)),
+    return {"c_1_5": float(np.mean(q >= PAPER_ETA)), "c_design": float(np.mean(q >= eta_design)),
             "spectral": float(opt_in.spectral_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.mean()),
             "integrated": float(opt_in.integrated_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.mean()),
             "coherent": float(opt_in.coherent_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.mean()),

@@ -16,13 +16,13 @@ point of view. Beside it, the `random` attacker at the same RARMS, which the det
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from carav_stream.core.units import KMH
 from carav_stream.detect import opt_in
-from carav_stream.detect.detector import detect
+from carav_stream.detect.detector import PAPER_ETA, detect
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.attackers import make_attacker
@@ -43,14 +43,14 @@ def _interferer(scene, slope_ratio: float, rarms: float, range_m: float, period_
 
 def _alarms(frames, rho, scene, eta_design) -> dict:
     q = detect(frames, rho, scene.sigma_n).q
-    return {"c_1_5": int(np.sum(q >= 1.5)), "c_design": int(np.sum(q >= eta_design)),
+    return {"c_1_5": int(np.sum(q >= PAPER_ETA)), "c_design": int(np.sum(q >= eta_design)),
             "spectral": int(opt_in.spectral_silent_test(frames, rho, scene.sigma_n, pf=1e-6).alarm.sum()),
             "integrated": int(opt_in.integrated_silent_test(frames, rho, scene.sigma_n, pf=1e-6).alarm.sum()),
             "median_q": float(np.median(q))}
 
 
 def simulate(trials: int, rarms: Sequence[float], slopes: Sequence[float], range_m: float, period_ratio: float,
-             seed: int) -> dict:
+             seed: int, progress: Callable[[int, int], None] | None = None) -> dict:
     """Alarms of every detector on `trials` cycles per cell: {"cells": one per (RARMS, slope ratio) of the
     interferer, "random": one per RARMS of the random attacker, and the settings (scene, eta_design, t_offset_s)}."""
     scene = load_scene("table1")
@@ -62,16 +62,23 @@ def simulate(trials: int, rarms: Sequence[float], slopes: Sequence[float], range
     rng = np.random.default_rng(root.spawn(1)[0])
     offset = float(rng.uniform(0, period_ratio * scene.t_sweep_s))
     out["t_offset_s"] = offset
+    total, done = len(rarms) * (1 + len(slopes)) * n, 0
     for r in rarms:
         rng = np.random.default_rng([seed, int(r * 1000), 0])
         rho = balanced_rows(rng, n, scene.n_chirps)
         att = make_attacker("random", scene, rarms=r)
         cyc = simulate_cycles(scene, rho, rng, attacker=att, rng_attack=rng)
         out["random"].append({"rarms": r, **_alarms(cyc.frames, rho, scene, eta_design)})
+        done += n
+        if progress:
+            progress(done, total)
         for k in slopes:
             rng = np.random.default_rng([seed, int(r * 1000), int(k * 1000)])
             rho = balanced_rows(rng, n, scene.n_chirps)
             att = _interferer(scene, k, r, range_m, period_ratio, offset)
             cyc = simulate_cycles(scene, rho, rng, attacker=att, rng_attack=rng, fidelity="waveform")
             out["cells"].append({"slope_ratio": k, "rarms": r, **_alarms(cyc.frames, rho, scene, eta_design)})
+            done += n
+            if progress:
+                progress(done, total)
     return out

@@ -29,7 +29,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from carav_stream.detect.detector import chirp_rms, detect
+from carav_stream.detect.detector import PAPER_ETA, chirp_rms, detect
 from carav_stream.detect.opt_in import cusum_silent_power, cusum_threshold, silent_power_z
 from carav_stream.firmware.blind_zone import opt_in_alarms
 from carav_stream.firmware.design import rms_threshold, scene_law
@@ -63,7 +63,7 @@ def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
         x = simulate_cycles(scene, rho, rng, fidelity=fidelity).frames
         q = detect(x, rho, scene.sigma_n).q
         counts["C(eta)"] += int(np.sum(q >= eta))
-        counts["C(1.5)"] += int(np.sum(q >= 1.5))
+        counts["C(1.5)"] += int(np.sum(q >= PAPER_ETA))
         for name, alarm in opt_in_alarms(x, rho, scene, law, OPT_IN).items():
             counts[name] += int(np.sum(alarm))
         z.append(silent_power_z(chirp_rms(x), rho, law.sigma_eff, law.dof))

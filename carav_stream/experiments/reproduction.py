@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from scipy import optimize
 
+from carav_stream.detect.detector import PAPER_ETA
 from carav_stream.detect.stats import pf_pm_closed_form
 from carav_stream.experiments.beyond_paper import (
     ATTACKER_NOTES,
@@ -50,7 +51,7 @@ def _separation_rarms(n_chirps: int, dof: int, snr: float) -> dict:
     """Closed form (random attack): RARMS at which PM(1.5) = 1e-3 and 0.4, and the smallest RARMS for which some
     eta gives max(PF, PM) <= 1e-3 (the curves 'separate' at the 1000-trial resolution)."""
     def pm15(r):
-        return pf_pm_closed_form(1.5, n_chirps=n_chirps, dof=dof, snr=snr, rarms=r)["p_quiet"] - 1e-3
+        return pf_pm_closed_form(PAPER_ETA, n_chirps=n_chirps, dof=dof, snr=snr, rarms=r)["p_quiet"] - 1e-3
 
     r15 = optimize.brentq(lambda r: float(pm15(r)), 0.01, 10)
     r40 = optimize.brentq(lambda r: float(pm15(r)) + 1e-3 - 0.4, 0.01, 10)
@@ -68,7 +69,7 @@ def _separation_rarms(n_chirps: int, dof: int, snr: float) -> dict:
 def paper_figures(args: Reproduction, fig_dir: Path, data: dict) -> list[str]:
     md = []
     eta = eta_grid(ETA)
-    i15 = int(np.argmin(np.abs(eta - 1.5)))
+    i15 = int(np.argmin(np.abs(eta - PAPER_ETA)))
     for fig, name, attack, caption in FIGS:
         scene = radar_scene(name)
         src = radar_source(scene)

@@ -37,3 +37,9 @@ def test_results_are_reproducible_for_a_seed(tmp_path):
     f = tmp_path / "a.json"
     assert _run(["--trials", "10", "--rarms", "1", "--slopes", "0.5", "--seed", "4", "--json", str(f)]) == 0
     assert json.loads(f.read_text()) == a                                   # --json writes what simulate returns
+
+
+def test_the_engine_reports_its_progress_in_cycles_up_to_the_whole():
+    seen = []
+    simulate(4, [1.0, 3.0], [0.5], 60.0, 1.37, seed=4, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(4, 16), (8, 16), (12, 16), (16, 16)]     # per RARMS: the random attacker, then each slope
