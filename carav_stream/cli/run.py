@@ -269,8 +269,10 @@ def swap_words(sw: dict[str, Any]) -> str:
     """A live swap in words: node, block and its version with its model and the parameters the swap set, which
     swap of the node it was, from which frame, when."""
     what = params_words(sw.get("params", {}), sw.get("asked", {}))
+    start = (f"cycle {sw['first_cycle']} (frame seq {sw['first_seq']})" if sw.get("first_cycle") is not None
+             else f"frame seq {sw['first_seq']}")
     return (f"swap: node {sw['node']} runs block {sw['block']} (version {sw['version']}){' ' + what if what else ''} "
-            f"from frame seq {sw['first_seq']} on, its swap number {sw['generation']}{_when(sw)}")
+            f"from {start} on, its swap number {sw['generation']}{_when(sw)}")
 
 
 def refused_swap_words(sw: dict[str, Any]) -> str:
