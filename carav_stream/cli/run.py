@@ -241,10 +241,10 @@ def print_summary(s: dict[str, Any]) -> None:
             print(f"  {k.replace('_', ' ')}: {_plain(v)}")
     if s.get("estimated_counts"):
         print(f"  counts estimated from the last heartbeat of: {', '.join(s['estimated_counts'])}")
-    print("  node            block              frames in  frames out  rejected  restarts")
+    print("  node            block              cycles    frames in  frames out  rejected  restarts")
     for n, p in s["per_node"].items():
-        print(f"  {n:<15} {p['block']:<18} {sum(p['in'].values()):<10} {sum(p['out'].values()):<11} "
-              f"{sum(p['rejected'].values()):<9} {p['restarts']}")
+        print(f"  {n:<15} {p['block']:<18} {p.get('cycles', 0):<9} {sum(p['in'].values()):<10} "
+              f"{sum(p['out'].values()):<11} {sum(p['rejected'].values()):<9} {p['restarts']}")
     for sw in s["swaps"]:
         print(f"  {swap_words(sw)}")
     for sw in s.get("refused_swaps", []):
