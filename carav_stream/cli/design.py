@@ -173,8 +173,8 @@ def _print(d: dict, stream=None) -> None:
                   "slots at either fidelity", file=stream)
             continue
         over = ", ".join(f"{a:.3g}-{b:.3g} m" for a, b in k["ranges_over"] or ())
-        print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks {k['fraction']:.2g} of a "
-              f"slot of its echo into a silent slot after an active one ({k['fidelity']} fidelity, worst phase): PF "
+        print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks up to {k['fraction']:.2g} "
+              f"of a slot of its echo into a silent slot after an active one ({k['fidelity']} fidelity): PF "
               f"{k['pf']:.3g} at eta = {k['eta']:.4f}; within {k['limit']:.2g} below {k['rcs_limit_m2']:.3g} m^2 at "
               f"its range" + (f"; at its RCS it exceeds at {over}" if over else ""), file=stream)
         if k["pf"] > k["limit"]:
