@@ -34,7 +34,7 @@ from carav_stream.console.options import count, even_count, float_list, number, 
 from carav_stream.detect.opt_in import cusum_threshold, exact_bins, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
-from carav_stream.firmware.design import pf_per_cycle, pm_random, rms_threshold, scene_law
+from carav_stream.firmware.design import QUANTISED_BELOW, pf_per_cycle, pm_random, rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
@@ -134,7 +134,8 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
                   "dof": law.dof, "echo_snr_db": float(10 * np.log10(law.snr)) if law.snr > 0 else None,
                   "echo_snr_per_sample_db": float(scene.snr_db(0)) if scene.targets else None,
                   "fidelity": fidelity,
-                  "adc_bits": scene.adc_bits, "noise_inflation_by_adc": law.sigma_eff / law.sigma_n},
+                  "adc_bits": scene.adc_bits, "noise_inflation_by_adc": law.sigma_eff / law.sigma_n,
+                  "noise_in_adc_steps": law.steps(), "quantised_law": law.steps() < QUANTISED_BELOW},
         "pf": pf,
         "rms_detector": {"eta": eta, "pf_at_eta": float(pf_per_cycle(law, eta)),
                          "paper_eta": PAPER_ETA, "pf_at_paper_eta": float(pf_per_cycle(law, PAPER_ETA))},
@@ -152,8 +153,10 @@ def _print(d: dict, stream=None) -> None:
     snr = ("no echo" if s["echo_snr_db"] is None else
            f"echoes' SNR {s['echo_snr_db']:+.1f} dB averaged over a slot, ADC noise included (target 1: "
            f"{s['echo_snr_per_sample_db']:+.1f} dB per sample once its echo has arrived)")
+    adc = (f"noise {s['noise_in_adc_steps']:.3g} steps: most silent samples quantise to 0, D0's law is the "
+           "quantised noise's" if s["quantised_law"] else f"noise x{s['noise_inflation_by_adc']:.6f}")
     print(f"scene {s['name']}: N_r = {s['n_chirps']}, N_s = {s['n_samples']}, {'I/Q' if s['iq'] else 'I only'} "
-          f"(nu = {s['dof']}), {snr}, {s['adc_bits']}-bit ADC (noise x{s['noise_inflation_by_adc']:.6f}); "
+          f"(nu = {s['dof']}), {snr}, {s['adc_bits']}-bit ADC ({adc}); "
           f"target PF {d['pf']:g} per cycle", file=stream)
     print(f"  C(eta), RMS detector (D0 + D1)   eta = {rd['eta']:.4f}    PF per cycle {rd['pf_at_eta']:.3g} "
           f"(at the paper's eta = {rd['paper_eta']:g}: {rd['pf_at_paper_eta']:.3g})", file=stream)
@@ -168,6 +171,12 @@ def _print(d: dict, stream=None) -> None:
     print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
           f"{cu['arl0_cycles']:.3g} cycles", file=stream)
     for k in d["leaks"]:
+        if not k["judged"] and k["lam"] > 0:
+            print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks up to "
+                  f"{k['fraction']:.2g} of a slot of its echo into a silent slot after an active one "
+                  f"({k['fidelity']} fidelity), up to {k['peak_steps']:.3g} ADC steps in a sample: its rate is not "
+                  "stated where the ADC's step is coarse against the noise", file=stream)
+            continue
         if k["lam"] == 0:
             print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks nothing into the silent "
                   "slots at either fidelity", file=stream)

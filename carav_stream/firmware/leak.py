@@ -31,7 +31,7 @@ import numpy as np
 from scipy import optimize
 
 from carav_stream.core.units import C_MPS
-from carav_stream.firmware.design import PF_WARN, pf_per_cycle, rms_threshold, scene_law
+from carav_stream.firmware.design import PF_WARN, QUANTISED_BELOW, pf_per_cycle, rms_threshold, scene_law
 from carav_stream.firmware.silent_slots import noncentrality, pf_with_leak, slot_deficits, slot_energies
 from carav_stream.radar import physics
 from carav_stream.radar.scene import Scene
@@ -57,6 +57,9 @@ class Leak:
     ranges_over   at this RCS, the ranges [from, to) in metres where pf exceeds the limit (gaps under a quarter of
                   their range merged: the leak ripples with where the round trip falls between two samples); None
                   when not scanned (the target does not exceed)
+    judged        False where the ADC's step is coarse against the noise (design.QUANTISED_BELOW): the rate, the RCS
+                  limit and the ranges are not stated there (nan, nan, None), the tails' laws taking quantisation
+                  as uniform noise; peak_steps then bounds the tail's largest sample, in ADC steps
     """
 
     target: int
@@ -71,6 +74,8 @@ class Leak:
     limit: float
     rcs_limit_m2: float
     ranges_over: tuple[tuple[float, float], ...] | None
+    judged: bool = True
+    peak_steps: float = 0.0
 
     @property
     def exceeds(self) -> bool:
@@ -214,14 +219,21 @@ def scene_leaks(scene: Scene, eta: float | None = None, *, pf_design: float = PF
     pf_free = float(pf_per_cycle(law, eta, sigma_det))
     judge = _Judge(scene, law, eta, pf_free, LEAK_FACTOR * max(pf_free, pf_design), sigma_det)
     full_slot = scene.n_samples * (1.0 if scene.iq else 0.5)      # energy of a full slot of unit-amplitude echo
+    coarse = law.steps() < QUANTISED_BELOW
     leaks = []
     for i, target in enumerate(scene.targets):
         tau0, alpha = physics.target_delay(scene, target)
         amp = physics.echo_amplitude(scene, target)
         lams = judge.lams(tau0, alpha, amp)
-        fidelity, pf = judge.worst(lams)
+        fidelity, pf = max(((f, float(x.max())) for f, x in lams.items()), key=lambda p: p[1]) if coarse \
+            else judge.worst(lams)
         lam = float(lams[fidelity].max())
         fraction = lam / noncentrality(law, scene, amp ** 2 * full_slot) if lam > 0 else 0.0
+        if coarse:              # no sample of a tail exceeds the square root of its energy
+            peak = math.sqrt(lam * law.sigma_eff ** 2 * scene.n_samples / law.dof) / law.lsb
+            leaks.append(Leak(i, target.range_m, target.rcs_m2, fidelity, float(fraction), lam, eta, math.nan,
+                              pf_free, judge.limit, math.nan, None, False, peak))
+            continue
         spans = _ranges_over(judge, target, alpha) if pf > judge.limit else None
         leaks.append(Leak(i, target.range_m, target.rcs_m2, fidelity, float(fraction), lam, eta, pf, pf_free,
                           judge.limit, _rcs_limit(judge, target, lams), spans))
@@ -237,6 +249,13 @@ def leak_warnings(scene: Scene, eta: float | None = None, *, pf_design: float = 
     """One line per target whose echo leaks enough into the silent slots to raise the false-alarm rate."""
     out = []
     for k in scene_leaks(scene, eta, pf_design=pf_design, sigma_det=sigma_det):
+        if not k.judged and k.peak_steps >= 0.1:
+            out.append(f"targets[{k.target}] ({k.range_m:g} m, {k.rcs_m2:g} m^2): up to {k.fraction:.2g} of a slot of "
+                       f"its echo leaks into a silent slot after an active one ({k.fidelity} fidelity), up to "
+                       f"{k.peak_steps:.3g} ADC steps in a sample; what it does to {who}'s false-alarm rate is not "
+                       f"stated: the ADC's step is coarse against the noise ({scene_law(scene).steps():.3g} steps), "
+                       "and the leak's law takes quantisation as uniform noise (a later ADC start, t_adc_start_s, "
+                       "removes what the ramp's reset leaves)")
         if not k.exceeds:
             continue
         out.append(

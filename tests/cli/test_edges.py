@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,8 @@ from carav_stream.console.errors import Exit
 from carav_stream.detect.detector import detect_from_rms
 from carav_stream.detect.stats import pf_pm_closed_form
 from tests.cli.test_errors import error_of
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_with_one_chirp_per_group_c_is_d0_of_the_one_silent_chirp_exactly():
@@ -81,3 +84,40 @@ def test_the_sweep_refuses_an_opt_in_test_the_chirp_is_too_short_for_in_one_line
                   "--quiet"])
     err = error_of(capsys)
     assert code == Exit.USAGE and f"--detector {detector}: " in err and text in err, err
+
+
+def _car_at(tmp_path, range_m: float, **replace) -> str:
+    text = (ROOT / "carav_stream" / "radar" / "presets" / "table1.toml").read_text()
+    text = text.replace('name = "table1"', f'name = "car_{range_m:g}m"').replace("range_m = 43.0",
+                                                                                   f"range_m = {range_m}")
+    for old, new in replace.items():
+        text = text.replace(old, new)
+    path = tmp_path / f"car_{range_m:g}m.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def test_validate_judges_a_car_at_3_m_where_the_adc_step_exceeds_the_noise(tmp_path, capsys):
+    # its echo lifts the 12-bit ADC's full scale to a step of 4.1 sigma_n: the silent slots quantise below the
+    # noise, eta 1.5 raises no false alarm there (the chain: none in 100 cycles), and the graph is valid
+    scene = _car_at(tmp_path, 3.0)
+    assert carav(["validate", str(ROOT / "graphs" / "no_attack.toml"), "--set", f"scene={scene}",
+                  "--set", "detector.eta=1.5"]) == Exit.OK
+    err = error_of(capsys)
+    assert "error" not in err and "raises false alarms" not in err, err
+
+
+def test_validate_says_when_a_coarse_adc_leaves_a_leak_unjudged(tmp_path, capsys):
+    scene = _car_at(tmp_path, 3.0, **{"t_adc_start_s = 1.0666666666666667e-07": "t_adc_start_s = 0.0",
+                                      "n_samples = 1080": "n_samples = 1100"})
+    assert carav(["validate", str(ROOT / "graphs" / "no_attack.toml"), "--set", f"scene={scene}"]) == Exit.OK
+    err = error_of(capsys)
+    assert "false-alarm rate is not stated: the ADC's step is coarse against the noise (0.245 steps)" in err, err
+
+
+def test_design_gives_the_car_at_3_m_its_threshold_from_the_quantised_law(tmp_path, capsys):
+    assert carav(["design", "--scene", _car_at(tmp_path, 3.0), "--trials", "10", "--benign-trials", "0",
+                  "--ghost-trials", "0", "--rarms", "3"]) == Exit.OK
+    out = capsys.readouterr().out
+    assert "12-bit ADC (noise 0.245 steps: most silent samples quantise to 0" in out
+    assert re.search(r"eta = 1\.13\d\d +PF per cycle 9\.9e-07 \(at the paper's eta = 1\.5: 2\.\d+e-34\)", out), out
