@@ -16,7 +16,7 @@ from carav_stream.firmware.leak import _turned, leak_warnings, scene_leaks, scen
 from carav_stream.firmware.silent_slots import mean_deficit, slot_energies
 from carav_stream.radar import physics
 from carav_stream.radar.activation import balanced_rows
-from carav_stream.radar.scene_loader import load_scene
+from carav_stream.radar.scene_loader import load_scene, scene_from_dict
 from carav_stream.radar.synth import simulate_cycles
 
 FROM_RESET = {"t_adc_start_s": 0.0, "n_samples": 1100}        # table1 sampled from the ramp's reset, as MATLAB's
@@ -186,3 +186,20 @@ def test_the_boundarys_turned_tails_are_the_rendered_ones_within_what_the_docstr
     turned = _turned(s, tau0, alpha, fidelity)[0]                # the first of its phases: the echo's own
     scale = max(rendered.max(), 1e-300)
     assert np.max(np.abs(turned - rendered)) <= within * scale
+
+
+MATLAB = {"fc_hz": 77e9, "bandwidth_hz": 150e6, "t_sweep_s": 7.33e-6, "fs_hz": 150e6, "n_chirps": 64,
+          "radar_speed_kmh": 100.0, "targets": [{"range_m": 7.0, "velocity_kmh": 96.0, "rcs_m2": 100.0}]}
+
+
+@pytest.mark.parametrize("range_m", [7.0, 10.0])
+def test_a_scene_written_as_matlabs_example_gives_the_near_car_no_false_alarms(range_m):
+    # no ADC start given: the settled default; the near car's rate at its designed eta and at 1.5 is the noise's own.
+    # Said explicitly, 0 samples from the ramp's reset and is warned about
+    written = {**MATLAB, "targets": [{**MATLAB["targets"][0], "range_m": range_m}]}
+    s = scene_from_dict(written, "matlab.toml")
+    eta = rms_threshold(scene_law(s), 1e-6)
+    assert scene_rate(s, eta, "waveform") <= 1.01e-6 and scene_rate(s, 1.5, "waveform") < 1e-50
+    assert leak_warnings(s) == [] and leak_warnings(s, 1.5) == []
+    reset = scene_from_dict({**written, "t_adc_start_s": 0.0}, "reset.toml")
+    assert scene_rate(reset, rms_threshold(scene_law(reset), 1e-6), "waveform") > 0.1 and leak_warnings(reset)
