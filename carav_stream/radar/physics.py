@@ -132,8 +132,8 @@ def fidelity_dependent_ranges_m(scene: Scene) -> tuple[tuple[float, float], ...]
 
 def spill_window_start(scene: Scene) -> int:
     """First ADC sample of a slot that no echo the receiver passes reaches: after the longest visible round trip,
-    plus the waveform FIR's half length (IF_SETTLE_SAMPLES) and one, so that no filtered edge reaches it either (the spill
-    test's window, detect.opt_in.spill_test); 0 when the ADC starts later than that."""
+    plus the waveform FIR's half length (IF_SETTLE_SAMPLES) and one, so that no filtered edge reaches it either (the
+    spill test's window, detect.opt_in.spill_test); 0 when the ADC starts later than that."""
     late = int(np.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz))
     return max(0, late + IF_SETTLE_SAMPLES + 1)
 

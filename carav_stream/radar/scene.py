@@ -34,7 +34,6 @@ from typing import Any
 
 from carav_stream.core.units import C_MPS
 
-
 IF_SETTLE_SAMPLES = 16     # the IF filter's half length in ADC samples (the waveform fidelity's FIR: 32 samples long)
 
 
