@@ -3,10 +3,11 @@
 Chirps and samples, sweep, slope, the sampling window (and, for a scene that does not give t_adc_start_s, that its
 start is the default one: once the IF filter has settled after the ramp's reset), sampling rate, cycle rate, the
 targets, the SNR of the first target per sample once its echo has arrived (radar equation) and the echoes' SNR
-averaged over a slot (what `carav design` and the detector's closed form use), range resolution, maximum range, the ranges where the beat and waveform fidelities
-differ by design (the IF filter's transition band), unambiguous velocity, the beat with Doppler (and where it folds
-to when the ADC cannot represent it), the ADC, and the scene's warnings, among them any echo that leaks enough into
-the silent slots to raise C(eta)'s false-alarm rate at the eta designed for 1e-6 (carav_stream/firmware/leak.py).
+averaged over a slot (what `carav design` and the detector's closed form use), range resolution, maximum range, the
+ranges where the beat and waveform fidelities differ by design (the IF filter's transition band), unambiguous
+velocity, the beat with Doppler (and where it folds to when the ADC cannot represent it), the ADC, and the scene's
+warnings, among them any echo that leaks enough into the silent slots to raise C(eta)'s false-alarm rate at the eta
+designed for 1e-6 (carav_stream/firmware/leak.py).
 With no argument: every preset.
 
 `carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml] [--noise-codes X]`: the scene of a TI mmWave CLI profile
