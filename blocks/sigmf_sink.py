@@ -23,7 +23,6 @@ Graph   recorder = { type = "sigmf_sink", path = "rec/recording" }
 import hashlib
 import json
 import shutil
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -32,20 +31,11 @@ from carav_stream.capture.activation_log import log_path, write_log
 from carav_stream.capture.sigmf_io import NS, datatype_of, plain, write_meta
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import NO_SEED, SCENE, SEED, scene_of
-from carav_stream.runtime import Block, BlockError, Frame, In, Param, cycle_indices, per_cycle
+from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle, writing
 
 VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by")   # k_max and rbar stay out: they speak of rho
 ADC_FIELDS = ("attack_active", "clipped", "nonfinite")
 ESTIMATE_FIELDS = ("range_m", "velocity_mps")
-
-
-@contextmanager
-def writing(path: str):
-    """A failed write (a full disk, a quota, a lost mount) as one line naming the file, not the sink's traceback."""
-    try:
-        yield
-    except OSError as exc:
-        raise BlockError(f"{exc.filename or path}: cannot write: {exc.strerror or exc}") from None
 
 
 class SigmfSink(Block):

@@ -241,10 +241,10 @@ def print_summary(s: dict[str, Any]) -> None:
             print(f"  {k.replace('_', ' ')}: {_plain(v)}")
     if s.get("estimated_counts"):
         print(f"  counts estimated from the last heartbeat of: {', '.join(s['estimated_counts'])}")
-    print("  node            block              frames in  frames out  rejected  restarts")
+    print("  node            block              cycles    frames in  frames out  rejected  restarts")
     for n, p in s["per_node"].items():
-        print(f"  {n:<15} {p['block']:<18} {sum(p['in'].values()):<10} {sum(p['out'].values()):<11} "
-              f"{sum(p['rejected'].values()):<9} {p['restarts']}")
+        print(f"  {n:<15} {p['block']:<18} {p.get('cycles', 0):<9} {sum(p['in'].values()):<10} "
+              f"{sum(p['out'].values()):<11} {sum(p['rejected'].values()):<9} {p['restarts']}")
     for sw in s["swaps"]:
         print(f"  {swap_words(sw)}")
     for sw in s.get("refused_swaps", []):
@@ -269,8 +269,10 @@ def swap_words(sw: dict[str, Any]) -> str:
     """A live swap in words: node, block and its version with its model and the parameters the swap set, which
     swap of the node it was, from which frame, when."""
     what = params_words(sw.get("params", {}), sw.get("asked", {}))
+    start = (f"cycle {sw['first_cycle']} (frame seq {sw['first_seq']})" if sw.get("first_cycle") is not None
+             else f"frame seq {sw['first_seq']}")
     return (f"swap: node {sw['node']} runs block {sw['block']} (version {sw['version']}){' ' + what if what else ''} "
-            f"from frame seq {sw['first_seq']} on, its swap number {sw['generation']}{_when(sw)}")
+            f"from {start} on, its swap number {sw['generation']}{_when(sw)}")
 
 
 def refused_swap_words(sw: dict[str, Any]) -> str:

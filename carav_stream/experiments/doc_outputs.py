@@ -33,6 +33,20 @@ __all__ = ["Quote", "quotes", "all_quotes", "output", "regenerate", "stale", "DO
 MARK = re.compile(r"^<!-- output of: (?P<cmd>carav [^\n]*?) -->\n(?:```[a-z]*\n(?P<fenced>.*?)^```\n|(?P<raw>.*?))"
                   r"^<!-- end of output -->$", re.M | re.S)
 WRITES = ("--plot", "--json")
+# What a run prints of the machine it ran on (its id, its wall time and rates): left out of the comparison, so a
+# document may quote a whole `carav run`; every other figure of it is fixed by the graph's seed and is checked.
+MACHINE = (re.compile(r"(?<=  run )[\w.]+-[0-9a-f]{6}$", re.M),
+           re.compile(r"(?<= cycles in )[\d.]+ [mun]?s of wall time: \d+ cycles/s"),
+           re.compile(r"(?<=real-time factor )[\d.]+"))
+
+
+def same(quoted: str, now: str) -> bool:
+    """Whether a quote still says what its command prints, the machine's own figures aside (MACHINE)."""
+    def masked(text: str) -> str:
+        for pattern in MACHINE:
+            text = pattern.sub("...", text)
+        return text
+    return masked(quoted) == masked(now)
 DOCUMENTS = ("README.md", "docs/*.md")
 
 
@@ -118,4 +132,4 @@ def regenerate(root: Path, log=None) -> list[Path]:
 def stale(root: Path, log=None) -> list[tuple[Quote, str]]:
     """Every quote whose command now prints something else: (quote, what it prints now). Writes nothing."""
     with tempfile.TemporaryDirectory(prefix="carav-doc-outputs-") as tmp:
-        return [(q, now) for q, now in _outputs(root, Path(tmp), log) if now != q.body]
+        return [(q, now) for q, now in _outputs(root, Path(tmp), log) if not same(q.body, now)]

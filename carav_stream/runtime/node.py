@@ -117,7 +117,7 @@ def _report_crash(spec: NodeSpec, runner: NodeRunner | None, exc: BaseException)
     tb = None if isinstance(exc, BlockError) else traceback.format_exc()
     print(tb or f"{spec.name}: {exc}", file=sys.stderr, flush=True)
     msg = pack(Report.ERROR, node=spec.name, pid=os.getpid(), error=f"{type(exc).__name__}: {exc}", traceback=tb,
-               counters=runner.counters() if runner else {})
+               counters=runner.counters() if runner else {}, retry=getattr(exc, "retry", True))
     if runner is None:
         ctx = zmq.Context()
         ctl = ctx.socket(zmq.DEALER)

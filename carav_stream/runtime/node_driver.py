@@ -48,6 +48,7 @@ class BlockDriver:
         self.consumed = 0                                # input frames handed to the block
         self.cycles = 0                                  # cycles those frames carried (header `cycles`), this process's
         self.cycles_before = spec.start_cycles           # sources: cycles earlier incarnations generated (the budget's)
+        self.next_cycle: int | None = None               # the cycle after the last one handled (frames' headers)
         self.busy_s = 0.0                                # CPU time spent inside the block's own code
         self.cpu_at_first_s: float | None = None          # the process's CPU time when the first frame came
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
@@ -83,7 +84,13 @@ class BlockDriver:
         self.use_block(new, msg["block"])
         self.first_seq_of_block = None
         self.link.tell(Report.SWAPPED, id=msg.get("id"), block=self.block_type, version=self.cls.version,
-                       generation=self.generation, next_seq=self.seq)
+                       generation=self.generation, next_seq=self.seq, next_cycle=self.next_cycle)
+
+    def passed(self, frame: Frame | None) -> None:
+        """Note the cycle after `frame`'s last (its header's cycle + cycles), where a swap now would start."""
+        cycle = frame.header.get("cycle") if frame is not None else None
+        if isinstance(cycle, int) and not isinstance(cycle, bool):
+            self.next_cycle = cycle + int(frame.header.get("cycles", 1))
 
     def close_block(self, next_seq: int) -> None:
         self.history.append({"block": self.block_type, "version": self.cls.version, "generation": self.generation,
@@ -179,6 +186,7 @@ class BlockDriver:
         self.processed += 1
         self.consumed += len(frames)
         self.cycles += context.header.get("cycles", 1)
+        self.passed(context)
         self.emit(result, context)
         self.seq = seq + 1
         self.link.idle()
@@ -252,6 +260,7 @@ class BlockDriver:
             self.processed += 1
             first = result if isinstance(result, Frame) else next((f for f in result.values() if f is not None), None)
             self.cycles += first.header.get("cycles", 1) if first is not None else 1
+            self.passed(first)
             self.emit(result, None)
             self.seq += 1
             self.link.idle()

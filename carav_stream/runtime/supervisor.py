@@ -162,6 +162,7 @@ class Supervisor:
             st.lost = msg.get("lost", {})
         elif kind == Report.ERROR:
             st.error = msg.get("traceback") or msg.get("error")
+            st.retry = msg.get("retry") is not False
         elif kind == Report.REJECT:
             text = f"node {name!r} input {msg['port']!r}: rejected frame #{msg['count']}: {msg['reason']}"
             st.rejects.append(text)
@@ -203,13 +204,16 @@ class Supervisor:
         detail = st.error or self.log_tail(st.name)
         if st.error and "\n" not in st.error.strip():   # the block's own one-line statement: it is the reason
             reason, detail = f"{reason}: {st.error.strip()}", ""
+        policy = self.graph.nodes[st.name].restart
+        may_restart = policy.policy == "on-failure" and st.restarts < policy.max_restarts and not self.signals
+        if may_restart and not st.retry:
+            reason += " (not restarted: a new process would meet the same fault)"
         self.log(f"carav: node {st.name!r} ({st.spec.type}) failed: {reason}" + (f"\n{_indent(detail)}" * bool(detail)))
         st.grace = False
         st.unreported += st.error is None     # no last words: its counters are those of its last heartbeat
         st.dead_counters.append(st.counters)
         st.counters = {}
-        policy = self.graph.nodes[st.name].restart
-        if policy.policy == "on-failure" and st.restarts < policy.max_restarts and not self.signals:
+        if may_restart and st.retry:
             st.restarts += 1
             st.error = None
             if not self.graph.edges_into(st.name):   # a source resumes beyond every seq it was allowed to send

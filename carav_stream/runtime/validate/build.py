@@ -50,6 +50,7 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     edges = ports.edges(data.get("connections", []), nodes, classes, where, problems)
     ports.check_inputs(nodes, classes, edges, where, problems)
     ports.check_cycles(nodes, edges, where, problems)
+    warnings += ports.unused_outputs(nodes, classes, edges)
     security = tables.security(data.get("security", {}), where, problems)
     if problems:
         raise GraphError(problems)
