@@ -14,7 +14,7 @@
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency | near-echoes
-                     | blind-zones ...
+                     | blind-zones | fidelities ...
     carav new block NAME [--kind filter|source|sink] [--dir DIR]   a block, its test and a graph to start from
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
@@ -58,6 +58,7 @@ EXPERIMENTS = {
     "latency": ("carav_stream.experiments.latency", "spill test: PF over echo power, PM over repeater latency"),
     "near-echoes": ("carav_stream.experiments.near_echoes", "a near car's echo against every detector, attack-free"),
     "blind-zones": ("carav_stream.experiments.blind_zones", "what each detector misses of the weak attacks, per scene"),
+    "fidelities": ("carav_stream.experiments.fidelities", "beat against waveform fidelity at the range edge, loud"),
 }
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 
