@@ -33,7 +33,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from carav_stream.core.units import C_MPS
 from carav_stream.estimate.geometry import Geometry
 
 MARGIN_SAMPLES = 8
@@ -60,9 +59,10 @@ class Onsets:
 def onsets(f, nu, geometry: Geometry) -> Onsets:
     """The Onsets of targets at beats f [cycles/sample] and chirp-to-chirp phase progressions nu [cycles/chirp],
     each (C, K): round trips from their ranges, the Doppler part of the beat taken out."""
+    # 2 R / c = (f_b - 2 v / lambda) / S, and 2 v / lambda = nu / (T_c doppler_scale) (Geometry's conversions)
+    doppler_hz = ((np.asarray(nu, dtype=float) + 0.5) % 1.0 - 0.5) / (geometry.t_chirp_s * geometry.doppler_scale)
     beat_hz = (np.asarray(f, dtype=float) % 1.0) * geometry.fs_hz
-    velocity = geometry.velocity_from_slow_freq((np.asarray(nu, dtype=float) + 0.5) % 1.0 - 0.5)
-    late = (2.0 * geometry.range_from_beat(beat_hz, velocity) / C_MPS - geometry.t_adc_start_s) * geometry.fs_hz
+    late = ((beat_hz - doppler_hz) / geometry.slope_hz_per_s - geometry.t_adc_start_s) * geometry.fs_hz
     n_samp = geometry.n_samples
     return Onsets(echo=np.clip(np.ceil(late), 0, n_samp).astype(np.int64),
                   read=np.clip(np.ceil(late + MARGIN_SAMPLES), 0, n_samp // 2).astype(np.int64))

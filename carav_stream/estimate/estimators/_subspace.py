@@ -102,7 +102,7 @@ def _covariance(y, onset, length: int):
     """The forward-backward smoothed covariance (C, L, L) of the subvectors after the onset (C,)."""
     h = np.lib.stride_tricks.sliding_window_view(y, length, axis=-1)           # (C, S, L)
     windows, n_windows = _windows(onset, y.shape[-1], length)
-    r = np.einsum("csi,csj->cij", h * windows[:, :, None], h.conj()) / n_windows[:, None, None]
+    r = np.matmul(np.swapaxes(h * windows[:, :, None], 1, 2), h.conj()) / n_windows[:, None, None]
     return 0.5 * (r + np.flip(r, axis=(-2, -1)).conj())
 
 

@@ -46,8 +46,9 @@ def _refine_one(x, chirps, f, nu, n_newton: int, iq: bool, read):
     table1, 1.5 times its bound 20 dB above its SNR). Each cycle's steps depend on its own samples alone."""
     n0 = np.zeros(f.shape[0], dtype=np.int64) if read is None else read
     out = np.empty((3, f.shape[0]))
-    for start in np.unique(n0):
-        rows = np.flatnonzero(n0 == start)
+    alike = not n0.size or (n0 == n0[0]).all()                    # the usual batch: one target, one onset
+    for start in n0[:1] if alike else np.unique(n0):
+        rows = np.arange(n0.size) if alike else np.flatnonzero(n0 == start)
         part = x if rows.size == x.shape[0] else x[rows]
         part = np.ascontiguousarray(part[..., start:]) if start else part
         index, mask = chirps.index[rows], chirps.mask[rows]
