@@ -26,7 +26,7 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
     n_targets     targets per cycle, or None to estimate it per cycle with `criterion` ('mdl' | 'aic'),
                   capped at max_targets (output width = largest estimate, at least 1)
     zeropad       fast-time zero-padding factor of fft_zeropad
-    music_length  MUSIC subvector length L (default min(N // 4, 32))
+    music_length  MUSIC subvector length L (default N // 4 for music, min(N // 4, 32) for root_music)
     n_newton      Newton steps per refinement (ml, and the Doppler stage of music / root_music)
     couple        remove the range-Doppler coupling from range_m (beat_hz is always the raw beat)
     max_speed_mps > 0: range migration compensated: the fft_peak cells of the strongest maxima, each refined along
