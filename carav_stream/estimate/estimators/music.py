@@ -11,5 +11,6 @@ from carav_stream.estimate.estimators._subspace import refine_music
 class Music(Method):
     order = 3
 
-    def refine(self, x, chirps, f, nu, *, n_newton: int, music_length: int | None, iq: bool):
-        return refine_music(x, chirps, f, nu, root=False, n_newton=n_newton, music_length=music_length, iq=iq)
+    def refine(self, x, chirps, f, nu, *, n_newton: int, music_length: int | None, iq: bool, onset=None):
+        return refine_music(x, chirps, f, nu, root=False, n_newton=n_newton, music_length=music_length, iq=iq,
+                            onset=onset)
