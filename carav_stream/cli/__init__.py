@@ -6,6 +6,7 @@
     carav validate GRAPH ...
     carav blocks [TYPE]
     carav attackers [--brief]        the attacker models: what each puts on the air, hears and takes (markdown)
+    carav estimators                 the estimation methods: how each reads range and velocity (markdown)
     carav scenes [NAME | FILE ...]   what a scene implies (resolution, max range and velocity, SNR, warnings)
     carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml]   the scene of a TI mmWave CLI profile
     carav capture inspect FILE --scene S [--lanes N] [--encoding E] [--json OUT]   what a DCA1000 capture holds
@@ -40,6 +41,8 @@ COMMANDS = {
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
     "attackers": ("carav_stream.cli.attackers", "the attacker models as a markdown table: what each sends and takes"),
+    "estimators": ("carav_stream.cli.estimators", "the estimation methods as a markdown table: how each reads range "
+                   "and velocity"),
     "scenes": ("carav_stream.cli.scenes", "what the presets or scene files imply: rates, resolution, SNR, warnings"),
     "capture": ("carav_stream.cli.capture", "inspect a TI DCA1000 capture: cycles, noise, chirp spread, cells"),
     "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
