@@ -183,10 +183,9 @@ def test_a_restarted_consumer_gives_back_what_its_dead_incarnation_held_and_refu
 
 
 def test_segments_are_anonymous_and_gone_when_closed(segment):
-    before = set(os.listdir("/dev/shm"))
     fd = shm.create_segment(2, 1, "carav-anon")
     assert os.readlink(f"/proc/self/fd/{fd}").startswith("/memfd:carav-anon")
-    assert set(os.listdir("/dev/shm")) == before
+    assert not [n for n in os.listdir("/dev/shm") if "carav-anon" in n]      # no name another process could open
     assert not os.get_inheritable(fd)                # reaches a child only through Popen(pass_fds=...)
     os.close(fd)
     with pytest.raises(ValueError, match="slots"):
