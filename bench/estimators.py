@@ -88,8 +88,8 @@ def _score(frames: estimator_frames.Frames, methods, *, batch: int, repeat: int,
     for _ in range(repeat):
         for m in methods:
             # each timed run after WARM_S of untimed ones of its own: what ran before (root_music's eigenvalue
-            # routines, say) slows the next estimator down for several milliseconds (ml by half on an AVX-512
-            # core), whichever it is
+            # routines, say) slows the next estimator down for several milliseconds, whichever it is
+            # (docs/bench/estimators.md)
             warm = time.perf_counter() + WARM_S
             while True:
                 _estimate(xb, rb, g, m, sigma_n)
