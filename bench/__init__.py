@@ -14,6 +14,7 @@ dca1000_udp  the live DCA1000 UDP receiver fed by the project's replayer, agains
 soak         the demo graph for minutes with live swaps: memory and descriptor growth, lost cycles
 compare      one benchmark on an older revision and on this tree, alternated round by round: medians and ratios
 report       BENCHMARKS.md and docs/bench/*.md rendered from the records
+pages        the head of each docs/bench page (command, module, record file) from the list below
 records      what every benchmark writes with --json: command, machine, records
 browser      the headless Chromium (Selenium) that the view benchmark and the live view's browser test drive
 blocks/      the transport benchmark's own blocks (source, pass-through, sink)

@@ -1,10 +1,11 @@
 """`python3 dev.py bench report`: BENCHMARKS.md and the results of docs/bench/*.md, rendered from benchmark records.
 
 Each benchmark writes its records with `python3 dev.py bench NAME --json docs/bench/records/NAME.json` (bench.records:
-the command, the machine, the records). This command renders, from those files only:
+the command, the machine, the records). This command renders, from those files and the benchmark list:
 
     BENCHMARKS.md              one table per benchmark: figure, measured, target, met or not
-    docs/bench/NAME.md         between its markers, the full table of the records
+    docs/bench/NAME.md         between its markers, the full table of the records; in its head (bench.pages), the
+                               command, module and record file from the benchmark list
 
 so that no figure in them is typed by hand. `--check` renders without writing and fails if a document differs
 from what the records give (a document edited by hand, or records updated without rendering).
@@ -17,6 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from bench import pages
 from bench import records as bench_records
 from bench.chaos import met as chaos_met
 from bench.compiled import KERNELS, choice
@@ -587,32 +589,35 @@ def _machine(m: dict[str, Any]) -> str:
 
 
 def render(root: Path) -> dict[Path, str]:
-    """Every document as the records give it: {path: text}."""
+    """Every document as the records give it: {path: text}. A benchmark's page gets its head from the benchmark
+    list (bench.pages) and, when its records exist, their full table."""
     folder = root / "docs" / "bench" / "records"
     out: dict[Path, str] = {}
     parts = [INTRO]
     for name, (title, rows_of, table_of) in BENCHMARKS.items():
         path = folder / f"{name}.json"
+        page = root / "docs" / "bench" / f"{name}.md"
+        text = page.read_text() if page.exists() else None
+        if text is not None:
+            text = pages.splice(text, pages.HEAD_BEGIN, pages.HEAD_END, pages.head(name, RECORDED_ONLY.get(name)),
+                                str(page))
         parts.append(f"## {title} (`docs/bench/{name}.md`)\n")
         if not path.exists():
-            parts.append(f"No records yet: run `python3 dev.py bench {name} --json docs/bench/records/{name}.json`.\n")
-            continue
-        doc = bench_records.read(path)
-        note = f" ({RECORDED_ONLY[name]})" if name in RECORDED_ONLY else ""
-        parts.append(f"Command: `{doc['command']}`{note}  \nMachine: {_machine(doc['machine'])}\n")
-        rows = rows_of(doc)
-        parts.append("\n".join(["| figure | measured | target | met |", "|---|---|---|---|",
-                                *(f"| {' | '.join(r)} |" for r in rows)]) + "\n")
-        page = root / "docs" / "bench" / f"{name}.md"
-        if page.exists():
-            text = page.read_text()
-            if BEGIN not in text or END not in text:
-                raise ValueError(f"{page}: lacks the markers {BEGIN} ... {END}")
-            body = "\n".join([f"Command: `{doc['command']}`{note}  ", f"Machine: {_machine(doc['machine'])}", "",
-                              *table_of(doc)])
-            head, _, rest = text.partition(BEGIN)
-            _, _, tail = rest.partition(END)
-            out[page] = f"{head}{BEGIN}\n{body}\n{END}{tail}"
+            command = (pages.command_of(name) or (name,))[0]
+            parts.append(f"No records yet: run `python3 dev.py bench {command} --json "
+                         f"docs/bench/records/{name}.json`.\n")
+        else:
+            doc = bench_records.read(path)
+            note = f" ({RECORDED_ONLY[name]})" if name in RECORDED_ONLY else ""
+            parts.append(f"Command: `{doc['command']}`{note}  \nMachine: {_machine(doc['machine'])}\n")
+            parts.append("\n".join(["| figure | measured | target | met |", "|---|---|---|---|",
+                                    *(f"| {' | '.join(r)} |" for r in rows_of(doc))]) + "\n")
+            if text is not None:
+                body = [f"Command: `{doc['command']}`{note}  ", f"Machine: {_machine(doc['machine'])}", "",
+                        *table_of(doc)]
+                text = pages.splice(text, BEGIN, END, body, str(page))
+        if text is not None:
+            out[page] = text
     out[root / "BENCHMARKS.md"] = "\n".join(parts)
     return out
 

@@ -29,7 +29,8 @@ from carav_stream.console.options import count, output_file
 from carav_stream.detect.stats import cfar_eta_closed_form, clopper_pearson, pf_pm_closed_form
 from carav_stream.montecarlo.engine import batch_plan
 from carav_stream.montecarlo.sources import source_from_spec
-from carav_stream.montecarlo.study import load_study, plan, run_batches
+from carav_stream.montecarlo.study import plan, run_batches
+from carav_stream.montecarlo.study_file import load_study
 
 STUDY = """
 description = "dev.py bench study: Table I, every sample, the random attack"

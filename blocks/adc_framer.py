@@ -11,7 +11,7 @@ received, without attack, and marked attack_lost.
 
 A reactive repeater (attack header gate_by_on_air) sends its reply to every chirp; only the replies to chirps
 actually on the air reach the receiver: a = gate_by_emission(replies, rx's on_air) (carav_stream/radar/
-attackers.py), and attack_active says whether it answered a chirp. Without the rx frame's on_air (bool (cycles,
+attackers/_base.py), and attack_active says whether it answered a chirp. Without the rx frame's on_air (bool (cycles,
 n_chirps)) such an attack cannot be rendered: the node fails, naming the frame, like any attack that does not fit.
 
 Ports   in  rx       float32 | complex64 (cycles, n_chirps, n_samples)   signal at the ADC input (+ "on_air")

@@ -3,31 +3,32 @@
     a_k[m] from the chosen model; the receiver (adc_framer) adds it to R_k[m]
 
 The node hears what an attacker physically can: the victim's on-air emission, one cycle late (input `air`);
-it never receives the activation sequence, nor the victim's received signal. Models: none, random (i.i.d.
-Gaussian, paper V.D), smart (one sequence repeated over every chirp, V.E; sent as one row per cycle, shape
-(cycles, 1, n_samples), which the receiver adds to every chirp), secondary_antenna (a moving transmitter,
-V.G; needs fidelity = "waveform"), ghost (chirp-synchronised spoofer planting a false target), ramp (power
-rising over cycles), lfsr_predictor (learns an LFSR activation source from past cycles' emission), reactive
-(a repeater answering each chirp after its latency). Each model's parameters (rarms = sigma_a / sigma_n,
-start_cycle, ...) are listed with their meanings and units by `carav blocks attacker`, each with the models
+it never receives the activation sequence, nor the victim's received signal. It runs any model of
+carav_stream/radar/attackers/ (listed below). A model that sends the same samples in every chirp (such as smart)
+sends one row per cycle, shape (cycles, 1, n_samples), which the receiver adds to every chirp; a model that
+transmits its own waveform (such as secondary_antenna) needs fidelity = "waveform". Each model's parameters
+(rarms = sigma_a / sigma_n, start_cycle, ...) are listed below with their meanings and units, each with the models
 that take it; a parameter the chosen model does not take is refused by name.
 
-The reactive repeater answers whatever is on the air: its reply to chirp k exists only if chirp k was
-transmitted. The node cannot tell which chirps of a cycle are (it hears the emission one cycle late), so it
-sends its reply to every chirp, the same for every cycle (shape (1, n_chirps, n_samples), and at waveform fidelity array
-"tail", the reply to chirp k-1 still arriving in chirp k) with header gate_by_on_air = true; the receiver
-keeps the replies to the chirps on the air (attackers.gate_by_emission). Its per-cycle attack_active says
-whether the repeater is switched on; the receiver reports whether it answered a chirp.
+A model that answers live chirps (a LiveChirpAttacker, such as the reactive repeater) answers whatever is on the
+air: its reply to chirp k exists only if chirp k was transmitted. The node cannot tell which chirps of a cycle are
+(it hears the emission one cycle late), so it sends its reply to every chirp, the same for every cycle (shape
+(1, n_chirps, n_samples), and at waveform fidelity array "tail", the reply to chirp k-1 still arriving in chirp k)
+with header gate_by_on_air = true; the receiver keeps the replies to the chirps on the air
+(attackers.gate_by_emission). Its per-cycle attack_active says whether the model is switched on; the receiver
+reports whether it answered a chirp.
 
 Ports   in  air      bool (cycles, n_chirps)    row i: the emission of the cycle before cycle i
-        out attack   float32 | complex64 (cycles, n_chirps | 1, n_samples), reactive: (1, n_chirps, n_samples)
+        out attack   float32 | complex64 (cycles, n_chirps | 1, n_samples), live-chirp: (1, n_chirps, n_samples)
                      [+ "tail"]; no payload when the model is silent for the whole frame; per_cycle
                      attack_active, header attack_model [, gate_by_on_air]
 Graph   attacker = { type = "attacker", model = "smart", rarms = 3.0, start_cycle = 200 }
 """
+import textwrap
+
 import numpy as np
 
-from carav_stream.radar.attackers import KINDS, make_attacker
+from carav_stream.radar.attackers import KINDS, LiveChirpAttacker, make_attacker
 from carav_stream.radar.streams import FIDELITY, SCENE, SEED, scene_of, seed_streams
 from carav_stream.runtime import Block, BlockError, Frame, In, Out, Param
 
@@ -51,12 +52,23 @@ def _model_params() -> tuple[Param, ...]:
     return tuple(out)
 
 
+def _models_doc() -> str:
+    """The models of the registry, one entry each, for the docstring that `carav blocks attacker` prints."""
+    lines = ["", "Models  one file each in carav_stream/radar/attackers/ (`carav attackers`: their table)"]
+    for kind, cls in KINDS.items():
+        lines += textwrap.wrap(cls.summary(), 112, initial_indent=f"        {kind:<18} ", subsequent_indent=" " * 27,
+                               break_on_hyphens=False)
+    return "\n".join(lines) + "\n"
+
+
 MODEL_PARAMS = _model_params()
+__doc__ += _models_doc()
 
 
 class AttackerBlock(Block):
     inputs = (In("air", kind="air", dtypes=("bool",), doc="past cycles' on-air emission"),)
     outputs = (Out("attack", kind="attack", dtypes=("float32", "complex64", "none"), doc="attack signal"),)
+    variant = "model"           # another model starts from its own defaults (runtime/loader.py)
     params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)), SCENE, SEED, FIDELITY,
               *MODEL_PARAMS)
 
@@ -77,7 +89,7 @@ class AttackerBlock(Block):
             raise ValueError(f"air frame seq {air.seq}: expected (cycles, {self.scene_obj.n_chirps}) chirps, "
                              f"got shape {heard.shape}")
         c0, n = air.cycle, heard.shape[0]
-        if self.attack.uses_live_emission:   # reactive: the receiver gates its replies by the on-air chirps
+        if isinstance(self.attack, LiveChirpAttacker):   # the receiver gates its replies by the on-air chirps
             return self.replies(c0, n)
         if self.attack.listens:   # hear cycle c-1, then attack cycle c: one cycle at a time
             a, active = None, np.zeros(n, dtype=bool)
@@ -95,7 +107,7 @@ class AttackerBlock(Block):
                         cycle=c0, cycles=n)
 
     def replies(self, c0: int, n: int) -> Frame:
-        """The reactive repeater's reply to every chirp (rho-independent), for the receiver to gate."""
+        """A live-chirp model's reply to every chirp (rho-independent), for the receiver to gate."""
         on = self.attack.on_cycles(n, c0)
         fields = dict(per_cycle={"attack_active": on.tolist()}, attack_model=self.model, gate_by_on_air=True,
                       cycle=c0, cycles=n)

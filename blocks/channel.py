@@ -10,8 +10,6 @@ Ports   in  tx    bool (cycles, n_chirps)                               transmit
                                                                         BEFORE cycle i (header air_cycle = the
                                                                         first row's): all an attacker may have
                                                                         heard before attacking; zeros before 0
-Params  scene, seed, fidelity (graph-wide; fidelity "beat": closed-form beat samples; "waveform": complex
-        chirps, true delays and Doppler, mixing and filtering)
 Graph   channel = { type = "channel" }
 """
 import numpy as np

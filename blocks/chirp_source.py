@@ -4,17 +4,13 @@
 
 A frame carries `batch` consecutive cycles (header cycle = the first, cycles = how many; the last frame of a
 run is sized to the cycles asked for): the kernels downstream are vectorised over cycles, and one frame per
-batch spreads the per-frame cost of every hop over many cycles. Every cycle keeps its own fresh sequence.
+batch spreads the per-frame cost of every hop over many cycles. Every cycle keeps its own fresh sequence: from
+the OS's secure generator without a seed (activation "auto" picks "secure" then, "seeded" with a seed). Paced
+(`cycles_per_s`), frames leave no faster than that rate and never catch up after a stall; the radar's own rate is
+1 / t_cycle_s (`carav scenes`).
 
 Ports   out tx    bool (cycles, n_chirps)   the transmitted chirps: what goes on the air, to the channel
         out rho   bool (cycles, n_chirps)   the activation sequences: a private edge to the detector alone
-Params  scene (str, graph-wide, required): preset name or scene file
-        seed (int, graph-wide, -1): simulation seed; -1 draws the sequences from the OS's secure generator
-        activation (str, "auto"): secure | seeded | lfsr (auto: secure without a seed, seeded with one)
-        batch (int, 16): cycles per frame (graph-wide `batch = ...` sets it)
-        cycles_per_s (float, 0): release at most this many cycles a second, frame by frame, never catching up
-            after a stall; 0 = as fast as the graph takes them. The radar's own rate is 1 / t_cycle_s
-            (`carav scenes`); a long-running graph watched live, or a test waiting for a few cycles, needs no more
 Graph   source = { type = "chirp_source", batch = 16 }
 """
 import time

@@ -14,14 +14,12 @@ file before the next frame is taken.
 
 Ports   in  estimates   any    frames to record (main stream), written with port "estimates"
         in  alarms      any    optional second stream, written with port "alarms"
-Params  path (str, required): output file, created or truncated when the run starts; "-" for standard output
-        columns (list, see above): the columns after "cycle" and "port"
 Graph   csv = { type = "csv_sink", path = "cycles.csv" }
 """
 import csv
 import sys
 
-from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle
+from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle, writing
 
 DEFAULT_COLUMNS = ["attack_active", "reason", "q", "range_m", "velocity_mps"]
 
@@ -46,10 +44,11 @@ class CsvSink(Block):
 
     def start(self) -> None:
         first = self.instance == (0, 0)              # the run's own sink, not a restarted or swapped-in one
-        self.fh = sys.stdout if self.path == "-" else open(self.path, "w" if first else "a", newline="")
-        self.writer = csv.writer(self.fh)
-        if first:
-            self.writer.writerow(["cycle", "port", *self.columns])
+        with writing(self.path):
+            self.fh = sys.stdout if self.path == "-" else open(self.path, "w" if first else "a", newline="")
+            self.writer = csv.writer(self.fh)
+            if first:
+                self.writer.writerow(["cycle", "port", *self.columns])
         self.rows = self.malformed = 0
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
@@ -59,16 +58,18 @@ class CsvSink(Block):
         except ValueError:   # per-cycle fields out of step with the cycles: one row from the header alone
             per, cycles = {}, [frame.cycle]
             self.malformed += 1
-        for i, cycle in enumerate(cycles):
-            self.writer.writerow([cycle, port, *(_cell(per[c][i] if c in per else frame.header.get(c))
-                                                 for c in self.columns)])
+        with writing(self.path):
+            for i, cycle in enumerate(cycles):
+                self.writer.writerow([cycle, port, *(_cell(per[c][i] if c in per else frame.header.get(c))
+                                                     for c in self.columns)])
+            self.fh.flush()              # written, not buffered: a SIGKILL loses no row of a frame counted in
         self.rows += len(cycles)
-        self.fh.flush()                  # written, not buffered: a SIGKILL loses no row of a frame counted in
 
     def finish(self) -> None:
-        self.fh.flush()
-        if self.fh is not sys.stdout:
-            self.fh.close()
+        with writing(self.path):
+            self.fh.flush()
+            if self.fh is not sys.stdout:
+                self.fh.close()
 
     def summary(self) -> dict:
         return {"rows": self.rows, "malformed_frames": self.malformed}

@@ -6,7 +6,8 @@ the scene's n_chirps chirps, keeps receiver `rx`, and sends each cycle as this p
 activation sequence of every cycle from a log the capture's firmware wrote (carav_stream/capture/activation_log.py)
 or the fixed pattern of a TI profile's chirps (`carav scenes --from-ti-cfg` prints it; a fixed pattern is not the
 secret per-cycle sequence the detector needs against an attacker who learns it), so that rms_detector, gate and
-range_estimator run on a real radar's samples when its firmware silenced chirps.
+range_estimator run on a real radar's samples when its firmware silenced chirps. Exactly one of `activation`
+(the log) and `pattern` is given.
 
 The scene file describes the capture's chirp configuration: n_chirps (chirps per cycle), n_samples, fs_hz,
 slope (bandwidth_hz / t_sweep_s), t_chirp_s, iq (true: complex capture), adc_bits (12, 14 or 16) and
@@ -19,7 +20,6 @@ the likely fix (carav_stream/capture/inspect.py, on the first cycles).
 Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's codes (per_cycle attack_active
                      from the log's third column if present, else not set)
         out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
-Params  declared below; activation and pattern: exactly one
 Graph   source = { type = "dca1000_source", path = "adc_data.bin", activation = "adc_data.activation" }
 """
 from pathlib import Path

@@ -6,7 +6,8 @@
 Receives the datagrams the DCA1000 sends in raw mode (a 4-byte sequence number, a 6-byte byte count, up to 1456
 bytes of the capture's words) on `address`:`port`, reassembles cycles of the scene's chirps in the layout of
 dca1000_source (lanes, encoding, real or complex: carav_stream/capture/dca1000.py), keeps receiver `rx`, and
-sends them with their activation sequences. Every cycle touched by a lost, truncated, duplicated, reordered or
+sends them with their activation sequences (from exactly one of `activation` and `pattern`, as for
+dca1000_source). Every cycle touched by a lost, truncated, duplicated, reordered or
 overlapping packet, and the cycle the sender stops within, is sent with per_cycle `nonfinite` = its sample count
 (none of its samples is trusted: rms_detector judges it invalid, gate refuses it, never judged clean) and its
 reasons in `damage`. The stream ends when no packet has come for idle_timeout_s (and none waits in the socket).
@@ -19,7 +20,6 @@ has to cover its pauses), and all the stream logic is the helper's pure Reassemb
 Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's codes; per_cycle nonfinite and damage
                      (its reasons, comma-separated; "" for a whole, clean cycle)
         out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
-Params  declared below; activation and pattern: exactly one (as for dca1000_source)
 Summary run.live_capture: packets, bytes, cycles, damaged_cycles, late_packets, bytes_before_first_cycle, a count
         per reason, sender_stopped; dropped_by_host, the datagrams this host's kernel dropped because the receiver did
         not drain its socket in time (its drop counter; null where it cannot be read): of `lost`, these are the

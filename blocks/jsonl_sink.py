@@ -2,13 +2,13 @@
 
     line = {"port": input port, **header, "data": payload as a list if it has at most `max_values` values}
 
+A larger payload is left out: the line holds its header only.
+
 A restarted sink (or one swapped in) appends to the file: only the sink a run starts with creates or truncates
 it, so a restart never erases what was written (each line is written whole as it comes: line buffering).
 
 Ports   in  inp      any    frames to record (main stream)
         in  extra    any    optional second stream (e.g. alarms), recorded with "port": "extra"
-Params  path (str, required): output file, created or truncated when the run starts; "-" for standard output
-        max_values (int, 16): payloads up to this size are written as lists, larger ones only as dtype/shape
 Graph   log = { type = "jsonl_sink", path = "run.jsonl" }
 """
 import json
@@ -16,7 +16,7 @@ import sys
 
 import numpy as np
 
-from carav_stream.runtime import Block, Frame, In, Param
+from carav_stream.runtime import Block, Frame, In, Param, writing
 
 
 class JsonlSink(Block):
@@ -27,7 +27,8 @@ class JsonlSink(Block):
 
     def start(self) -> None:
         first = self.instance == (0, 0)              # the run's own sink, not a restarted or swapped-in one
-        self.fh = sys.stdout if self.path == "-" else open(self.path, "w" if first else "a", buffering=1)
+        with writing(self.path):
+            self.fh = sys.stdout if self.path == "-" else open(self.path, "w" if first else "a", buffering=1)
         self.n = 0
 
     def _write(self, port: str, frame: Frame) -> None:
@@ -36,7 +37,8 @@ class JsonlSink(Block):
         if data is not None and data.size <= self.max_values:
             line["data"] = (data.view(np.float32 if data.dtype == np.complex64 else np.float64).tolist()
                             if np.iscomplexobj(data) else data.tolist())
-        self.fh.write(json.dumps(line, default=str) + "\n")
+        with writing(self.path):
+            self.fh.write(json.dumps(line, default=str) + "\n")
         self.n += 1
 
     def process(self, inp: Frame | None, extra: Frame | None = None) -> None:
@@ -45,9 +47,10 @@ class JsonlSink(Block):
                 self._write(port, frame)
 
     def finish(self) -> None:
-        self.fh.flush()
-        if self.fh is not sys.stdout:
-            self.fh.close()
+        with writing(self.path):
+            self.fh.flush()
+            if self.fh is not sys.stdout:
+                self.fh.close()
 
     def summary(self) -> dict:
         return {"lines": self.n}

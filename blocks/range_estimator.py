@@ -21,8 +21,6 @@ Ports   in  frames      clean_frame: ADC frames (int16 codes or float32 | comple
         out estimates   header method, detection, per_cycle range_m, velocity_mps (lists, one value per target;
                         "strongest": n_targets values, None where no target was found; CFAR: the listed
                         targets only, and snr_db, amplitude beside them) beside the frame's own per-cycle fields
-Params  method, n_targets, detection ("strongest"), pfa (1e-6 per cell), max_targets (8), sigma_n (0: the
-        scene's noise RMS, the CFAR map's normalisation), max_speed_mps (0: no migration compensation), scene
 Graph   ranging = { type = "range_estimator", method = "root_music" }
         ranging = { type = "range_estimator", detection = "ca_cfar", pfa = 1e-6 }
 """

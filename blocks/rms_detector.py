@@ -12,12 +12,11 @@ Ports   in  frames    ADC frames of the cycles: int16 codes (the scene's lsb mak
                       whose rho never comes get alarm verdicts (reason "no_rho"), never clean ones; a cycle whose
                       rho is not balanced (half its chirps active) or whose ADC reported NaN/Inf input samples
                       (per_cycle nonfinite) gets an invalid verdict
-Params  eta (float, 1.5): threshold; sigma_n (float, 0 = the scene's noise RMS); scene (lsb, noise RMS)
 Graph   detector = { type = "rms_detector", eta = 1.5 }
 """
 import numpy as np
 
-from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
+from carav_stream.detect.detector import PAPER_ETA, adc_chirp_rms, detect_from_rms
 from carav_stream.radar.adc import adc_step
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import SCENE, scene_of
@@ -28,7 +27,7 @@ class RmsDetector(Block):
     inputs = (In("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64")),
               In("rho", kind="rho", dtypes=("bool",)))
     outputs = (Out("verdict", kind="verdict", dtypes=("bool",)),)
-    params = (Param("eta", float, 1.5, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
+    params = (Param("eta", float, PAPER_ETA, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
               Param("sigma_n", float, 0.0, "noise RMS per sample; 0 = from the scene", low=0.0),
               SCENE)
 
@@ -40,8 +39,8 @@ class RmsDetector(Block):
     def param_warnings(self) -> list[str]:
         """eta is not universal: its false-alarm rate per cycle depends on the scene (firmware/design.py), and a
         scene's echo can leak into the silent slots (firmware/leak.py). Imported here, where graphs are validated:
-        their scipy.stats and scipy.optimize would add about 0.8 s of CPU to every start of the node, which never
-        needs them."""
+        their scipy.stats and scipy.optimize would add their import to every start of the node, which never needs
+        them."""
         from carav_stream.firmware.design import scene_law, threshold_warning
         from carav_stream.firmware.leak import leak_warnings
 

@@ -15,17 +15,16 @@ seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so
 unambiguous interval (how well the alias was measured) is reported beside it.
 
 With a CFAR target list (range_estimator detection = "ca_cfar" | "os_cfar") every cycle's list is scored against
-all of the scene's targets (carav_stream/target_list.associate: nearest pairs within 1.5 range cells plus half the
-cycle's range migration and 1.5 Doppler bins, velocities modulo the ambiguity): the probability of detection per
-true target and the false targets per cycle, on cycles without an attack and, apart, on attacked cycles the
-detector missed (where a ghost shows up as a false target).
+all of the scene's targets (carav_stream.firmware.target_list.associate: nearest pairs within 1.5 range cells plus
+half the cycle's range migration and 1.5 Doppler bins, velocities modulo the ambiguity): the probability of
+detection per true target and the false targets per cycle, on cycles without an attack and, apart, on attacked
+cycles the detector missed (where a ghost shows up as a false target).
 
 The figures are those of this process: a restarted run_summary starts them afresh, and then says which cycles
 they cover (`figures_cover`: the first and last cycle counted, the restarts, and a sentence `carav run` prints).
 
 Ports   in  estimates   range_estimator records          (merged in arrival order with alarms)
         in  alarms      gate alarm records
-Params  scene (graph-wide): truth for the errors; every_s (float, 0): print a line every so many seconds
 Graph   summary = { type = "run_summary" }
 """
 import math

@@ -18,14 +18,11 @@ Ports   in  frames     ADC frames (int16 codes, or float32 | complex64 samples o
         in  verdict    the detector's verdicts (optional)           (inputs merged in arrival order,
         in  estimates  the range estimator's records (optional)      matched by cycle index)
         in  alarms     the gate's refusals (optional)
-Params  path (str, required): base name of the recording (BASE.sigmf-meta, ...); scene, seed, batch (graph-wide,
-        for the metadata); graph (str): the recorded graph as JSON, for the metadata
 Graph   recorder = { type = "sigmf_sink", path = "rec/recording" }
 """
 import hashlib
 import json
 import shutil
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -34,20 +31,11 @@ from carav_stream.capture.activation_log import log_path, write_log
 from carav_stream.capture.sigmf_io import NS, datatype_of, plain, write_meta
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import NO_SEED, SCENE, SEED, scene_of
-from carav_stream.runtime import Block, BlockError, Frame, In, Param, cycle_indices, per_cycle
+from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle, writing
 
 VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by")   # k_max and rbar stay out: they speak of rho
 ADC_FIELDS = ("attack_active", "clipped", "nonfinite")
 ESTIMATE_FIELDS = ("range_m", "velocity_mps")
-
-
-@contextmanager
-def writing(path: str):
-    """A failed write (a full disk, a quota, a lost mount) as one line naming the file, not the sink's traceback."""
-    try:
-        yield
-    except OSError as exc:
-        raise BlockError(f"{exc.filename or path}: cannot write: {exc.strerror or exc}") from None
 
 
 class SigmfSink(Block):
@@ -151,6 +139,7 @@ class SigmfSink(Block):
         self.without_rho = len(self.order) - len(known)
         preset = self.scene in preset_names()
         extra = {"cycles": len(self.order), "batch": self.batch, "activation_log": log_path(self.base).name,
+                 "activation_log_checksum": "sha256",
                  "scene": scene.name if preset else Path(self.scene).name,
                  "graph": json.loads(self.graph) if self.graph else {}}
         if self.seed != NO_SEED:

@@ -12,11 +12,6 @@ bits and full scale, sample rate). Each problem is one error naming the file and
 
 Ports   out frames   ADC frames: int16 (cycles, n_chirps, n_samples[, 2]) or float32 | complex64 samples
         out rho      bool (cycles, n_chirps): the recorded activation sequences (private edge to the detector)
-Params  path (str, required): the recording: BASE, BASE.sigmf-meta, BASE.sigmf-data, or a folder holding one
-        activation (str, ""): the activation log; "" = BASE.activation beside the recording
-        paced (bool, false): release cycles at the radar's rate (t_cycle_s apart) instead of at full speed
-        verify (bool, true): check the data's sha512 against the metadata first
-        scene (graph-wide), batch (int, 16)
 Graph   source = { type = "sigmf_source", path = "rec" }   (graphs/replay.toml)
 """
 import time

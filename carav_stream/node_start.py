@@ -1,7 +1,7 @@
 """How the supervisor starts a node: `python -m carav_stream.node_start SPEC_FILE`.
 
 A node dies with its supervisor from its first instruction on, even when the supervisor is SIGKILLed while the
-node is still importing numpy, ZeroMQ and its block (0.3-1 s). This module imports nothing of the package and
+node is still importing numpy, ZeroMQ and its block. This module imports nothing of the package and
 nothing heavy, and before anything else:
 
 1. asks the kernel to SIGKILL it when its parent dies (Linux prctl PR_SET_PDEATHSIG);

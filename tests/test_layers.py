@@ -29,6 +29,14 @@ def test_every_package_of_carav_stream_is_on_a_floor_of_the_layer_contract():
     assert on_a_floor - packages == set(), "the layer contract names a package that does not exist"
 
 
+def test_console_is_forbidden_to_every_package_but_the_commands():
+    forbidding = [c for c in _contracts()
+                  if c["type"] == "forbidden" and c["forbidden_modules"] == ["carav_stream.console"]]
+    assert len(forbidding) == 1, "no contract keeps console (exit codes, progress bar) to the commands"
+    packages = {f"carav_stream.{p.parent.name}" for p in PACKAGE.glob("*/__init__.py")}
+    assert set(forbidding[0]["source_modules"]) == packages - {"carav_stream.cli", "carav_stream.console"}
+
+
 def _hidden_imports(path: Path, root: Path = ROOT) -> list[str]:
     """Imports of carav_stream's own modules inside functions, without a comment on the line above saying why."""
     lines = path.read_text().splitlines()

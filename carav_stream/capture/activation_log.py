@@ -5,16 +5,23 @@ defeat the detector, so it never goes into the sample file or the recording's me
 mode 0600 (its owner alone may read it) and is needed only to judge the recording again (replay) or to run the
 detector on a real radar's capture whose firmware silenced chirps by a known sequence.
 
-    # carav activation log v1: private firmware state; do not share it with the recording
+    # carav activation log v2: private firmware state; do not share it with the recording
     # n_chirps 64
     0 0110100111010001...        one line per cycle: its index, then rho(0) .. rho(N_r - 1) as 0 and 1
+    # sha256 9f86d0...           the SHA-256 of every byte before this line
 
 Lines starting with # are comments; cycles are in recording order (not necessarily consecutive).
+The last line of a v2 log (what carav writes) is its checksum: a log whose rows were edited, cut short or extended,
+or whose checksum line is missing, is refused when read, naming the file, so a judged replay never runs silently
+on another sequence than the one recorded. The checksum guards against accidental or careless change; it is no
+signature (whoever may write the file may also rewrite its checksum: the 0600 mode keeps other users out).
+A log without the v2 header (v1, or one written by hand or by a capture's firmware) has no checksum to check.
 A log that its group or others may read, write or run is refused when read: whoever could read it may have read it,
 and a detector judging with a known sequence proves nothing (`chmod 600 FILE` if it was never exposed).
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import stat
 from collections.abc import Sequence
@@ -22,8 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-MAGIC = "# carav activation log v1"
+MAGIC = "# carav activation log v2"
 SUFFIX = ".activation"
+CHECKSUM = "# sha256 "
 
 
 class ActivationLogError(ValueError):
@@ -38,14 +46,35 @@ def write_log(path: str | Path, cycles: Sequence[int], rho: np.ndarray) -> None:
     digits = np.where(rho, ord("1"), ord("0")).astype(np.uint8)
     lines = [f"{MAGIC}: private firmware state; do not share it with the recording", f"# n_chirps {rho.shape[1]}"]
     lines += [f"{c} {row.tobytes().decode()}" for c, row in zip(cycles, digits)]
+    body = "\n".join(lines) + "\n"
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     os.fchmod(fd, 0o600)   # an existing file keeps its mode through O_CREAT: make it private too
     with os.fdopen(fd, "w") as fh:
-        fh.write("\n".join(lines) + "\n")
+        fh.write(f"{body}{CHECKSUM}{hashlib.sha256(body.encode()).hexdigest()}\n")
 
 
-def read_log(path: str | Path, n_chirps: int) -> tuple[np.ndarray, np.ndarray]:
-    """(cycles int64 (n,), rho bool (n, n_chirps)) from a log; ActivationLogError naming the file and line."""
+def _checked_body(path: Path, text: str, required: bool) -> str:
+    """The log's text without its checksum line, after checking it (v2); v1 and hand-written logs as they are,
+    unless `required` (a recording written with a checksummed log)."""
+    if not text.startswith(MAGIC):
+        if required:
+            raise ActivationLogError(f"{path}: activation log is not the checksummed log its recording was written "
+                                     f"with (its first line should be '{MAGIC}...')")
+        return text
+    body, _, last = text.rstrip("\n").rpartition("\n")
+    if not last.startswith(CHECKSUM):
+        raise ActivationLogError(f"{path}: activation log has no checksum line (its last line should be "
+                                 f"'{CHECKSUM}<hex>'): it was cut short or edited")
+    body += "\n"
+    if hashlib.sha256(body.encode()).hexdigest() != last[len(CHECKSUM):].strip():
+        raise ActivationLogError(f"{path}: activation log does not match its checksum: a row was changed, added or "
+                                 "removed after it was written")
+    return body
+
+
+def read_log(path: str | Path, n_chirps: int, require_checksum: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(cycles int64 (n,), rho bool (n, n_chirps)) from a log; ActivationLogError naming the file and line.
+    require_checksum  refuse a log without its checksum line (what carav's recordings are written with)."""
     path = Path(path)
     try:
         with open(path, "rb") as fh:
@@ -61,7 +90,7 @@ def read_log(path: str | Path, n_chirps: int) -> tuple[np.ndarray, np.ndarray]:
     except (OSError, UnicodeDecodeError) as exc:
         raise ActivationLogError(f"{path}: activation log cannot be read: {exc}") from None
     cycles, rows = [], []
-    for number, line in enumerate(text.splitlines(), 1):
+    for number, line in enumerate(_checked_body(path, text, require_checksum).splitlines(), 1):
         line = line.strip()
         if not line or line.startswith("#"):
             continue

@@ -41,8 +41,8 @@ kernel granted (getsockopt SO_RCVBUF: Linux doubles the request, and charges eac
 Replayer sends a capture's packets to 127.0.0.1 at a given rate, with faults, optionally no faster than the
 receiver drains, and refuses any other address (it is a test instrument, not a radar).
 
-Cost: a packet is a slice copy into the cycle buffer and a few integer checks, about 2 to 5 us of Python; the
-receiver's rate is measured by `python3 dev.py bench dca1000-udp` (docs/CAPTURE.md).
+Cost: a packet is a slice copy into the cycle buffer and a few integer checks in Python. Measured:
+docs/bench/dca1000_udp.md (the receiver against the AWR1642's data rate).
 """
 from __future__ import annotations
 

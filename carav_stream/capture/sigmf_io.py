@@ -18,6 +18,7 @@ no such numbers. Every float is written with Python's shortest round-trip repr, 
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
@@ -93,7 +94,10 @@ def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[s
             "annotations": annotations}
     if sha512 is not None:
         glob["core:sha512"] = sha512
-    rec = SigMFFile(metadata=meta, data_file=str(base) + ".sigmf-data", skip_checksum=sha512 is not None)
+    data_file = Path(str(base) + ".sigmf-data")
+    # sigmf maps the data file to check its size: an empty one (a recorder that received no frame) cannot be mapped
+    rec = SigMFFile(metadata=meta, data_file=str(data_file) if data_file.stat().st_size else None,
+                    skip_checksum=sha512 is not None)
     rec.tofile(str(base), overwrite=True)                                    # validates against the schema
     return Path(str(base) + ".sigmf-meta")
 
@@ -156,22 +160,26 @@ def _carav_globals(meta_path: Path, glob: dict) -> None:
                              f"parameters), got {nodes!r:.60}")
 
 
-def open_recording(path: str | Path, activation: str | Path | None = None, *, with_log: bool = True,
-                   verify_hash: bool = True, require_hash: bool | None = None) -> Recording:
-    """Read and check a recording (and its activation log): RecordingError naming the file and field.
-    verify_hash  compare the data with core:sha512; require_hash  refuse a recording without core:sha512 (default:
-    as verify_hash; a caller that leaves the comparison to the player still refuses a recording it cannot check)."""
+def _check_layout(meta_path: Path, meta: Any) -> None:
+    """SigMF's top level: a table whose global is a table and whose captures and annotations are lists (what the
+    sigmf library assumes before its schema check runs)."""
+    if type(meta) is not dict:
+        raise RecordingError(f"{meta_path}: not valid SigMF: metadata: expected a table, got {type(meta).__name__}")
+    for key, kind in (("global", dict), ("captures", list), ("annotations", list)):
+        if key in meta and type(meta[key]) is not kind:
+            raise RecordingError(f"{meta_path}: not valid SigMF: {key}: expected a "
+                                 f"{'table' if kind is dict else 'list'}, got {type(meta[key]).__name__}")
+
+
+def _read_meta(meta_path: Path) -> tuple[dict[str, Any], Any]:
+    """The metadata of a recording as JSON and as a sigmf.SigMFFile, validated against SigMF's schema."""
     import sigmf
     from jsonschema.exceptions import ValidationError
     from sigmf.error import SigMFError
 
-    base = base_of(path)
-    meta_path, data_path = Path(f"{base}.sigmf-meta"), Path(f"{base}.sigmf-data")
-    for p in (meta_path, data_path):
-        if not p.is_file():
-            raise RecordingError(f"{p}: not found (a recording is BASE.sigmf-meta beside BASE.sigmf-data)")
     try:
         meta = json.loads(meta_path.read_text())
+        _check_layout(meta_path, meta)
         rec = sigmf.SigMFFile(metadata=meta)
         rec.validate()
     except (OSError, UnicodeDecodeError, ValueError) as exc:
@@ -181,6 +189,76 @@ def open_recording(path: str | Path, activation: str | Path | None = None, *, wi
         raise RecordingError(f"{meta_path}: not valid SigMF: {where}: {exc.message}") from None
     except SigMFError as exc:
         raise RecordingError(f"{meta_path}: {exc}") from None
+    return meta, rec
+
+
+def _cycles(meta_path: Path, data_path: Path, annotations: list, datatype: str, n_chirps: int,
+            n_samples: int) -> np.ndarray:
+    """The recorded cycle index of every row, once the data file's size fits the annotations and every annotation
+    covers its own cycle's samples."""
+    dtype, pair = DATATYPES[datatype]
+    per_cycle = n_chirps * n_samples
+    cycle_bytes = per_cycle * np.dtype(dtype).itemsize * (2 if pair else 1)
+    size = data_path.stat().st_size
+    if size != len(annotations) * cycle_bytes:
+        raise RecordingError(f"{data_path}: {size} bytes, but the metadata ({meta_path.name}: annotations) describes "
+                             f"{len(annotations)} cycles of {cycle_bytes} bytes ({n_chirps} chirps x {n_samples} "
+                             f"samples, {datatype}) = {len(annotations) * cycle_bytes} bytes")
+    cycles = []
+    for i, a in enumerate(annotations):
+        start, count, cycle = a.get("core:sample_start"), a.get("core:sample_count"), a.get(f"{NS}:cycle")
+        if start != i * per_cycle or count != per_cycle or not isinstance(cycle, int):
+            raise RecordingError(f"{meta_path}: annotations[{i}]: expected core:sample_start {i * per_cycle}, "
+                                 f"core:sample_count {per_cycle} and an integer {NS}:cycle, got {start}, {count}, "
+                                 f"{cycle!r}")
+        cycles.append(cycle)
+    return np.array(cycles, dtype=np.int64)
+
+
+def _verify_hash(rec: Any, data_path: Path) -> None:
+    from sigmf.error import SigMFError
+
+    if data_path.stat().st_size == 0:      # a recording of no cycle: sigmf cannot map an empty file
+        if rec.get_global_field("core:sha512") != hashlib.sha512(b"").hexdigest():
+            raise RecordingError(f"{data_path}: empty, but global core:sha512 is not the hash of no data")
+        return
+    try:
+        rec.set_data_file(str(data_path))   # recomputes the sha512 and compares it with core:sha512
+    except SigMFError as exc:
+        raise RecordingError(f"{data_path}: {exc} (global core:sha512)") from None
+
+
+def _activation(log: Path, cycles: np.ndarray, n_chirps: int, meta_path: Path, checksum: bool) -> np.ndarray:
+    """rho of every recorded cycle from the private log, which must list the recording's cycles, row by row (and
+    carry its checksum when the recording says it was written with one)."""
+    try:
+        log_cycles, rho = read_log(log, n_chirps, require_checksum=checksum)
+    except ActivationLogError as exc:
+        raise RecordingError(str(exc)) from None
+    if len(log_cycles) < len(cycles):
+        raise RecordingError(f"{log}: {len(log_cycles)} cycles, shorter than the recording's {len(cycles)} "
+                             f"({meta_path.name}: annotations)")
+    if not np.array_equal(log_cycles[:len(cycles)], cycles) or len(log_cycles) > len(cycles):
+        where = next((i for i in range(min(len(cycles), len(log_cycles)))
+                      if log_cycles[i] != cycles[i]), min(len(cycles), len(log_cycles)))
+        raise RecordingError(f"{log}: cycle {log_cycles[where] if where < len(log_cycles) else 'none'} at "
+                             f"row {where}, but the recording's row {where} is cycle "
+                             f"{cycles[where] if where < len(cycles) else 'none'}: the log belongs to "
+                             "another recording")
+    return rho
+
+
+def open_recording(path: str | Path, activation: str | Path | None = None, *, with_log: bool = True,
+                   verify_hash: bool = True, require_hash: bool | None = None) -> Recording:
+    """Read and check a recording (and its activation log): RecordingError naming the file and field.
+    verify_hash  compare the data with core:sha512; require_hash  refuse a recording without core:sha512 (default:
+    as verify_hash; a caller that leaves the comparison to the player still refuses a recording it cannot check)."""
+    base = base_of(path)
+    meta_path, data_path = Path(f"{base}.sigmf-meta"), Path(f"{base}.sigmf-data")
+    for p in (meta_path, data_path):
+        if not p.is_file():
+            raise RecordingError(f"{p}: not found (a recording is BASE.sigmf-meta beside BASE.sigmf-data)")
+    meta, rec = _read_meta(meta_path)
     glob = meta["global"]
     datatype = glob.get("core:datatype")
     if datatype not in DATATYPES:
@@ -197,52 +275,22 @@ def open_recording(path: str | Path, activation: str | Path | None = None, *, wi
     if datatype.startswith("c") != iq:
         raise RecordingError(f"{meta_path}: global core:datatype {datatype} does not fit carav:iq = {iq}")
     annotations = meta.get("annotations", [])
-    per_cycle = n_chirps * n_samples
-    shape = (n_chirps, n_samples, 2) if pair else (n_chirps, n_samples)
-    cycle_bytes = per_cycle * np.dtype(dtype).itemsize * (2 if pair else 1)
-    size = data_path.stat().st_size
-    if size != len(annotations) * cycle_bytes:
-        raise RecordingError(f"{data_path}: {size} bytes, but the metadata ({meta_path.name}: annotations) describes "
-                             f"{len(annotations)} cycles of {cycle_bytes} bytes ({n_chirps} chirps x {n_samples} "
-                             f"samples, {datatype}) = {len(annotations) * cycle_bytes} bytes")
-    cycles = []
-    for i, a in enumerate(annotations):
-        start, count, cycle = a.get("core:sample_start"), a.get("core:sample_count"), a.get(f"{NS}:cycle")
-        if start != i * per_cycle or count != per_cycle or not isinstance(cycle, int):
-            raise RecordingError(f"{meta_path}: annotations[{i}]: expected core:sample_start {i * per_cycle}, "
-                                 f"core:sample_count {per_cycle} and an integer {NS}:cycle, got {start}, {count}, "
-                                 f"{cycle!r}")
-        cycles.append(cycle)
+    cycles = _cycles(meta_path, data_path, annotations, datatype, n_chirps, n_samples)
     if verify_hash:
-        try:
-            rec.set_data_file(str(data_path))   # recomputes the sha512 and compares it with core:sha512
-        except SigMFError as exc:
-            raise RecordingError(f"{data_path}: {exc} (global core:sha512)") from None
+        _verify_hash(rec, data_path)
+    shape = (n_chirps, n_samples, 2) if pair else (n_chirps, n_samples)
     samples = np.memmap(data_path, dtype=dtype, mode="r", shape=(len(annotations), *shape)) if annotations else \
         np.zeros((0, *shape), dtype=dtype)
-    out = Recording(base, meta, samples, np.array(cycles, dtype=np.int64), annotations)
+    out = Recording(base, meta, samples, cycles, annotations)
     scene_file = glob.get(f"{NS}:scene_file")
     if scene_file:
         out.scene_file = base.parent / scene_file
         if not out.scene_file.is_file():
             raise RecordingError(f"{meta_path}: global {NS}:scene_file: {out.scene_file} not found")
     if with_log:
-        log = Path(activation) if activation else log_path(base)
-        try:
-            log_cycles, rho = read_log(log, n_chirps)
-        except ActivationLogError as exc:
-            raise RecordingError(str(exc)) from None
-        if len(log_cycles) < len(cycles):
-            raise RecordingError(f"{log}: {len(log_cycles)} cycles, shorter than the recording's {len(cycles)} "
-                                 f"({meta_path.name}: annotations)")
-        if not np.array_equal(log_cycles[:len(cycles)], out.cycles) or len(log_cycles) > len(cycles):
-            where = next((i for i in range(min(len(cycles), len(log_cycles)))
-                          if log_cycles[i] != out.cycles[i]), min(len(cycles), len(log_cycles)))
-            raise RecordingError(f"{log}: cycle {log_cycles[where] if where < len(log_cycles) else 'none'} at "
-                                 f"row {where}, but the recording's row {where} is cycle "
-                                 f"{out.cycles[where] if where < len(cycles) else 'none'}: the log belongs to "
-                                 "another recording")
-        out.rho = rho
+        checksum = glob.get(f"{NS}:activation_log_checksum") == "sha256"
+        out.rho = _activation(Path(activation) if activation else log_path(base), out.cycles, n_chirps, meta_path,
+                              checksum)
     return out
 
 

@@ -5,6 +5,8 @@
     carav replay DIR [--graph FILE] [--json FILE]       a recording through detection and ranging again
     carav validate GRAPH ...
     carav blocks [TYPE]
+    carav attackers [--brief]        the attacker models: what each puts on the air, hears and takes (markdown)
+    carav estimators                 the estimation methods: how each reads range and velocity (markdown)
     carav scenes [NAME | FILE ...]   what a scene implies (resolution, max range and velocity, SNR, warnings)
     carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml]   the scene of a TI mmWave CLI profile
     carav capture inspect FILE --scene S [--lanes N] [--encoding E] [--json OUT]   what a DCA1000 capture holds
@@ -38,6 +40,9 @@ COMMANDS = {
     "replay": ("carav_stream.cli.replay", "a SigMF recording through detection, gate and ranging again"),
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
+    "attackers": ("carav_stream.cli.attackers", "the attacker models as a markdown table: what each sends and takes"),
+    "estimators": ("carav_stream.cli.estimators", "the estimation methods as a markdown table: how each reads range "
+                   "and velocity"),
     "scenes": ("carav_stream.cli.scenes", "what the presets or scene files imply: rates, resolution, SNR, warnings"),
     "capture": ("carav_stream.cli.capture", "inspect a TI DCA1000 capture: cycles, noise, chirp spread, cells"),
     "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
@@ -49,17 +54,17 @@ COMMANDS = {
     "design": ("carav_stream.cli.design", "detector thresholds of a scene for a target false-alarm rate"),
     "new": ("carav_stream.cli.new", "a new block to start from, its test (with the test kit) and a graph wiring it"),
 }
-EXPERIMENTS = {
-    "secondary-antenna": ("carav_stream.experiments.secondary_antenna", "the paper's Figures 6 to 8"),
-    "matlab-table1": ("carav_stream.experiments.matlab_table1", "MATLAB's FMCWExample result beside our estimators"),
-    "interference": ("carav_stream.experiments.interference", "another car's FMCW radar: false alarms by detector"),
-    "cfar": ("carav_stream.experiments.cfar_experiment", "the radar's CFAR target detection against its design"),
-    "clutter": ("carav_stream.experiments.clutter", "several targets and clutter: false alarms, the target list"),
-    "latency": ("carav_stream.experiments.latency", "spill test: PF over echo power, PM over repeater latency"),
-    "near-echoes": ("carav_stream.experiments.near_echoes", "a near car's echo against every detector, attack-free"),
-    "blind-zones": ("carav_stream.experiments.blind_zones", "what each detector misses of the weak attacks, per scene"),
-    "fidelities": ("carav_stream.experiments.fidelities", "beat against waveform fidelity at the range edge, loud"),
-}
+EXPERIMENTS = {name: (f"carav_stream.cli.experiment.{name.replace('-', '_')}", text) for name, text in {
+    "secondary-antenna": "the paper's Figures 6 to 8",
+    "matlab-table1": "MATLAB's FMCWExample result beside our estimators",
+    "interference": "another car's FMCW radar: false alarms by detector",
+    "cfar": "the radar's CFAR target detection against its design",
+    "clutter": "several targets and clutter: false alarms, the target list",
+    "latency": "spill test: PF over echo power, PM over repeater latency",
+    "near-echoes": "a near car's echo against every detector, attack-free",
+    "blind-zones": "what each detector misses of the weak attacks, per scene",
+    "fidelities": "beat against waveform fidelity at the range edge, loud",
+}.items()}   # each in cli/experiment/, its engine in carav_stream/experiments/
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 
 

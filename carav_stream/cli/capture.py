@@ -11,7 +11,6 @@ and velocity, and every doubt about the layout with its likely fix (carav_stream
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +18,7 @@ import numpy as np
 from carav_stream.capture.activation_log import ActivationLogError, read_log
 from carav_stream.capture.dca1000 import ENCODINGS, Layout, complete_cycles, read_cycles
 from carav_stream.capture.inspect import inspect_codes, layout_warnings
+from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.radar.adc import adc_step
 from carav_stream.radar.scene import SceneError
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     print("\n".join(lines))
     if args.json:
         try:
-            args.json.write_text(json.dumps(out, indent=2) + "\n")
+            jsonout.write(args.json, out, indent=2)
         except OSError as exc:
             raise CommandError(f"--json: {args.json}: {exc.strerror}") from None
     return 0

@@ -8,15 +8,19 @@ from typing import Any
 
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.runtime.admin import request
-from carav_stream.runtime.rundir import remove_stale_runs, run_root
+from carav_stream.runtime.rundir import RunRootError, remove_stale_runs, run_root
 
 
 def running_graphs() -> list[dict[str, Any]]:
     """The run.json of every graph running on this machine under this user (the folders of runs whose
-    supervisor was killed are removed on the way)."""
-    remove_stale_runs()
+    supervisor was killed are removed on the way); CommandError (Exit.FAILED) if the run root is not the user's own."""
+    try:
+        remove_stale_runs()
+        found = sorted(run_root().glob("*/run.json"))
+    except RunRootError as exc:
+        raise CommandError(str(exc), Exit.FAILED) from None
     runs = []
-    for f in sorted(run_root().glob("*/run.json")):
+    for f in found:
         try:
             info = json.loads(f.read_text())
             os.kill(info["pid"], 0)

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import difflib
-import json
 import os
 import sys
 import tempfile
@@ -19,10 +18,13 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, output_file, output_folder
+from carav_stream.console.progress import ProgressBar
 from carav_stream.experiments import doc_outputs
-from carav_stream.experiments.reporting import log
+from carav_stream.experiments.errors import ExperimentError
+from carav_stream.experiments.reporting import Reproduction
 from carav_stream.experiments.reproduction import render
 
 __all__ = ["configure", "run"]
@@ -49,6 +51,17 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true")
 
 
+def _say(args: argparse.Namespace, prefix: str = ""):
+    """Where the progress lines go: standard error (each after `prefix`), or nowhere with --quiet."""
+    return None if args.quiet else lambda line: print(prefix + line, file=sys.stderr, flush=True)
+
+
+def _asked(args: argparse.Namespace, figure_link: str) -> Reproduction:
+    """The reproduction the command line asks for, with a progress bar per sweep on a terminal."""
+    return Reproduction(args.trials, args.beyond_trials, args.seed, args.skip_beyond, figure_link, _say(args),
+                        ProgressBar if ProgressBar.wanted(args.quiet) else None)
+
+
 def _differs(what: str, committed: str, now: str, source: str) -> str:
     """Print the start of a unified diff on stderr; returns the one-line verdict."""
     diff = list(difflib.unified_diff(committed.splitlines(), now.splitlines(), f"{what} (committed)",
@@ -67,11 +80,13 @@ def _check(args: argparse.Namespace, target: Path) -> int:
         raise CommandError(f"--check: {target} does not exist (run from the repository's root, or give --out)")
     link = Path(os.path.relpath(args.figures or target.parent / "figures", target.parent)).as_posix()
     with ThreadPoolExecutor(1) as pool:      # the quoted commands run as processes beside this one's own work
-        quoted = None if args.out else pool.submit(doc_outputs.stale, Path("."),
-                                                   lambda m: log(args, f"checking {m}"))
+        quoted = None if args.out else pool.submit(doc_outputs.stale, Path("."), _say(args, "checking "))
         with tempfile.TemporaryDirectory(prefix="carav-reproduce-") as tmp:
-            text, _ = render(args, Path(tmp), link)
-        stale = quoted.result() if quoted else []
+            text, _ = render(_asked(args, link), Path(tmp))
+        try:
+            stale = quoted.result() if quoted else []
+        except ExperimentError as exc:       # a quoted command that failed: named in one line
+            raise CommandError(str(exc)) from None
     problems = [] if text == target.read_text() else [_differs(str(target), target.read_text(), text,
                                                                "carav reproduce")]
     problems += [_differs(f"{q.path}: output of `{q.command}`", q.body, now, q.command) for q, now in stale]
@@ -99,13 +114,16 @@ def run(args: argparse.Namespace) -> int:
     out.parent.mkdir(exist_ok=True)              # the default folder; a given one was checked with the options
     fig_dir = args.figures or out.parent / "figures"
     fig_dir.mkdir(exist_ok=True)
-    text, data = render(args, fig_dir, Path(os.path.relpath(fig_dir, out.parent)).as_posix())
+    text, data = render(_asked(args, Path(os.path.relpath(fig_dir, out.parent)).as_posix()), fig_dir)
     out.write_text(text)
     if args.json:
-        Path(args.json).write_text(json.dumps(data, indent=1, default=float))
+        jsonout.write(args.json, data, indent=1)
     print(f"wrote {out} and {fig_dir}/repro_*.png in {time.perf_counter() - t0:.0f} s")
     if args.in_place:
-        changed = doc_outputs.regenerate(Path("."), log=lambda m: log(args, f"regenerating {m}"))
+        try:
+            changed = doc_outputs.regenerate(Path("."), log=_say(args, "regenerating "))
+        except ExperimentError as exc:
+            raise CommandError(str(exc)) from None
         print(f"command outputs quoted in the documents: {len(changed)} document(s) changed "
               f"({', '.join(map(str, changed)) or 'none'})")
     return 0

@@ -2,23 +2,24 @@
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 from pathlib import Path
 from typing import Any
 
 from carav_stream.cli.view import view_graph
+from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
 from carav_stream.runtime.loader import load_graph
+from carav_stream.runtime.rundir import RunRootError
 from carav_stream.runtime.supervisor import Supervisor
 from carav_stream.view.server import free_port, new_token, page_url
 
 
 def configure(p: argparse.ArgumentParser) -> None:
-    p.add_argument("graph", type=Path)
+    p.add_argument("graph", type=graph_file)
     run_options(p)
     p.add_argument("--view", action="store_true", help="watch the run in a browser: a live_view node on taps of "
                    "the gate and the estimator serves a page (a tap never slows the chain)")
@@ -27,9 +28,18 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--view-host", default="127.0.0.1", help="the --view page's address (default loopback only)")
 
 
+def graph_file(text: str) -> Path:
+    """A graph file that exists (argparse refuses any other in one line naming the argument: exit 2, usage)."""
+    path = Path(text)
+    if not path.is_file():
+        what = "is a folder, not a graph file" if path.is_dir() else "no such file"
+        raise argparse.ArgumentTypeError(f"{text}: {what}")
+    return path
+
+
 def run_options(p: argparse.ArgumentParser) -> None:
     """The options of `carav run` (shared by `carav record` and `carav replay`)."""
-    p.add_argument("--cycles", type=int, help="cycles each source generates (a frame may carry several; default: "
+    p.add_argument("--cycles", type=count(0), help="cycles each source generates (a frame may carry several; default: "
                    "the graph's run.cycles; 0 = until stopped)")
     p.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE",
                    help="override a node's parameter, a graph-wide one with PARAM=VALUE, a [run] setting with "
@@ -76,11 +86,14 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     for w in graph.warnings:
         print(f"carav {command}: warning: {w}", file=sys.stderr)
-    sup = Supervisor(graph, host=args.host, progress=args.progress)
+    try:
+        sup = Supervisor(graph, host=args.host, progress=args.progress)
+    except RunRootError as exc:           # the run folder is not the user's own: nothing started
+        raise CommandError(str(exc), Exit.FAILED) from None
     summary = with_radar_time(sup.run())
     print_summary(summary)
     if args.json:
-        args.json.write_text(json.dumps(summary, indent=2, default=str))
+        jsonout.write(args.json, summary, indent=2)
     if summary["failures"]:
         return Exit.FAILED
     if summary["lost"]:
@@ -155,7 +168,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "radar_cycle_duration_s", "radar_time_s", "real_time_factor",
               "range_error_m", "range_error_attacked_missed_m", "velocity_error_mps", "velocity_ambiguous",
               "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
-              "refused_by_estimator", "unreadable_cycles"}
+              "refused_by_estimator", "unreadable_cycles", "figures_cover"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
                 "estimated_counts", "skipped_by_taps", "transport", "shared_memory"}
@@ -228,10 +241,10 @@ def print_summary(s: dict[str, Any]) -> None:
             print(f"  {k.replace('_', ' ')}: {_plain(v)}")
     if s.get("estimated_counts"):
         print(f"  counts estimated from the last heartbeat of: {', '.join(s['estimated_counts'])}")
-    print("  node            block              frames in  frames out  rejected  restarts")
+    print("  node            block              cycles    frames in  frames out  rejected  restarts")
     for n, p in s["per_node"].items():
-        print(f"  {n:<15} {p['block']:<18} {sum(p['in'].values()):<10} {sum(p['out'].values()):<11} "
-              f"{sum(p['rejected'].values()):<9} {p['restarts']}")
+        print(f"  {n:<15} {p['block']:<18} {p.get('cycles', 0):<9} {sum(p['in'].values()):<10} "
+              f"{sum(p['out'].values()):<11} {sum(p['rejected'].values()):<9} {p['restarts']}")
     for sw in s["swaps"]:
         print(f"  {swap_words(sw)}")
     for sw in s.get("refused_swaps", []):
@@ -256,8 +269,10 @@ def swap_words(sw: dict[str, Any]) -> str:
     """A live swap in words: node, block and its version with its model and the parameters the swap set, which
     swap of the node it was, from which frame, when."""
     what = params_words(sw.get("params", {}), sw.get("asked", {}))
+    start = (f"cycle {sw['first_cycle']} (frame seq {sw['first_seq']})" if sw.get("first_cycle") is not None
+             else f"frame seq {sw['first_seq']}")
     return (f"swap: node {sw['node']} runs block {sw['block']} (version {sw['version']}){' ' + what if what else ''} "
-            f"from frame seq {sw['first_seq']} on, its swap number {sw['generation']}{_when(sw)}")
+            f"from {start} on, its swap number {sw['generation']}{_when(sw)}")
 
 
 def refused_swap_words(sw: dict[str, Any]) -> str:

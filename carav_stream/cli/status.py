@@ -2,10 +2,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 from carav_stream.cli.common import ask, running_graphs
 from carav_stream.cli.run import refused_swap_words, swap_words
+from carav_stream.console import jsonout
 from carav_stream.runtime.protocol import Admin
 
 
@@ -16,7 +16,7 @@ def configure(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     statuses = [ask(r, Admin.STATUS, 5) for r in running_graphs()]
     if args.json:
-        print(json.dumps(statuses, indent=2))
+        print(jsonout.dumps(statuses, indent=2))
         return 0
     if not statuses:
         print("no running graphs")

@@ -51,10 +51,12 @@ import sys
 import time
 from pathlib import Path
 
-from carav_stream.console.errors import CommandError
+from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count
+from carav_stream.console.progress import ProgressBar
 from carav_stream.montecarlo.curves import plot_curves
-from carav_stream.montecarlo.study import execute, load_study, results
+from carav_stream.montecarlo.study import execute, results
+from carav_stream.montecarlo.study_file import StudyError, load_study
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -70,7 +72,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    study = load_study(args.study)
+    try:
+        study = load_study(args.study)
+    except StudyError as exc:
+        raise CommandError(str(exc), Exit.INVALID) from None
     out = args.out or Path(f"study-{args.study.stem}")
     if out.exists() and not out.is_dir():
         raise CommandError(f"--out {out}: is a file, not a folder")
@@ -79,8 +84,9 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://")):
         raise CommandError(f"--scheduler: expected tcp://HOST:PORT or tls://HOST:PORT, got {args.scheduler!r}")
     t0 = time.perf_counter()
-    draws = execute(study, out, workers=args.workers, scheduler=args.scheduler,
-                    progress=not args.quiet and sys.stderr.isatty(), log=lambda text: print(text, file=sys.stderr))
+    bar = ProgressBar(f"study {study.path.stem}") if ProgressBar.wanted(args.quiet) else None
+    draws = execute(study, out, workers=args.workers, scheduler=args.scheduler, progress=bar,
+                    log=lambda text: print(f"carav study: {text}", file=sys.stderr))
     groups, rows = results(study, draws)
     with open(out / "study.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -89,13 +95,14 @@ def run(args: argparse.Namespace) -> int:
     doc = {"study": str(args.study), "description": study.description, "seed": study.seed, "trials": study.trials,
            "eta": study.eta_text, "groups": groups}
     (out / "study.json").write_text(json.dumps(doc, indent=1))
-    if args.plot:
-        for grp in groups:
-            plot_curves(grp["result"], str(out / f"{grp['scene']}_{grp['detector']}.png"),
-                        title=f"{grp['scene']} ({study.path.stem})")
+    plots = [out / f"{grp['scene']}_{grp['detector']}.png" for grp in groups] if args.plot else []
+    for grp, png in zip(groups, plots):
+        plot_curves(grp["result"], str(png), title=f"{grp['scene']} ({study.path.stem})")
     cycles = len(rows) * study.trials
     print(f"{len(rows)} points, {cycles} cycles, {time.perf_counter() - t0:.1f} s: {out / 'study.csv'}, "
           f"{out / 'study.json'}")
+    for png in plots:
+        print(f"plot: {png} (PF and PM against eta on a log axis, the ROC beneath)")
     for r in rows:
         print(f"  {r['scene']:<10} {r['detector']:<10} {r['attack']:<8} RARMS {r['rarms']:<5g} "
               f"{r['measure']} {r['count']}/{r['trials']} at eta {r['reference_eta']:g} "

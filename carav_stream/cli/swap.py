@@ -29,6 +29,8 @@ def run(args: argparse.Namespace) -> int:
     if not reply.get("ok"):
         return fail(f"swap refused: {reply.get('error')}", Exit.INVALID)
     what = params_words(reply.get("params", {}), params)
+    where = (f"from cycle {reply['next_cycle']} (frame seq {reply['next_seq']})" if reply.get("next_cycle") is not None
+             else f"from frame seq {reply['next_seq']}")
     print(f"{args.node}: now {reply['block']}@{reply['version']}#{reply['generation']}{' ' + what if what else ''} "
-          f"from seq {reply['next_seq']}")
+          f"{where}")
     return Exit.OK

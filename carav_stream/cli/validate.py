@@ -25,6 +25,8 @@ def run(args: argparse.Namespace) -> int:
             g = load_graph(path, args.set, args.blocks, open_ok=True)
             left = f"; a template leaving {', '.join(g.open_params)} open" if g.open_params else ""
             print(f"{path}: ok ({len(g.nodes)} nodes, {len(g.edges)} connections{left})")
+            for note in g.composed:
+                print(f"  {note}")
             for w in g.warnings:
                 print(f"{path}: warning: {w}", file=sys.stderr)
         except GraphError as exc:

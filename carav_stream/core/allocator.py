@@ -4,10 +4,9 @@ scratch buffers for kernels that work a chunk at a time.
 By default glibc serves every block above a threshold (128 kB, raised as large blocks are freed, up to 32 MB) with
 its own mmap and hands it back to the OS when it is freed, and trims the top of its heap beyond 128 kB of free
 space: a kernel whose temporaries are megabytes then faults every page of every temporary in again, every call.
-These settings keep freed memory for reuse instead (up to MALLOC_TRIM_THRESHOLD_ of it):
-`carav experiment cfar --trials 100`, 1.89 s of kernel time against 0.48 s with them, the same user time; a
-graph's node, 70-80 page faults and about 200 us of kernel time per 4.5 MB cycle fewer. Other C libraries
-ignore them.
+These settings keep freed memory for reuse instead (up to MALLOC_TRIM_THRESHOLD_ of it): the same user time,
+far fewer page faults and far less kernel time, in `carav experiment cfar` as in a graph's node with its
+multi-megabyte cycles. Other C libraries ignore them.
 """
 from __future__ import annotations
 

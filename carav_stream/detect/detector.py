@@ -37,7 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Detection", "adc_chirp_rms", "chirp_rms", "chirp_rms_codes", "detect", "detect_from_rms",
-           "estimate_sigma_n", "check_rho", "SUPPORTED_DTYPES"]
+           "estimate_sigma_n", "check_rho", "PAPER_ETA", "SUPPORTED_DTYPES"]
+
+PAPER_ETA = 1.5     # the paper's threshold of C(eta) = Q / eta: the detector's default, the tables' reference
 
 SUPPORTED_DTYPES = (np.dtype(np.float32), np.dtype(np.float64), np.dtype(np.complex64), np.dtype(np.complex128))
 
@@ -159,8 +161,8 @@ def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
     n_samples = c.shape[-2] if iq else c.shape[-1]
     flat = c.reshape(-1, n_samples * (2 if iq else 1))
     n_rows = flat.shape[0]
-    # Each chirp's sum of squares is a stacked (1 x n) @ (n x 1) product over chunks of 256 chirps (about twice as
-    # fast as einsum here), first in float32: half the bytes of the float64 copy that exactness costs in numpy.
+    # Each chirp's sum of squares is a stacked (1 x n) @ (n x 1) product over chunks of 256 chirps (faster than
+    # einsum here), first in float32: half the bytes of the float64 copy that exactness costs in numpy.
     # A float32 sum below 2^24 is exact and a float32 sum of a true sum S >= 2^24 is not below 2^24, whatever the
     # order, FMA or wider accumulator: every term code^2 and every partial sum is a non-negative integer, and each
     # computed partial sum is at least min(its exact value, 2^24) (rounding is monotonic and 2^24 representable),
@@ -168,16 +170,12 @@ def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
     # done; the others (a single |code| >= 2^12 suffices; 2^24 itself is ambiguous: 2^24 + 1 rounds to it) are
     # gathered and redone in float64, where every partial sum is an integer below 2^53. Gathering costs more per
     # code than a plain float64 chunk, so once a chunk (the first one is 32 chirps: a probe) is more than a sixth
-    # loud, that chunk and the rest of the frame go to float64 directly (a strong attack, a 16-bit capture).
-    # On an AMD EPYC (Zen 4, AVX-512, 2 cores), a table1 frame (32 x 64 x 1080 int16 codes) in cache, medians of
-    # 480 runs alternated with the float64-only kernel: codes of RMS 40 (no chirp redone) 0.19 ns a code against
-    # 0.30 (float64 only: 0.14 the copy, 0.12 the products); RMS 120 (4.5 % of the chirps redone) 0.21 against 0.30;
-    # every chirp loud (RMS 200) 0.32 against 0.30 (0.55 without the switch to float64); with 10 % of the chirps
-    # loud or more, 3 to 10 % above float64 only (an attack that starts mid-frame the most). Every formulation
-    # without a float copy measured slower (einsum with a float64 dtype 0.7 ns, vecdot casting int16 2.8 ns); smaller
-    # chunks cost more in calls than they save in cache. A compiled one-pass loop with int64 sums is about 4 x
-    # faster on AVX-512 and AVX2 code alike, but numba's import and first call cost every process more CPU than the
-    # loop saves in a default run (`python3 dev.py bench compiled`, docs/bench/compiled.md: the figures and the rule).
+    # loud, that chunk and the rest of the frame go to float64 directly (a strong attack, a 16-bit capture): quiet
+    # frames gain the float32 pass, loud ones lose little against float64 alone. Every formulation without a float
+    # copy (einsum with a float64 dtype, vecdot casting int16) was slower, and smaller chunks cost more in calls
+    # than they save in cache. A compiled one-pass loop with int64 sums is faster still, but numba's import and
+    # first call cost every process more CPU than the loop saves in a default run.
+    # Measured: docs/bench/detector.md (this kernel against its bound), docs/bench/compiled.md (against numba).
     sumsq = np.empty(n_rows)
     s32 = np.empty((n_rows, 1, 1), np.float32)
     j = n_rows                                                  # the chirps from j on go to float64 at once
@@ -281,7 +279,7 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> np.ndarray:
     return out
 
 
-def detect_from_rms(rms, rho, sigma_n, eta: float = 1.5) -> Detection:
+def detect_from_rms(rms, rho, sigma_n, eta: float = PAPER_ETA) -> Detection:
     """CARAV detector from per-chirp RMS values (what `detect` computes after `chirp_rms`).
 
     rms      float (n_chirps,) or (n_cycles, n_chirps), >= 0 or NaN (invalid chirp)
@@ -322,7 +320,7 @@ def detect_from_rms(rms, rho, sigma_n, eta: float = 1.5) -> Detection:
     return Detection(r2, d0, d1, d, rbar, q, c, alarm, invalid, k_max, by_d1, e)
 
 
-def detect(frames, rho, sigma_n, eta: float = 1.5) -> Detection:
+def detect(frames, rho, sigma_n, eta: float = PAPER_ETA) -> Detection:
     """CARAV detector C(eta) on raw ADC frames (Algorithm 1, steps 3-5).
 
     frames   float32 | float64 | complex64 | complex128, (n_chirps, n_samples) for one cycle or

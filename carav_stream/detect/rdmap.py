@@ -28,7 +28,7 @@ def rd_power(frames, rho, sigma_n: float, *, single: bool = False) -> np.ndarray
 
     frames  float32/64 (I-only) or complex64/128 (I/Q), (n_cycles, n_chirps, n_samples)
     rho     bool (n_cycles, n_chirps) activation (silent chirps are ignored)
-    single  compute in single precision and return float32 (the radar's target list: about twice as fast; a
+    single  compute in single precision and return float32 (the radar's target list: faster, and a
             cell's power is then good to 1e-7 relative, far below what moves a CFAR decision)
     Range bin j of the map is FFT bin j (I/Q) or j + 1 (I-only, DC dropped).
     """

@@ -16,7 +16,7 @@ spectral.newton_refine (a 1-D Newton step where that direction is concave, else 
 the largest), clipped to half a bin (0.5 / N in beat, 0.5 / M in Doppler). The Hessian's beat curvature takes S_20
 at its expectation for a tone at f, S_00 (N^2 - 1) / 12 (Fisher scoring in beat): the observed S_20 would need two
 more columns, a third more work in the pass over the samples, for the same fixed point (grad P = 0) and, from an
-interpolated start a fraction of a bin away, the same error after one step (carav bench estimators). Slow time,
+interpolated start a fraction of a bin away, the same error after one step (docs/bench/estimators.md). Slow time,
 where the active chirps are irregular, keeps the observed curvature (it costs nothing: (C, A) arrays).
 
 Every product and sum is within one cycle (matmul over the stack of cycles, reductions along a cycle's own axes):

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from carav_stream.detect import opt_in
-from carav_stream.detect.detector import detect
+from carav_stream.detect.detector import PAPER_ETA, detect
 from carav_stream.detect.rdmap import rd_power
 from carav_stream.detect.stats import cfar_eta_closed_form, pf_pm_closed_form
 from carav_stream.experiments.latency import window_start
@@ -60,9 +60,9 @@ def attacker_table(args, data: dict) -> list[str]:
             except Exception as exc:   # report, do not hide, a failing attacker
                 rows.append(f"| {label} | {r:g} | error: {exc} | | | |")
                 continue
-            k15 = int(np.sum(qd.q >= 1.5))
+            k15 = int(np.sum(qd.q >= PAPER_ETA))
             kc = int(np.sum(qd.q >= eta_cfar))
-            d1 = float(np.mean(qd.by_d1[qd.q >= 1.5])) if k15 else 0.0
+            d1 = float(np.mean(qd.by_d1[qd.q >= PAPER_ETA])) if k15 else 0.0
             out.append({"attacker": label, "kind": kind, "rarms": r, "detected_1_5": k15, "detected_cfar": kc,
                         "trials": n, "median_q": float(np.median(qd.q)), "d1_share": d1})
             rows.append(f"| {label} | {r:g} | {rate(k15, n)} | {rate(kc, n)} | {np.median(qd.q):.3f} | {d1:.2f} |")
@@ -102,8 +102,8 @@ def nuisance_table(args, data: dict) -> list[str]:
         src = radar_source(scene, detector_sigma_n=scene.sigma_n * factor)
         qd = simulate_q(src, "none", 0.0, n, np.random.SeedSequence([args.seed, 100 + i]), method="samples")
         clipped = src._job["clipped"] / n if src._job else 0.0
-        k15, kc = int(np.sum(qd.q >= 1.5)), int(np.sum(qd.q >= eta_cfar))
-        alarms = qd.q >= min(1.5, eta_cfar)
+        k15, kc = int(np.sum(qd.q >= PAPER_ETA)), int(np.sum(qd.q >= eta_cfar))
+        alarms = qd.q >= min(PAPER_ETA, eta_cfar)
         d1 = float(np.mean(qd.by_d1[alarms])) if alarms.any() else float("nan")
         out.append({"condition": label, "false_alarms_1_5": k15, "false_alarms_cfar": kc, "trials": n,
                     "d1_share": d1, "median_q": float(np.median(qd.q)), "clipped_per_cycle": clipped})
@@ -300,7 +300,8 @@ def calibration_risk(data: dict) -> list[str]:
         pms = []
         for r in (1.0, 2.0, 3.0):
             # detector uses sigma_hat = infl * sigma: D0 = rms / sigma_hat -> same as eta scaled by infl
-            pm = float(pf_pm_closed_form(1.5 * infl, n_chirps=scene.n_chirps, dof=dof, snr=1.0, rarms=r)["p_quiet"])
+            pm = float(pf_pm_closed_form(PAPER_ETA * infl, n_chirps=scene.n_chirps, dof=dof, snr=1.0,
+                                         rarms=r)["p_quiet"])
             pms.append(pm)
         out.append({"rarms_during_calibration": r_cal, "inflation": infl, "pm": pms})
         rows.append(f"| {r_cal:g} | {infl:.3f} | " + " | ".join(f"{p:.3g}" for p in pms) + " |")

@@ -1,4 +1,5 @@
-"""`carav experiment cfar`: the radar's target detection measured against its design (carav_stream/firmware/cfar.py).
+"""The radar's target detection measured against its design (carav_stream/firmware/cfar.py; `carav experiment cfar`,
+its command line in carav_stream/cli/experiment/cfar.py).
 
 1. False alarms. Noise-only cycles of a preset's shape (its chirps, samples, I-only or I/Q; white Gaussian noise,
    balanced random activation, half the chirps silent): the share of map cells above the CA- and OS-CFAR thresholds
@@ -24,11 +25,12 @@
 """
 from __future__ import annotations
 
-import argparse
+import dataclasses
+from collections.abc import Callable
 
 import numpy as np
+import scipy.signal
 
-from carav_stream.console.options import count, number
 from carav_stream.detect.rdmap import rd_power
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.geometry import Geometry
@@ -41,14 +43,32 @@ from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.streams import scene_of
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["configure", "run"]
+__all__ = ["cfar_experiment"]
 
 
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--preset", default="table1", help="the scene whose map shape is used (default table1)")
-    parser.add_argument("--trials", type=count(1), default=400, help="cycles per measurement")
-    parser.add_argument("--pfa", type=number(0.0, strict=True), default=1e-4, help="design false-alarm rate per cell")
-    parser.add_argument("--seed", type=count(0), default=5, help="seed")
+def cfar_experiment(preset: str, trials: int, pfa: float, seed: int,
+                    progress: Callable[[str, dict], None] | None = None) -> dict:
+    """Every part of the experiment (the module docstring) by name, in this order: false_alarms, detection (1, 2),
+    refined, two_targets, resolution (3), migration (4); each a dict of its settings and "rows". progress(name,
+    part) as each part is done. `trials` cycles per measurement of parts 1 and 2 (a quarter,
+    at least 40, for part 3; at most 64 for part 4), `pfa` the design rate per cell of parts 1 and 2."""
+    scene = load_scene(preset)
+    rng = np.random.default_rng(seed)
+    c, c_list = trials, max(40, trials // 4)
+    parts: dict[str, dict] = {}
+
+    def done(name: str, part: dict) -> None:
+        parts[name] = part
+        if progress is not None:
+            progress(name, part)
+
+    done("false_alarms", _false_alarms(scene, rng, c, pfa, seed))          # the parts share rng, in this order
+    done("detection", _detection(scene, rng, c, pfa))
+    done("refined", _refined_list(rng, c_list))
+    done("two_targets", _two_targets(rng, c_list))
+    done("resolution", _resolution(rng, c_list))
+    done("migration", _migration(seed, min(c, 64)))
+    return parts
 
 
 def _frames(rng, c, m, n, iq):
@@ -56,32 +76,29 @@ def _frames(rng, c, m, n, iq):
     return (x + 1j * rng.standard_normal((c, m, n))) / np.sqrt(2) if iq else x
 
 
-def run(args: argparse.Namespace) -> int:
-    import scipy.signal
-
-
-    scene = load_scene(args.preset)
+def _false_alarms(scene, rng, c: int, pfa: float, seed: int) -> dict:
+    """Noise-only cycles: the share of map cells above the CA- and OS-CFAR thresholds, the targets listed per cycle."""
     m, n, iq = scene.n_chirps, scene.n_samples, scene.iq
-    rng = np.random.default_rng(args.seed)
-    c = args.trials
     rho = balanced_rows(rng, c, m)
     p = rd_power(_frames(rng, c, m, n, iq), rho, 1.0)
-    cells = p.shape[1] * p.shape[2]
-    print(f"{scene.name} map: {m} Doppler x {p.shape[2]} range cells, half the chirps silent, {c} noise-only "
-          f"cycles, seed {args.seed}; design {args.pfa:g} per cell, training 8 cells each side every third bin")
-    print(f"{'CFAR':<6}{'cells above threshold':>24}{'design':>10}{'targets listed/cycle':>22}{'design':>10}")
+    rows = []
     for kind in ("ca", "os"):
-        hit = np.mean(p > cfar.cfar_threshold(p, pfa=args.pfa, kind=kind))
-        listed = cfar.detect_targets(p, rho, pfa=args.pfa, kind=kind, max_targets=64).n_found.mean()
-        print(f"{kind:<6}{hit:>24.3g}{args.pfa:>10.3g}{listed:>22.3g}{args.pfa * cells:>10.3g}")
-    # detection of a Swerling 1 target centred on a cell, against the textbook curve
+        hit = np.mean(p > cfar.cfar_threshold(p, pfa=pfa, kind=kind))
+        listed = cfar.detect_targets(p, rho, pfa=pfa, kind=kind, max_targets=64).n_found.mean()
+        rows.append({"kind": kind, "above": float(hit), "listed_per_cycle": float(listed)})
+    return {"scene": scene.name, "n_chirps": m, "n_range_cells": p.shape[2], "cells": p.shape[1] * p.shape[2],
+            "cycles": c, "seed": seed, "pfa": pfa, "rows": rows}
+
+
+def _detection(scene, rng, c: int, pfa: float) -> dict:
+    """A Swerling 1 target centred on a cell: CA-CFAR's Pd per SNR beside the textbook curve."""
+    m, n, iq = scene.n_chirps, scene.n_samples, scene.iq
     w = scipy.signal.windows.hann(n, sym=False)
     gain = (w.sum() ** 2 / (w @ w))                                    # coherent gain over noise gain, per chirp
-    alpha, n_train = cfar.ca_alpha(args.pfa, 16), 16
+    alpha, n_train = cfar.ca_alpha(pfa, 16), 16
     k_bin, l_bin = n // 5, m // 8
     t, mm = np.arange(n), np.arange(m)[:, None]
-    print(f"Swerling 1 target on range bin {k_bin}, Doppler bin {l_bin}; CA-CFAR, {c} cycles per SNR")
-    print(f"{'SNR after integration':>22}{'Pd measured':>13}{'Pd textbook':>13}")
+    rows = []
     for snr_db in (5.0, 10.0, 15.0, 20.0, 25.0):
         snr = 10 ** (snr_db / 10)
         # mean per-sample power giving that cell SNR: a real tone puts half its power in the positive-frequency bin
@@ -93,17 +110,16 @@ def run(args: argparse.Namespace) -> int:
         rho = balanced_rows(rng, c, m)
         q = rd_power(x, rho, 1.0)
         col = k_bin if iq else k_bin - 1                                # I-only maps drop DC
-        thr = cfar.cfar_threshold(q, pfa=args.pfa, kind="ca")
+        thr = cfar.cfar_threshold(q, pfa=pfa, kind="ca")
         pd = np.mean(q[:, l_bin, col] > thr[:, l_bin, col])
-        print(f"{snr_db:>19.0f} dB{pd:>13.3f}{(1 + alpha / (n_train * (1 + snr))) ** -n_train:>13.3f}")
-    _refined_list(rng, max(40, c // 4))
-    _migration(args.seed, min(c, 64))
-    return 0
+        rows.append({"snr_db": snr_db, "pd": float(pd),
+                     "pd_textbook": float((1 + alpha / (n_train * (1 + snr))) ** -n_train)})
+    return {"range_bin": k_bin, "doppler_bin": l_bin, "cycles": c, "rows": rows}
 
 
-def _refined_list(rng, c: int) -> None:
-    print(f"The list refined (ml), pfa 1e-6 per cell, {c} cycles per point: RMSE over the CRLB")
-    print(f"{'preset':<9}{'SNR after integration':>22}{'range':>8}{'velocity':>10}{'listed/cycle':>14}")
+def _refined_list(rng, c: int) -> dict:
+    """One target per preset and SNR through the refined list (ml): range and velocity RMSE over the CRLB."""
+    rows = []
     for preset in ("table1", "awr1642"):
         g, m, r0, v0 = load_preset(preset)
         vmax = g.max_velocity_mps
@@ -120,10 +136,15 @@ def _refined_list(rng, c: int) -> None:
             bound = fmcw_crlb(g, snr_s, rho, range_m=truth_r[:, 0])
             err_r = tl.range_m[:, 0] - centroid_ranges(g, rho, truth_r, truth_v)[:, 0]
             err_v = (tl.velocity_mps[:, 0] - truth_v[:, 0] + vmax) % (2 * vmax) - vmax
-            print(f"{preset:<9}{snr_db:>19.0f} dB"
-                  f"{np.sqrt(np.nanmean(err_r ** 2) / np.mean(bound['range_m'] ** 2)):>8.2f}"
-                  f"{np.sqrt(np.nanmean(err_v ** 2) / np.mean(bound['velocity_mps'] ** 2)):>10.2f}"
-                  f"{tl.n_found.mean():>14.3f}")
+            rmse_r = np.sqrt(np.nanmean(err_r ** 2) / np.mean(bound["range_m"] ** 2))
+            rmse_v = np.sqrt(np.nanmean(err_v ** 2) / np.mean(bound["velocity_mps"] ** 2))
+            rows.append({"preset": preset, "snr_db": snr_db, "range_rmse_over_crlb": float(rmse_r),
+                         "velocity_rmse_over_crlb": float(rmse_v), "listed_per_cycle": float(tl.n_found.mean())})
+    return {"cycles": c, "rows": rows}
+
+
+def _two_targets(rng, c: int) -> dict:
+    """table1, a target 20 dB louder 12 range bins from one at 20 dB: the share of cycles listing the weak one."""
     g, m, r0, _ = load_preset("table1")
     rho = balanced_rows(rng, c, m)
     ranges = np.tile([0.3 * g.max_range_m, 0.3 * g.max_range_m + 12 * g.range_resolution_m], (c, 1))
@@ -131,25 +152,23 @@ def _refined_list(rng, c: int) -> None:
     snr_s = 20.0 - 10 * np.log10(m // 2)
     x = synth_beat(g, rho, ranges, speeds, amplitudes=np.array([1.0, 10.0]), snr_sample_db=snr_s, rng=rng)
     sigma = 10 ** (-snr_s / 20) / np.sqrt(2.0)
-    print("table1, a target 20 dB louder 12 range bins from one at 20 dB: cycles listing the weak one")
+    rows = []
     for kind in ("ca_cfar", "os_cfar"):
         listed = np.abs(target_list(x, rho, g, sigma, detection=kind).range_m - ranges[:, :1]) < g.range_resolution_m
-        print(f"  {kind}: {listed.any(axis=1).mean():.3f}")
-    _resolution(rng, c)
+        rows.append({"detection": kind, "weak_listed": float(listed.any(axis=1).mean())})
+    return {"cycles": c, "rows": rows}
 
 
-def _resolution(rng, c: int) -> None:
+def _resolution(rng, c: int) -> dict:
     """Two equal targets (20 dB each after integration, the same velocity) a given number of range bins apart:
     the share of cycles whose OS-CFAR list holds both (each within 0.4 spacing, at most half a cell, of its
-    truth), and
-    the share that lists the pair as one (a target within half a cell of the pair's span, not both resolved)."""
-
+    truth), and the share that lists the pair as one (a target within half a cell of the pair's span, not both
+    resolved)."""
     g, m, _, _ = load_preset("table1")
     res = g.range_resolution_m
     snr_s = 20.0 - 10 * np.log10(m // 2)
     sigma = 10 ** (-snr_s / 20) / np.sqrt(2.0)
-    print(f"table1, two equal targets at 20 dB, same velocity, OS-CFAR + ml, {c} cycles per spacing")
-    print(f"{'spacing (bins)':>15}{'both listed':>13}{'as one':>13}")
+    rows = []
     for bins in (0.5, 1.0, 1.5, 2.0, 3.0):
         rho = balanced_rows(rng, c, m)
         r0 = 0.3 * g.max_range_m + rng.uniform(-0.5, 0.5, (c, 1)) * res
@@ -162,23 +181,19 @@ def _resolution(rng, c: int) -> None:
         both = near.any(axis=1).all(axis=1)              # tol < spacing / 2: two different listed targets
         mid = ranges.mean(axis=1, keepdims=True)
         as_one = (np.abs(tl.range_m - mid) < (0.5 * bins + 0.5) * res).any(axis=1) & ~both
-        print(f"{bins:>15g}{both.mean():>13.2f}{as_one.mean():>13.2f}")
+        rows.append({"spacing_bins": bins, "both_listed": float(both.mean()), "as_one": float(as_one.mean())})
+    return {"cycles": c, "rows": rows}
 
 
-def _migration(seed: int, c: int) -> None:
-    import dataclasses
-
-
+def _migration(seed: int, c: int) -> dict:
+    """The awr1642 car and weaker copies through the signal chain: the OS-CFAR list without and with range-walk
+    compensation."""
     base = scene_of("awr1642")
     g = Geometry.from_scene(base)
     car = base.targets[0]
     r_true, v_true = car.range_m, base.range_rate_mps(car)
     r_gate, v_gate = gates(g, base.n_chirps, abs(v_true))
-    print(f"awr1642 car at {r_true:g} m closing at {-v_true:.1f} m/s, OS-CFAR pfa 1e-6 per cell, {c} cycles per row: "
-          "without and with range-walk compensation (max_speed_mps 100); SNR: the listed cell's, after integration "
-          "(median)")
-    print(f"{'RCS':>9}{'SNR':>7}{'max speed':>11}{'Pd':>7}{'false/cycle':>13}{'range RMSE':>12}{'velocity RMSE':>15}"
-          f"{'true alias':>12}")
+    rows = []
     for rcs in (car.rcs_m2, car.rcs_m2 * 1e-3, car.rcs_m2 * 1e-4, car.rcs_m2 * 10 ** -4.5):
         scene = dataclasses.replace(base, targets=(dataclasses.replace(car, rcs_m2=rcs),))
         rng = np.random.default_rng(seed)
@@ -198,8 +213,10 @@ def _migration(seed: int, c: int) -> None:
                     err_v.append(tl.velocity_mps[i, j] - v_true)
                     snr.append(tl.snr_db[i, j])
             err_r, err_v = np.asarray(err_r), np.asarray(err_v)
-            alias = np.mean(np.abs(err_v) < g.max_velocity_mps) if err_v.size else float("nan")
-            snr_db = np.median(snr) if snr else float("nan")
-            print(f"{rcs:>6.2g} m2{snr_db:>4.0f} dB{speed:>7g} m/s{hit / c:>7.2f}{false / c:>13.2f}"
-                  f"{np.sqrt(np.mean(err_r ** 2)):>10.3f} m"
-                  f"{np.sqrt(np.mean(err_v ** 2)):>11.3f} m/s{alias:>12.2f}")
+            rows.append({"rcs_m2": rcs, "snr_db": float(np.median(snr)) if snr else float("nan"),
+                         "max_speed_mps": speed, "pd": hit / c, "false_per_cycle": false / c,
+                         "range_rmse_m": float(np.sqrt(np.mean(err_r ** 2))),
+                         "velocity_rmse_mps": float(np.sqrt(np.mean(err_v ** 2))),
+                         "true_alias": float(np.mean(np.abs(err_v) < g.max_velocity_mps)) if err_v.size
+                         else float("nan")})
+    return {"range_m": r_true, "closing_mps": -v_true, "cycles": c, "rows": rows}

@@ -1,5 +1,5 @@
-"""`carav experiment clutter`: several targets and clutter, no attacker: false alarms of every detector and what
-the radar's target list makes of the scene.
+"""Several targets and clutter, no attacker: false alarms of every detector and what the radar's target list makes
+of the scene (`carav experiment clutter`; its command line in carav_stream/cli/experiment/clutter.py).
 
 Scenes, each the preset with its own car plus:
   car                 nothing (the baseline)
@@ -19,14 +19,13 @@ per cycle that match no scene target (association gates of target_list.gates). E
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
-from carav_stream.console.options import count
 from carav_stream.detect import opt_in
-from carav_stream.detect.detector import detect
+from carav_stream.detect.detector import PAPER_ETA, detect
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.target_list import associate, gates, target_list
@@ -35,12 +34,10 @@ from carav_stream.radar.scene import Target
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["configure", "run", "scenes"]
+__all__ = ["clutter", "scenes", "CASES"]
 
-
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--trials", type=count(1), default=200, help="cycles per scene")
-    parser.add_argument("--seed", type=count(0), default=17, help="seed of the simulation and of the clutter draw")
+CASES = (("table1", "beat", 0.0), ("table1", "waveform", 0.0), ("awr1642", "beat", 100.0))
+"""(preset, fidelity, max_speed_mps of the target list's range-walk compensation)"""
 
 
 def scenes(base, rng) -> dict:
@@ -87,7 +84,7 @@ def _measure(scene, fidelity: str, n: int, rng, eta_design: float, max_speed: fl
         near = np.abs(r - car.range_m) <= r_gate
         if in_range and near.any():
             err.append(float(r[near][np.argmin(np.abs(r[near] - car.range_m))] - car.range_m))
-    return {"c_1_5": float(np.mean(q >= 1.5)), "c_design": float(np.mean(q >= eta_design)),
+    return {"c_1_5": float(np.mean(q >= PAPER_ETA)), "c_design": float(np.mean(q >= eta_design)),
             "spectral": float(opt_in.spectral_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.mean()),
             "integrated": float(opt_in.integrated_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.mean()),
             "coherent": float(opt_in.coherent_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.mean()),
@@ -96,22 +93,18 @@ def _measure(scene, fidelity: str, n: int, rng, eta_design: float, max_speed: fl
             "false_targets_per_cycle": false / n}
 
 
-def run(args: argparse.Namespace) -> int:
-    n = args.trials
-    print(f"attack-free cycles, {n} per scene, seed {args.seed}: share of cycles with an alarm (every alarm is false), "
-          "and the OS-CFAR target list (pfa 1e-6 per cell)")
-    print(f"{'preset / fidelity':<19}{'scene':<19}{'C(1.5)':>7}{'C(1e-6)':>8}{'spectral':>9}{'integr.':>8}"
-          f"{'coher.':>7}{'car Pd':>7}{'car range RMSE':>15}{'false/cycle':>12}")
-    cases = (("table1", "beat", 0.0), ("table1", "waveform", 0.0), ("awr1642", "beat", 100.0))
-    for preset, fidelity, max_speed in cases:
+def clutter(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
+    """One row per case of CASES and scene variant: {"preset", "fidelity", "scene", and _measure's figures over n
+    attack-free cycles}; progress(row) as each is done."""
+    rows = []
+    for preset, fidelity, max_speed in CASES:
         base = load_scene(preset)
         eta_design = rms_threshold(scene_law(base), 1e-6)
-        rng = np.random.default_rng([args.seed, len(preset), len(fidelity)])
+        rng = np.random.default_rng([seed, len(preset), len(fidelity)])
         for name, scene in scenes(base, rng).items():
-            m = _measure(scene, fidelity, n, rng, eta_design, max_speed)
-            pd = "n/a" if m["car_pd"] is None else f"{m['car_pd']:.2f}"
-            rmse = "n/a" if m["car_range_rmse_m"] is None else f"{m['car_range_rmse_m'] * 1e3:.1f} mm"
-            print(f"{preset + ' / ' + fidelity:<19}{name:<19}{m['c_1_5']:>7.3f}{m['c_design']:>8.3f}"
-                  f"{m['spectral']:>9.3f}{m['integrated']:>8.3f}{m['coherent']:>7.3f}{pd:>7}{rmse:>15}"
-                  f"{m['false_targets_per_cycle']:>12.2f}", flush=True)
-    return 0
+            row = {"preset": preset, "fidelity": fidelity, "scene": name,
+                   **_measure(scene, fidelity, n, rng, eta_design, max_speed)}
+            if progress is not None:
+                progress(row)
+            rows.append(row)
+    return rows

@@ -26,13 +26,27 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from carav_stream.console.errors import CommandError
+from carav_stream.experiments.errors import ExperimentError
 
 __all__ = ["Quote", "quotes", "all_quotes", "output", "regenerate", "stale", "DOCUMENTS"]
 
 MARK = re.compile(r"^<!-- output of: (?P<cmd>carav [^\n]*?) -->\n(?:```[a-z]*\n(?P<fenced>.*?)^```\n|(?P<raw>.*?))"
                   r"^<!-- end of output -->$", re.M | re.S)
 WRITES = ("--plot", "--json")
+# What a run prints of the machine it ran on (its id, its wall time and rates): left out of the comparison, so a
+# document may quote a whole `carav run`; every other figure of it is fixed by the graph's seed and is checked.
+MACHINE = (re.compile(r"(?<=  run )[\w.]+-[0-9a-f]{6}$", re.M),
+           re.compile(r"(?<= cycles in )[\d.]+ [mun]?s of wall time: \d+ cycles/s"),
+           re.compile(r"(?<=real-time factor )[\d.]+"))
+
+
+def same(quoted: str, now: str) -> bool:
+    """Whether a quote still says what its command prints, the machine's own figures aside (MACHINE)."""
+    def masked(text: str) -> str:
+        for pattern in MACHINE:
+            text = pattern.sub("...", text)
+        return text
+    return masked(quoted) == masked(now)
 DOCUMENTS = ("README.md", "docs/*.md")
 
 
@@ -65,7 +79,7 @@ def all_quotes(root: Path) -> list[Quote]:
 
 def output(q: Quote, root: Path, scratch: Path | None) -> str:
     """What `q`'s command prints now, run from `root`; with `scratch` (a folder), the files it would write go there
-    instead of where the command names them."""
+    instead of where the command names them. ExperimentError, naming the document and the command, if it fails."""
     argv = shlex.split(q.command)[1:]
     if scratch is not None:          # a check writes nothing in the tree
         argv = [str(scratch / Path(argv[i]).name) if i and argv[i - 1] in WRITES else a for i, a in enumerate(argv)]
@@ -74,10 +88,10 @@ def output(q: Quote, root: Path, scratch: Path | None) -> str:
         done = subprocess.run([sys.executable, "-m", "carav_stream.cli", *argv], cwd=root, capture_output=True,
                               text=True, timeout=1800, env={**os.environ, "COLUMNS": "120"})
     except subprocess.TimeoutExpired:
-        raise CommandError(f"{where} did not finish in 30 min") from None
+        raise ExperimentError(f"{where} did not finish in 30 min") from None
     if done.returncode:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
-        raise CommandError(f"{where} failed (exit {done.returncode}): {last}")
+        raise ExperimentError(f"{where} failed (exit {done.returncode}): {last}")
     return done.stdout
 
 
@@ -118,4 +132,4 @@ def regenerate(root: Path, log=None) -> list[Path]:
 def stale(root: Path, log=None) -> list[tuple[Quote, str]]:
     """Every quote whose command now prints something else: (quote, what it prints now). Writes nothing."""
     with tempfile.TemporaryDirectory(prefix="carav-doc-outputs-") as tmp:
-        return [(q, now) for q, now in _outputs(root, Path(tmp), log) if now != q.body]
+        return [(q, now) for q, now in _outputs(root, Path(tmp), log) if not same(q.body, now)]

@@ -1,5 +1,6 @@
-"""`carav experiment fidelities`: where the beat and the waveform fidelity agree, at the range edge and for loud
-echoes, in the detector's units (--units detector) or in the estimator's (--units estimator).
+"""The engine of `carav experiment fidelities` (its command: carav_stream/cli/experiment/fidelities.py): where the beat
+and the waveform fidelity agree, at the range edge and for loud echoes, in the detector's units (--units detector)
+or in the estimator's (--units estimator).
 
 Each preset's car (sampled as the preset samples, I only) moved to fractions of its maximum range, attack-free, as
 two echoes:
@@ -28,12 +29,11 @@ Cramer-Rao bound of the samples that hold the echo.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
-from carav_stream.console.options import count
 from carav_stream.estimate import Geometry, estimate
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.radar import physics
@@ -41,20 +41,13 @@ from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["configure", "run", "slot_differences", "range_errors", "FRACTIONS"]
+__all__ = ["rows", "slot_differences", "range_errors", "FRACTIONS"]
 
 PRESETS = ("table1", "awr1642")
 ESTIMATOR_RATE_KMH = {"awr1642": -7.0}     # the car's range rate for the estimator, where its own aliases
 FRACTIONS = (0.5, 0.8, 0.9, 0.95, 0.97, 0.99)
 ECHOES = {"car": 0.0, "loud": 20.0}        # dB above the car's echo at its own range, per sample
 FIDELITIES = ("beat", "waveform")
-
-
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--units", choices=("detector", "estimator"), default="detector",
-                        help="the detector's statistics or the estimator's range")
-    parser.add_argument("--trials", type=count(10), default=200, help="cycles per fidelity and case (estimator)")
-    parser.add_argument("--seed", type=count(0), default=5, help="seed of the activation and the noise")
 
 
 def moved(base, fraction: float, louder_db: float):
@@ -103,34 +96,24 @@ def range_errors(scene, n: int, seed: int) -> tuple[float, float, float]:
     return rms[0], rms[1], float(np.sqrt(np.mean((est["beat"] - est["waveform"]) ** 2)) / bound)
 
 
-def run(args: argparse.Namespace) -> int:
-    if args.units == "detector":
-        print("noise-free echoes, one balanced activation pattern: the largest |beat - waveform| of each slot's "
-              "expected statistic, over its standard deviation under the noise")
-        print(f"{'preset':<8} {'echo':<5} {'R / Rmax':>8} {'range m':>8} {'SNR dB':>7} {'m/s':>7} {'D0 silent':>11} "
-              f"{'D1 active':>11}")
-    else:
-        print(f"{args.trials} cycles per fidelity, the same activation and noise at both, seed {args.seed}: ml's range "
-              "RMSE at each fidelity and the RMS of their difference, over the bound")
-        print(f"{'preset':<8} {'echo':<5} {'R / Rmax':>8} {'range m':>8} {'SNR dB':>7} {'m/s':>7} {'beat':>8} "
-              f"{'waveform':>9} {'difference':>11}")
+def rows(units: str, trials: int, seed: int, row: Callable[[dict], None]) -> None:
+    """Every (preset, echo, fraction of the maximum range) case, handed to `row` as it is computed: the car's range,
+    SNR and range rate, and with units "detector" the largest D0 and D1 differences over their sd, with "estimator"
+    ml's RMSE at each fidelity and of their difference over the bound (`trials` cycles each)."""
     for preset in PRESETS:
         base = load_scene(preset)
-        if args.units == "estimator" and preset in ESTIMATOR_RATE_KMH:
+        if units == "estimator" and preset in ESTIMATOR_RATE_KMH:
             base = load_scene(preset, {"targets[0].velocity_kmh": base.radar_speed_mps * 3.6
                                        + ESTIMATOR_RATE_KMH[preset]})
-        rho = balanced_rows(np.random.default_rng(args.seed), 1, base.n_chirps)[0]
+        rho = balanced_rows(np.random.default_rng(seed), 1, base.n_chirps)[0]
         for echo, louder_db in ECHOES.items():
             for fraction in FRACTIONS:
                 scene = moved(base, fraction, louder_db)
                 car = scene.targets[0]
-                line = (f"{preset:<8} {echo:<5} {fraction:8.2f} {car.range_m:8.1f} {scene.snr_db():+7.1f} "
-                        f"{scene.range_rate_mps(car):7.1f}")
-                if args.units == "detector":
-                    d0, d1 = slot_differences(scene, rho)
-                    line += f" {d0:11.2f} {d1:11.2f}"
+                out = {"preset": preset, "echo": echo, "fraction": fraction, "range_m": car.range_m,
+                       "snr_db": scene.snr_db(), "range_rate_mps": scene.range_rate_mps(car)}
+                if units == "detector":
+                    out["d0"], out["d1"] = slot_differences(scene, rho)
                 else:
-                    beat, wave, diff = range_errors(scene, args.trials, args.seed)
-                    line += f" {beat:8.2f} {wave:9.2f} {diff:11.2f}"
-                print(line, flush=True)
-    return 0
+                    out["beat"], out["waveform"], out["difference"] = range_errors(scene, trials, seed)
+                row(out)

@@ -1,5 +1,5 @@
-"""`carav experiment latency`: the reactive repeater against the spill test, and the spill test's false alarms
-against the targets' echo power.
+"""The reactive repeater against the spill test, and the spill test's false alarms against the targets' echo power
+(`carav experiment latency`; its command line in carav_stream/cli/experiment/latency.py).
 
 A reactive repeater answers chirp k after 2 d / c + L and so cannot stop before 2 d / c + L after the radar has
 stopped: its reply spills that long into slot k + 1. So does every echo (for its round trip 2 R / c), but no echo the
@@ -8,7 +8,7 @@ band, plus the FIR's transition, over the slope). The spill test (`detect.opt_in
 slots after active ones from tau_vis plus the filter's settling on (`window_start`), where under noise alone each
 range bin's power summed over those slots is Gamma(M, 1) whatever the targets: an exact threshold.
 
-Printed:
+Measured:
   false alarms  attack-free cycles, the preset's car alone and with three more targets (clutter.scenes: one 20 dB
                 louder at 15 m, one receding, one 20 dB weaker), every echo scaled by -10 .. +20 dB around the
                 scene's own (RCS x 10^(dB/10)); table1 at beat and waveform fidelity, awr1642 at beat fidelity. Share
@@ -23,18 +23,15 @@ Printed:
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
+from collections.abc import Callable
 
 import numpy as np
 
-from carav_stream.console.options import count, output_file
 from carav_stream.core.units import C_MPS
 from carav_stream.detect.detector import detect
 from carav_stream.detect.opt_in import calibrate_threshold, integrated_silent_test, spill_test
 from carav_stream.experiments.clutter import scenes
-from carav_stream.experiments.reporting import rate
 from carav_stream.radar import physics
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.attackers import make_attacker
@@ -42,7 +39,7 @@ from carav_stream.radar.physics import max_visible_delay_s, spill_window_start
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["configure", "run", "window_start", "head_tail_ratio"]
+__all__ = ["windows", "false_alarms", "misses", "window_start", "head_tail_ratio"]
 
 ECHO_DB = (-10, -5, 0, 5, 10, 15, 20)
 LATENCIES_US = {"table1": (0.1, 1.0, 2.0, 3.0, 3.3, 3.6, 3.9, 4.2, 5.0, 6.0, 7.0),
@@ -50,12 +47,6 @@ LATENCIES_US = {"table1": (0.1, 1.0, 2.0, 3.0, 3.3, 3.6, 3.9, 4.2, 5.0, 6.0, 7.0
 CASES = (("table1", "beat"), ("table1", "waveform"), ("awr1642", "beat"))
 PF_MEASURED = 0.05
 N_HEAD = 24
-
-
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--trials", type=count(10), default=400, help="cycles per cell")
-    parser.add_argument("--seed", type=count(0), default=23, help="seed of the simulation")
-    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
 
 
 def window_start(scene) -> int:
@@ -120,36 +111,32 @@ def _misses(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
     return out
 
 
-def run(args: argparse.Namespace) -> int:
-    n = args.trials
-    data = {"false_alarms": [], "misses": []}
+def windows() -> list[dict]:
+    """Per preset: the longest visible round trip, the spill window's first sample, samples and chirp period."""
+    out = []
     for preset in ("table1", "awr1642"):
         s = load_scene(preset)
-        print(f"{preset}: longest visible round trip {max_visible_delay_s(s) * 1e6:.3f} us; spill window samples "
-              f"{window_start(s)}..{s.n_samples - 1} of silent slots after active ones ({s.n_samples} samples, "
-              f"chirp {s.t_chirp_s * 1e6:g} us)")
-    print(f"false alarms: attack-free cycles, {n} per cell, seed {args.seed}; echo power relative to the scene's own")
-    print(f"{'preset / fidelity':<19}{'scene':<14}{'echo':>6}  {'spill @ PF 0.05 [95% CI]':<27}{'@ 1e-6':>7}"
-          f"  {'head/tail (calibrated at 0 dB, 0.05)':<36}")
+        out.append({"preset": preset, "longest_round_trip_s": max_visible_delay_s(s), "first_sample": window_start(s),
+                    "n_samples": s.n_samples, "t_chirp_s": s.t_chirp_s})
+    return out
+
+
+def false_alarms(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
+    """_false_alarms of every case of CASES, n cycles per cell; progress(row) for each row as its case is done."""
+    return _each_case(_false_alarms, n, seed, progress)
+
+
+def misses(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
+    """_misses of every case of CASES, n attacked cycles per row; progress(row) for each row as its case is done."""
+    return _each_case(_misses, n, seed, progress)
+
+
+def _each_case(measure, n: int, seed: int, progress) -> list[dict]:
+    out = []
     for preset, fidelity in CASES:
-        rows = _false_alarms(preset, fidelity, n, args.seed)
-        data["false_alarms"] += rows
+        rows = measure(preset, fidelity, n, seed)
         for r in rows:
-            print(f"{preset + ' / ' + fidelity:<19}{r['scene']:<14}{r['echo_db']:>+4d}dB  "
-                  f"{rate(r['spill_pf_0_05'], n):<27}{r['spill_pf_1e_6'] / n:>7.3f}  {rate(r['head_tail'], n):<36}",
-                  flush=True)
-    print(f"misses: reactive repeater at 30 m, RARMS 1, {n} attacked cycles per row; share of cycles missed")
-    print(f"{'preset / fidelity':<19}{'latency':>9}{'delay':>9}  {'own beat':<9}{'spill':<9}{'spill test':>11}"
-          f"{'C(1.5)':>8}{'integr.':>9}")
-    for preset, fidelity in CASES:
-        rows = _misses(preset, fidelity, n, args.seed)
-        data["misses"] += rows
-        for r in rows:
-            band = lambda b: "in band" if b else "filtered"   # noqa: E731
-            print(f"{preset + ' / ' + fidelity:<19}{r['latency_us']:>7.2f}us{r['delay_us']:>7.2f}us  "
-                  f"{band(r['own_in_band']):<9}{band(r['spill_in_band']):<9}{r['spill_missed'] / n:>11.3f}"
-                  f"{r['c15_missed'] / n:>8.3f}{r['integrated_missed'] / n:>9.3f}", flush=True)
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(data, f, indent=1)
-    return 0
+            if progress is not None:
+                progress(r)
+        out += rows
+    return out

@@ -1,21 +1,18 @@
-"""`carav experiment matlab-table1`: MATLAB's published FMCWExample result beside our replica of its chain and
-beside `ml` and `root_music`, over a Monte Carlo of closed-form table1 frames (docs/ESTIMATION.md).
+"""MATLAB's published FMCWExample result beside our replica of its chain and beside `ml` and `root_music`, over a
+Monte Carlo of closed-form table1 frames (docs/ESTIMATION.md; `carav experiment matlab-table1`, its command line in
+carav_stream/cli/experiment/matlab_table1.py).
 
 Frames: complex (I/Q) table1 beat signals of the car (43 m, closing at 1.111 m/s) from `estimate.tones.synth_beat`
 at the radar equation's +2.2 dB per sample, all 64 chirps, range migration included. Chains: our replica of
 MATLAB's (`estimate.matlab_reference`: decimate, pulsint, 2x2 rootmusic on the sum and on one fast-time sample
-across sweeps), `ml` and `root_music` of this package. Printed: mean, standard deviation and 0.5 % .. 99.5 % of
+across sweeps), `ml` and `root_music` of this package. Measured: mean, standard deviation and 0.5 % .. 99.5 % of
 each quantity, MATLAB's published values as z-scores within the replica's spread, and how much such a test can
 tell: the interval of published values it would have accepted (|z| < 3), set beside the truth.
 """
 from __future__ import annotations
 
-import argparse
-import json
-
 import numpy as np
 
-from carav_stream.console.options import count, output_file
 from carav_stream.estimate import estimate
 from carav_stream.estimate.matlab_reference import (
     MATLAB_TABLE1_CLOSING_SPEED_MPS,
@@ -27,16 +24,10 @@ from carav_stream.estimate.matlab_reference import (
 )
 from carav_stream.estimate.tones import synth_beat
 
-__all__ = ["configure", "run", "simulate"]
+__all__ = ["simulate", "figures", "SNR_DB"]
 
 SNR_DB = 2.2          # the radar equation's per-sample SNR of the car (docs/SCENES.md)
 CHUNK = 50            # cycles per simulated block (memory: 50 x 64 x 1100 complex64 = 28 MB)
-
-
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--cycles", type=count(10), default=400, help="Monte Carlo cycles")
-    parser.add_argument("--seed", type=count(0), default=2026)
-    parser.add_argument("--json", type=output_file, metavar="FILE", help="write every figure as JSON")
 
 
 def simulate(cycles: int, seed: int) -> dict[str, np.ndarray]:
@@ -60,16 +51,6 @@ def simulate(cycles: int, seed: int) -> dict[str, np.ndarray]:
     return {k: np.concatenate(v) for k, v in out.items()}
 
 
-ROWS = [  # (chain, quantity, key, decimals)
-    ("our replica of the MATLAB chain", "beat-only range [m]", "replica_range_m", 5),
-    ("our replica of the MATLAB chain", "closing speed [m/s]", "replica_closing_speed_mps", 4),
-    ("`ml` (this package)", "beat-only range [m]", "ml_beat_range_m", 5),
-    ("`ml`", "range, coupling removed [m]", "ml_range_m", 5),
-    ("`ml`", "velocity [m/s]", "ml_velocity_mps", 5),
-    ("`root_music` (L = 32, FB)", "beat-only range [m]", "root_music_beat_range_m", 5),
-]
-
-
 def figures(runs: dict[str, np.ndarray]) -> dict:
     stats = {k: {"mean": float(v.mean()), "std": float(v.std(ddof=1)),
                  "q005": float(np.quantile(v, 0.005)), "q995": float(np.quantile(v, 0.995))}
@@ -83,29 +64,3 @@ def figures(runs: dict[str, np.ndarray]) -> dict:
         tests[name] = {"published": published, "truth": truth, "z": (published - s["mean"]) / s["std"],
                        "accepted": [s["mean"] - 3 * s["std"], s["mean"] + 3 * s["std"]]}
     return {"stats": stats, "matlab": tests}
-
-
-def report(fig: dict, cycles: int, seed: int) -> list[str]:
-    st = fig["stats"]
-    lines = [f"{cycles} cycles, seed {seed}, +{SNR_DB} dB per sample, all 64 chirps, range migration included", "",
-             "| chain | quantity | mean | std | 0.5 % .. 99.5 % |", "|---|---|---|---|---|"]
-    for chain, quantity, key, d in ROWS:
-        s = st[key]
-        lines.append(f"| {chain} | {quantity} | {s['mean']:.{d}f} | {s['std']:.4g} | "
-                     f"{s['q005']:.{d - 1}f} .. {s['q995']:.{d - 1}f} |")
-    lines.append("")
-    for name, unit in (("range", "m"), ("closing_speed", "m/s")):
-        t = fig["matlab"][name]
-        lo, hi = t["accepted"]
-        lines.append(f"- MATLAB's {name.replace('_', ' ')} {t['published']:g} {unit}: z = {t['z']:+.2f} within the "
-                     f"replica's spread; |z| < 3 accepts any published value in [{lo:.4g}, {hi:.4g}] {unit} "
-                     f"(width {hi - lo:.3g} {unit}; truth {t['truth']:.4g} {unit}).")
-    return lines
-
-
-def run(args: argparse.Namespace) -> int:
-    fig = figures(simulate(args.cycles, args.seed))
-    print("\n".join(report(fig, args.cycles, args.seed)))
-    if args.json:
-        args.json.write_text(json.dumps(fig, indent=1))
-    return 0

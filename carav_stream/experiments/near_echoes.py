@@ -1,4 +1,5 @@
-"""`carav experiment near-echoes`: the table1 car near the radar, attack-free: what its echo does to every detector.
+"""The table1 car near the radar, attack-free: what its echo does to every detector (`carav experiment near-echoes`;
+its command line in carav_stream/cli/experiment/near_echoes.py).
 
 The car (100 m^2, 96 km/h, radar at 100 km/h) at 5, 7 and 10 m, at beat and waveform fidelity, sampled two ways:
 from the ramp's reset (t_adc_start_s = 0, 1100 samples, as MATLAB's example does) and as the table1 preset samples
@@ -18,21 +19,18 @@ the noise power at 5 m (5 % at 7 m). Against sigma_n alone the integrated and co
 hundred at 5 m, and the CUSUM, which sums the excess over cycles, within a few cycles. C's designed eta counts it.
 
 with 95 % Clopper-Pearson intervals. PF 1e-6 lies within the interval of k alarms in n cycles only for k = 0 (for
-n up to 2.5e5). Beside them, the leak's closed form (carav_stream/firmware/leak.py): the false-alarm rate per cycle
-of C at the designed eta that the echo's worst-phase leak into the silent slots implies (at the fidelity where it
+n up to 2.5e5). Beside them, the leak's exact rate (carav_stream/firmware/leak.py): the false-alarm rate per cycle
+of C at the designed eta that the echo's leak into the silent slots implies (at the fidelity where it
 is larger, the same for both rows of a scene), and whether `carav validate`, `design` and `scenes` warn.
 """
 from __future__ import annotations
 
-import argparse
-import json
+from collections.abc import Callable
 
 import numpy as np
 
-from carav_stream.console.options import count, output_file
-from carav_stream.detect.detector import chirp_rms, detect
+from carav_stream.detect.detector import PAPER_ETA, chirp_rms, detect
 from carav_stream.detect.opt_in import cusum_silent_power, cusum_threshold, silent_power_z
-from carav_stream.experiments.reporting import rate
 from carav_stream.firmware.blind_zone import opt_in_alarms
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
@@ -41,19 +39,14 @@ from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["configure", "run", "cell", "RANGES_M", "STARTS"]
+__all__ = ["near_echoes", "cell", "ALARMS", "RANGES_M", "STARTS", "FIDELITIES", "PF"]
 
 RANGES_M = (5.0, 7.0, 10.0)
 STARTS = {"from the reset": {"t_adc_start_s": 0.0, "n_samples": 1100}, "preset": {}}
 FIDELITIES = ("beat", "waveform")
 PF = 1e-6
 CHUNK = 100          # cycles simulated at once (100 x 64 x 1100 float32: 28 MB)
-
-
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--trials", type=count(10), default=300, help="attack-free cycles per cell")
-    parser.add_argument("--seed", type=count(0), default=11, help="seed of the simulation")
-    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
+ALARMS = ("C(eta)", "C(1.5)", *OPT_IN)   # the detectors whose alarms a cell counts
 
 
 def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
@@ -63,14 +56,14 @@ def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
     eta = rms_threshold(law, PF)
     leak = scene_leaks(scene, eta, pf_design=PF)[0]
     rng = np.random.default_rng([seed, int(range_m * 10), len(start), len(fidelity)])
-    counts = {"C(eta)": 0, "C(1.5)": 0, **{name: 0 for name in OPT_IN}}
+    counts = dict.fromkeys(ALARMS, 0)
     z = []
     for done in range(0, n, CHUNK):
         rho = balanced_rows(rng, min(CHUNK, n - done), scene.n_chirps)
         x = simulate_cycles(scene, rho, rng, fidelity=fidelity).frames
         q = detect(x, rho, scene.sigma_n).q
         counts["C(eta)"] += int(np.sum(q >= eta))
-        counts["C(1.5)"] += int(np.sum(q >= 1.5))
+        counts["C(1.5)"] += int(np.sum(q >= PAPER_ETA))
         for name, alarm in opt_in_alarms(x, rho, scene, law, OPT_IN).items():
             counts[name] += int(np.sum(alarm))
         z.append(silent_power_z(chirp_rms(x), rho, law.sigma_eff, law.dof))
@@ -81,26 +74,15 @@ def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
             "leak_fraction": leak.fraction, "leak_pf": leak.pf, "warned": leak.exceeds}
 
 
-def run(args: argparse.Namespace) -> int:
-    n = args.trials
+def near_echoes(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
+    """cell() of every sampling of STARTS, range of RANGES_M and fidelity of FIDELITIES, n cycles each; progress(cell)
+    as each is done."""
     rows = []
-    print(f"attack-free cycles of the table1 car (100 m^2), {n} per row, seed {args.seed}: cycles with an alarm "
-          f"[95 % interval]; C(eta) at the eta designed for PF {PF:g}, the opt-in tests at their {PF:g} designs")
-    head = f"{'sampled':<15}{'range':>6} {'fidelity':<9}{'eta':>7}{'leak PF':>9} {'warned':<7}"
-    cols = ["C(eta)", "C(1.5)", *OPT_IN]
-    print(head + "".join(f"{c:<26}" for c in cols) + "CUSUM")
     for start in STARTS:
         for r in RANGES_M:
             for fid in FIDELITIES:
-                c = cell(start, r, fid, n, args.seed)
+                c = cell(start, r, fid, n, seed)
+                if progress is not None:
+                    progress(c)
                 rows.append(c)
-                warned = "yes" if c["warned"] else "no"
-                print(f"{start:<15}{r:>4g} m {fid:<9}{c['eta']:>7.4f}{c['leak_pf']:>9.2g} {warned:<7}"
-                      + "".join(f"{rate(c['alarms'][k], n):<26}" for k in cols)
-                      + ("-" if c["cusum_first_alarm"] is None else f"cycle {c['cusum_first_alarm']}"), flush=True)
-    for start in STARTS:
-        c = next(x for x in rows if x["start"] == start)
-        print(f"{start}: {c['n_samples']} samples from {c['t_adc_start_s'] * 1e9:.4g} ns into the sweep")
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
-    return 0
+    return rows

@@ -1,14 +1,31 @@
-"""Small helpers shared by the experiments: rates with Clopper-Pearson intervals, scenes, sources, a preset's target."""
+"""Small helpers shared by the experiments: rates with Clopper-Pearson intervals, scenes, sources, a preset's target,
+and what a reproduction is asked for (Reproduction)."""
 from __future__ import annotations
 
-import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.montecarlo.radar_source import RadarSource
 from carav_stream.radar.scene_loader import load_scene
 
-__all__ = ["rate", "radar_scene", "radar_source", "log", "load_preset"]
+__all__ = ["Reproduction", "rate", "radar_scene", "radar_source", "log", "load_preset"]
+
+
+@dataclass(frozen=True)
+class Reproduction:
+    """What `carav reproduce` asks of reproduction.render and the tables beyond the paper: cycles per curve and per
+    beyond-paper cell, the seed, whether to stop after the paper's claims, the folder the markdown links the figures
+    as (relative to the document), and two callbacks: `log(line)` hears a line per finished table row, and
+    `progress(label)` gives the callable that hears (done, total) cycles of the sweep it names (None: not heard)."""
+    trials: int
+    beyond_trials: int
+    seed: int
+    skip_beyond: bool = False
+    figure_link: str = "figures"
+    log: Callable[[str], None] | None = None
+    progress: Callable[[str], Callable[[int, int], None] | None] | None = None
 
 
 def rate(k: int, n: int) -> str:
@@ -24,9 +41,10 @@ def radar_source(scene, **kw):
     return RadarSource(scene, **kw)
 
 
-def log(args, msg):
-    if not args.quiet:
-        print(msg, file=sys.stderr, flush=True)
+def log(run: Reproduction, msg: str) -> None:
+    """Tell run.log (if any) how far a reproduction has come."""
+    if run.log is not None:
+        run.log(msg)
 
 
 def load_preset(name: str) -> tuple[Geometry, int, float, float]:

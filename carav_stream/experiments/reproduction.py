@@ -6,14 +6,13 @@ simulation only).
 """
 from __future__ import annotations
 
-import argparse
 import functools
 from pathlib import Path
 
 import numpy as np
 from scipy import optimize
 
-from carav_stream.console.progress import ProgressBar
+from carav_stream.detect.detector import PAPER_ETA
 from carav_stream.detect.stats import pf_pm_closed_form
 from carav_stream.experiments.beyond_paper import (
     ATTACKER_NOTES,
@@ -26,7 +25,7 @@ from carav_stream.experiments.beyond_paper import (
     nuisance_table,
     reactive_and_ramp,
 )
-from carav_stream.experiments.reporting import radar_scene, radar_source, rate
+from carav_stream.experiments.reporting import Reproduction, radar_scene, radar_source, rate
 from carav_stream.montecarlo.curves import plot_curves
 from carav_stream.montecarlo.engine import eta_grid, sweep
 from carav_stream.radar.physics import echo_templates
@@ -52,7 +51,7 @@ def _separation_rarms(n_chirps: int, dof: int, snr: float) -> dict:
     """Closed form (random attack): RARMS at which PM(1.5) = 1e-3 and 0.4, and the smallest RARMS for which some
     eta gives max(PF, PM) <= 1e-3 (the curves 'separate' at the 1000-trial resolution)."""
     def pm15(r):
-        return pf_pm_closed_form(1.5, n_chirps=n_chirps, dof=dof, snr=snr, rarms=r)["p_quiet"] - 1e-3
+        return pf_pm_closed_form(PAPER_ETA, n_chirps=n_chirps, dof=dof, snr=snr, rarms=r)["p_quiet"] - 1e-3
 
     r15 = optimize.brentq(lambda r: float(pm15(r)), 0.01, 10)
     r40 = optimize.brentq(lambda r: float(pm15(r)) + 1e-3 - 0.4, 0.01, 10)
@@ -67,18 +66,18 @@ def _separation_rarms(n_chirps: int, dof: int, snr: float) -> dict:
     return {"rarms_pm_1e-3_at_eta_1_5": r15, "rarms_pm_0.4_at_eta_1_5": r40, "rarms_separation_1e-3": r_sep}
 
 
-def paper_figures(args, fig_dir: Path, data: dict) -> list[str]:
+def paper_figures(args: Reproduction, fig_dir: Path, data: dict) -> list[str]:
     md = []
     eta = eta_grid(ETA)
-    i15 = int(np.argmin(np.abs(eta - 1.5)))
+    i15 = int(np.argmin(np.abs(eta - PAPER_ETA)))
     for fig, name, attack, caption in FIGS:
         scene = radar_scene(name)
         src = radar_source(scene)
-        bar = ProgressBar(f"fig {fig} {name} {attack}") if ProgressBar.wanted(args.quiet) else None
+        bar = args.progress(f"fig {fig} {name} {attack}") if args.progress is not None else None
         res = sweep(src, attacks=[attack], rarms=RARMS, n_trials=args.trials, eta=eta, seed=args.seed,
                     method="samples", progress=bar)
         png = fig_dir / f"repro_fig{fig}_{name}_{attack}.png"
-        plot_curves(res, str(png), title=f"{name} (ours, Fig. {fig})")
+        plot_curves(res, str(png), title=f"{name} (ours, Fig. {fig})", scale="linear")   # as the paper draws them
         tpl = echo_templates(scene, "beat").main_sum
         snr = float(np.mean(np.abs(tpl.astype(np.float64)) ** 2) / scene.sigma_n ** 2)
         dof = scene.n_samples * (2 if scene.iq else 1)
@@ -242,9 +241,9 @@ the band's lower edge sits at about 1.1 (where attack-free D0 ends) and its uppe
 """
 
 
-def render(args: argparse.Namespace, fig_dir: Path, figure_link: str) -> tuple[str, dict]:
-    """The report's markdown (figures drawn into fig_dir, linked as figure_link/NAME) and every number as a dict."""
-    args.figure_link = figure_link
+def render(args: Reproduction, fig_dir: Path) -> tuple[str, dict]:
+    """The report's markdown (figures drawn into fig_dir, linked as args.figure_link/NAME) and every number as a
+    dict."""
     data: dict = {}
     body = ["## The paper's figures, reproduced", ""]
     body += paper_figures(args, fig_dir, data)

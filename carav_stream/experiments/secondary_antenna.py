@@ -1,4 +1,5 @@
-"""`carav experiment secondary-antenna`: the paper's Section V.G (Figures 6-8) and the "harmless misses" claim.
+"""The paper's Section V.G (Figures 6-8) and the "harmless misses" claim (`carav experiment secondary-antenna`; its
+command line in carav_stream/cli/experiment/secondary_antenna.py).
 
 Scene: table1 (the car at 43 m), plus an attacker:
 
@@ -20,20 +21,19 @@ range resolution (1 m) -- and, as a stricter reading, when no missed attack plan
 """
 from __future__ import annotations
 
-import argparse
-import json
+from collections.abc import Callable
 
 import numpy as np
 
-from carav_stream.console.options import count, number, output_file
 from carav_stream.core.units import KMH
 from carav_stream.detect.detector import detect
-from carav_stream.estimate import METHODS, Geometry, estimate
+from carav_stream.estimate import Geometry, estimate
+from carav_stream.experiments.errors import ExperimentError
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["configure", "run", "POWER_RARMS", "simulate_level"]
+__all__ = ["experiment", "json_ready", "plot", "POWER_RARMS", "TRUE_RANGE_M", "simulate_level"]
 
 POWER_RARMS = {"low": 0.3, "medium": 1.05, "high": 3.0}
 
@@ -43,31 +43,12 @@ FALSE_TARGET_MARGIN = 2.0
 seen in the clean cycles (the car's own sidelobes and migration residue) times this margin (+3 dB)."""
 
 
-def configure(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--power", choices=("low", "medium", "high", "all"), default="all")
-    parser.add_argument("--trials", type=count(1), default=200,
-                        help="attacked cycles per power level (and clean cycles)")
-    parser.add_argument("--attacker", choices=("secondary_antenna", "ghost", "both"), default="both")
-    parser.add_argument("--eta", type=number(0.0, strict=True), default=1.5, help="detector threshold")
-    parser.add_argument("--method", default="music", choices=METHODS, help="range estimator")
-    parser.add_argument("--antenna-range", type=number(0.0, strict=True), default=30.0,
-                        help="secondary antenna distance [m]")
-    parser.add_argument("--ghost-range", type=number(0.0, strict=True), default=45.0,
-                        help="range the ghost pretends [m]")
-    parser.add_argument("--snr-db", type=number(), default=None,
-                        help="per-sample SNR of the car [dB] (default: the preset's radar equation, about +2.2 dB)")
-    parser.add_argument("--seed", type=count(0), default=7, help="seed of the simulation (simulation only)")
-    parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
-    parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png",
-                        help="PF/PM curves and Q against range error")
-
-
-def _make_attacker(kind: str, scene, rarms: float, args):
+def _make_attacker(kind: str, scene, rarms: float, antenna_range_m: float, ghost_range_m: float):
     if kind == "secondary_antenna":
-        probe = make_attacker(kind, scene, range_m=args.antenna_range, velocity_mps=50.0 * KMH, tx_power_w=1e-3)
+        probe = make_attacker(kind, scene, range_m=antenna_range_m, velocity_mps=50.0 * KMH, tx_power_w=1e-3)
         p_w = 1e-3 * (rarms / probe.equivalent_rarms()) ** 2
-        return make_attacker(kind, scene, range_m=args.antenna_range, velocity_mps=50.0 * KMH, tx_power_w=p_w), p_w
-    return make_attacker(kind, scene, range_m=args.ghost_range, velocity_mps=50.0 * KMH, rarms=rarms), None
+        return make_attacker(kind, scene, range_m=antenna_range_m, velocity_mps=50.0 * KMH, tx_power_w=p_w), p_w
+    return make_attacker(kind, scene, range_m=ghost_range_m, velocity_mps=50.0 * KMH, rarms=rarms), None
 
 
 def _cycle_metrics(frames, rho, scene, geometry, eta, method):
@@ -83,14 +64,15 @@ def _cycle_metrics(frames, rho, scene, geometry, eta, method):
     return q, err, np.nan_to_num(rel)
 
 
-def simulate_level(kind: str, level: str, scene, geometry, rho, args, rng_seed) -> dict:
+def simulate_level(kind: str, level: str, scene, geometry, rho, rng_seed, *, eta: float, method: str,
+                   antenna_range_m: float, ghost_range_m: float) -> dict:
     """Q, range error and false-target flags for one attacker and power level (attacked cycles)."""
     rarms = POWER_RARMS[level]
-    attacker, p_w = _make_attacker(kind, scene, rarms, args)
+    attacker, p_w = _make_attacker(kind, scene, rarms, antenna_range_m, ghost_range_m)
     ss = np.random.SeedSequence(rng_seed)
     r_noise, r_att = (np.random.default_rng(s) for s in ss.spawn(2))
     cyc = simulate_cycles(scene, rho, r_noise, attacker=attacker, rng_attack=r_att)
-    q, err, far_rel = _cycle_metrics(cyc.frames, rho, scene, geometry, args.eta, args.method)
+    q, err, far_rel = _cycle_metrics(cyc.frames, rho, scene, geometry, eta, method)
     return {"attacker": kind, "power": level, "rarms": rarms, "tx_power_w": p_w, "q": q, "range_error_m": err,
             "far_rel": far_rel, "fidelity": cyc.fidelity}
 
@@ -98,7 +80,6 @@ def simulate_level(kind: str, level: str, scene, geometry, rho, args, rng_seed) 
 def _summary(res: dict, q0: np.ndarray, eta: float, resolution_m: float, ft_threshold: float) -> dict:
     q, err = res["q"], res["range_error_m"]
     ft = res["far_rel"] > ft_threshold
-    res["false_target"] = ft
     missed = q < eta
     max_missed = float(np.max(err[missed])) if missed.any() else None
     return {
@@ -113,7 +94,9 @@ def _summary(res: dict, q0: np.ndarray, eta: float, resolution_m: float, ft_thre
     }
 
 
-def _plot(results, q0, eta, path):
+def plot(results: list[dict], q0: np.ndarray, eta: float, path) -> None:
+    """PF and PM over eta per attacker and power level (the levels of experiment(): "q" and "range_error_m" per
+    cycle), and Q against the range error, into the PNG file `path`."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -140,56 +123,51 @@ def _plot(results, q0, eta, path):
     plt.close(fig)
 
 
-def run(args: argparse.Namespace) -> int:
-    scene = load_scene("table1", {"snr_db": args.snr_db} if args.snr_db is not None else None)
+def experiment(*, power: str, trials: int, attacker: str, eta: float, method: str, antenna_range_m: float,
+               ghost_range_m: float, snr_db: float | None, seed: int,
+               progress: Callable[[str, dict], None] | None = None) -> dict:
+    """The clean reference and every level of `attacker` ("secondary_antenna", "ghost" or "both") at `power` ("low",
+    "medium", "high" or "all"), `trials` cycles each: {"snr_db", "eta", "method", "trials",
+    "false_target_threshold", "clean": {"pf", "q", "range_error_m"}, "levels": [_summary's figures with "q",
+    "range_error_m" and "false_target" per cycle]}, the per-cycle values as numpy arrays (json_ready() makes them
+    lists). progress("clean", {"snr_db", "pf", "range_error_median_m", "range_error_max_m",
+    "false_target_threshold"}) once the clean cycles are judged, progress("level", its entry) as each level is done."""
+    scene = load_scene("table1", {"snr_db": snr_db} if snr_db is not None else None)
     geometry = Geometry.from_scene(scene)
     resolution = float(scene.range_resolution_m)
-    rng = np.random.default_rng(args.seed)
-    n = int(args.trials)
+    rng = np.random.default_rng(seed)
+    n = int(trials)
     if n < 1:
-        raise SystemExit(f"experiment secondary-antenna: --trials must be >= 1, got {n}")
+        raise ExperimentError(f"trials must be >= 1, got {n}")
     keys = rng.random((n, scene.n_chirps))
     rho = np.argsort(np.argsort(keys, axis=1), axis=1) < scene.n_chirps // 2
     clean = simulate_cycles(scene, rho, np.random.default_rng(rng.integers(2**63)))
-    q0, err0, rel0 = _cycle_metrics(clean.frames, rho, scene, geometry, args.eta, args.method)
+    q0, err0, rel0 = _cycle_metrics(clean.frames, rho, scene, geometry, eta, method)
     ft_threshold = FALSE_TARGET_MARGIN * float(np.max(rel0))
-    kinds = ("secondary_antenna", "ghost") if args.attacker == "both" else (args.attacker,)
-    levels = tuple(POWER_RARMS) if args.power == "all" else (args.power,)
-    results, summaries = [], []
-    print(f"table1 car at {TRUE_RANGE_M:g} m, {scene.snr_db():+.1f} dB per sample; eta = {args.eta:g}; "
-          f"estimator {args.method}")
-    print(f"clean cycles: PF(eta={args.eta:g}) = {np.mean(q0 >= args.eta):.3f}, range error median "
-          f"{np.median(err0):.4f} m, max {np.max(err0):.4f} m; false-target threshold "
-          f"{10 * np.log10(ft_threshold):.1f} dB below the strongest peak")
-    print(f"{'attacker':18s} {'power':6s} {'RARMS':>5s} {'tx power':>9s} {'PM':>6s} {'missed':>6s} "
-          f"{'max err missed m':>16s} {'false tgt|missed':>16s}  harmless(range / strict)")
+    out = {"snr_db": float(scene.snr_db()), "eta": eta, "method": method, "trials": n,
+           "false_target_threshold": ft_threshold, "clean": {
+               "pf": float(np.mean(q0 >= eta)), "q": q0, "range_error_m": err0}, "levels": []}
+    if progress is not None:
+        progress("clean", {"snr_db": out["snr_db"], "pf": out["clean"]["pf"],
+                           "range_error_median_m": float(np.median(err0)), "range_error_max_m": float(np.max(err0)),
+                           "false_target_threshold": ft_threshold})
+    kinds = ("secondary_antenna", "ghost") if attacker == "both" else (attacker,)
+    levels = tuple(POWER_RARMS) if power == "all" else (power,)
     for kind in kinds:
         for level in levels:
-            res = simulate_level(kind, level, scene, geometry, rho, args, int(rng.integers(2**63)))
-            s = _summary(res, q0, args.eta, resolution, ft_threshold)
-            results.append(res)
-            summaries.append(s)
-            mm = "-" if s["max_missed_range_error_m"] is None else f"{s['max_missed_range_error_m']:.3f}"
-            ftr = "-" if s["missed_false_target_rate"] is None else f"{s['missed_false_target_rate']:.3f}"
-            p_w = s["tx_power_w"]
-            tx = "-" if p_w is None else f"{p_w * 1e3:.3g} mW" if p_w >= 1e-3 else f"{p_w * 1e6:.3g} uW"
-            print(f"{kind:18s} {level:6s} {s['rarms']:5.2f} {tx:>9s} {s['pm']:6.3f} {s['n_missed']:6d} {mm:>16s} "
-                  f"{ftr:>16s}  "
-                  f"{'yes' if s['harmless_range'] else 'NO'} / {'yes' if s['harmless_strict'] else 'NO'}", flush=True)
-    for kind in kinds:
-        rows = [s for s in summaries if s["attacker"] == kind]
-        verdict = all(s["harmless_range"] for s in rows)
-        strict = all(s["harmless_strict"] for s in rows)
-        print(f"{kind}: every missed attack harmless (range error < {resolution:.2f} m): "
-              f"{'HOLDS' if verdict else 'FAILS'}; with no false target either: {'HOLDS' if strict else 'FAILS'}")
-    if args.json:
-        out = {"snr_db": float(scene.snr_db()), "eta": args.eta, "method": args.method, "trials": n,
-               "false_target_threshold": ft_threshold, "clean": {
-            "pf": float(np.mean(q0 >= args.eta)), "q": q0.tolist(), "range_error_m": err0.tolist()},
-            "levels": [dict(s, q=r["q"].tolist(), range_error_m=r["range_error_m"].tolist(),
-                            false_target=r["false_target"].tolist()) for s, r in zip(summaries, results)]}
-        with open(args.json, "w") as fh:
-            json.dump(out, fh, indent=1)
-    if args.plot:
-        _plot(results, q0, args.eta, args.plot)
-    return 0
+            res = simulate_level(kind, level, scene, geometry, rho, int(rng.integers(2**63)), eta=eta, method=method,
+                                 antenna_range_m=antenna_range_m, ghost_range_m=ghost_range_m)
+            entry = {**_summary(res, q0, eta, resolution, ft_threshold), "q": res["q"],
+                     "range_error_m": res["range_error_m"], "false_target": res["far_rel"] > ft_threshold}
+            out["levels"].append(entry)
+            if progress is not None:
+                progress("level", entry)
+    return out
+
+
+def json_ready(result: dict) -> dict:
+    """experiment()'s result with its per-cycle arrays as lists."""
+    clean = result["clean"]
+    return {**result, "clean": {**clean, "q": clean["q"].tolist(), "range_error_m": clean["range_error_m"].tolist()},
+            "levels": [{**lv, "q": lv["q"].tolist(), "range_error_m": lv["range_error_m"].tolist(),
+                        "false_target": lv["false_target"].tolist()} for lv in result["levels"]]}

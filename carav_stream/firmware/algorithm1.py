@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from carav_stream.detect.detector import adc_chirp_rms, detect_from_rms
+from carav_stream.detect.detector import PAPER_ETA, adc_chirp_rms, detect_from_rms
 from carav_stream.estimate.estimators import estimate
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.adc import adc_step
@@ -42,8 +42,9 @@ class Algorithm1Result:
 
 
 def run_algorithm1(scene: Scene, n_cycles: int, *, seed: int | None = None, attack: str = "none",
-                   attack_params: dict | None = None, eta: float = 1.5, method: str = "ml", fidelity: str = "beat",
-                   sigma_n: float | None = None, n_targets: int = 1, batch: int = 64) -> Algorithm1Result:
+                   attack_params: dict | None = None, eta: float = PAPER_ETA, method: str = "ml",
+                   fidelity: str = "beat", sigma_n: float | None = None, n_targets: int = 1,
+                   batch: int = 64) -> Algorithm1Result:
     """Run Algorithm 1 for n_cycles in this process; estimates only the cycles the detector passes."""
     streams = seed_streams(seed)
     attacker = make_attacker(attack, scene, **(attack_params or {})) if attack != "none" else None

@@ -1,7 +1,7 @@
 """The radar's target list (Algorithm 1, step 6, as automotive radars decide what exists): CFAR detection on the
 range-Doppler map of the active chirps (carav_stream/firmware/cfar.py: exact design false-alarm rate per cell for
 half-silent cycles), then every detection refined towards its Cramer-Rao bound from its cell
-(carav_stream/estimate/estimators.refine_at: interpolation, then joint ML / MUSIC refinement of the targets of a
+(carav_stream.estimate.estimators.refine_at: interpolation, then joint ML / MUSIC refinement of the targets of a
 cycle, each with the others cancelled).
 
     cells    = CFAR(rd_power(frames, rho, sigma_n), pfa per cell, CA or OS)   strongest first, sidelobes removed

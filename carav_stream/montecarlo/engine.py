@@ -23,7 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
-from carav_stream.detect.detector import chirp_rms, detect_from_rms
+from carav_stream.detect.detector import PAPER_ETA, chirp_rms, detect_from_rms
 from carav_stream.detect.stats import cfar_eta_closed_form, clopper_pearson, pf_pm_closed_form
 from carav_stream.detect.thresholds import design_thresholds
 from carav_stream.montecarlo import paper_model
@@ -292,7 +292,7 @@ def assemble(source: CycleSource, draws: dict, *, pairs, n_trials: int, eta, see
         pf_cf = pf_pm_closed_form(eta, **cf)
         result["closed_form"] = {
             "pf": _as_lists(pf_cf["p_alarm"]), "pf_d0_exact": _as_lists(pf_cf["p_alarm_d0"]),
-            "pf_at_eta_1_5": float(pf_pm_closed_form(1.5, **cf)["p_alarm"]),
+            "pf_at_eta_1_5": float(pf_pm_closed_form(PAPER_ETA, **cf)["p_alarm"]),
             "cfar_eta_pf_1e-6": cfar_eta_closed_form(1e-6, n_chirps=cf["n_chirps"], dof=cf["dof"]),
             "note": "Gaussian noise; D0 part exact, D1 part approximate"}
     return result

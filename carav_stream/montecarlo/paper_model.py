@@ -190,9 +190,8 @@ def sample_rms(scene: PaperScene, rho: np.ndarray, rng: np.random.Generator, att
     gammas; then (n_cycles, n_chirps) float32 gammas for chi2(nu - 1); then (n_cycles, n_chirps) float64 normals.
     Both (n_cycles, n_chirps) draws are taken RMS_CHUNK_CYCLES rows at a time into this thread's reused buffers
     (a generator fills an array element after element, so the numbers are those of one call), the gammas straight
-    into the returned array; every other step works on the chunk in place. table1 (64 x 1080): 1.8 us a cycle
-    without attack, 2.1 us under `smart`, against 2.2 and 2.7 us for whole-array temporaries (AMD EPYC, median of
-    9 CPU times of one thread); the float32 gammas and float64 normals alone take 1.6 us.
+    into the returned array; every other step works on the chunk in place, which costs less than whole-array
+    temporaries (the draws themselves are most of the time).
     """
     _check_attack(attack, rarms)
     rho = np.asarray(rho, dtype=bool)
@@ -225,7 +224,7 @@ def sample_rms(scene: PaperScene, rho: np.ndarray, rng: np.random.Generator, att
         mu = scratch("mu64", m * n_r, np.float64).reshape(m, n_r)
         if smart:
             # active lam, silent lam: lam_a * rho + lam_s * (1 - rho) is each of them exactly (x + 0 = x), and
-            # 3x faster than a masked copy
+            # cheaper than a masked copy
             _smart_lam_active(coords, g[a: a + m], w[a: a + m], out=mu)
             mu *= rho[a: a + m]
             t = np.multiply(~rho[a: a + m], lam_silent[a: a + m, None],
@@ -327,9 +326,9 @@ def sample_q_smart(scene: PaperScene, n_cycles: int, rng: np.random.Generator,
     in units of sigma_n (the detector's sigma_n is the scene's). The activation, chi2 and normal draws come from
     `samplers.balanced_mask` and `samplers.chi2_and_normal`; SMART_CHUNK_CYCLES cycles at a time, chirp-major (a
     reduction over the chirps is an element-wise pass), in this thread's reused buffers. Energies and RMS in
-    float32 (rounding 6e-8 relative), rbar accumulated in float64, as `sample_q_fast`. 1.3 us a cycle of table1
-    (64 x 1080) against 4.6 us for balanced_rows, sample_rms and detect_from_rms (same timing as
-    `samplers.chi2_and_normal`).
+    float32 (rounding 6e-8 relative), rbar accumulated in float64, as `sample_q_fast`: cheaper than
+    balanced_rows, sample_rms and detect_from_rms in turn. Measured: docs/bench/detector.md (the sufficient-statistic
+    path under the smart attack).
     returns q float64 (n_cycles,), by_d1 bool (n_cycles,) (the largest ratio came from an active chirp).
     """
     _check_attack("smart", rarms)

@@ -72,13 +72,10 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
 
     Cost: numpy passes over a chunk for (rx + add), * 1/lsb, rint, the cast to int16, and a max and a min over
     the whole chunk that tell whether any of its cycles hit a rail or holds a NaN/Inf (only then are its cycles
-    counted and fixed one by one). On an AMD EPYC (Zen 4, AVX-512, 2 cores) a table1 frame (32 cycles of
-    64 x 1080 samples) in cache costs about 0.4 ns per sample without attack and 0.6 with one (one cast pass
-    float32 -> int16 over the same samples: 0.07); chunks of one cycle (256 KiB) cost about 0.1 ns per sample
-    more there, in calls and in cache misses on the inputs. A compiled one-pass loop gives the same codes in about
-    half the time, on AVX-512 and AVX2 code alike, but numba's import and first call cost every process more CPU
-    than the loop saves in a default run (`python3 dev.py bench compiled`, docs/bench/compiled.md: the figures and
-    the rule), so the ADC stays numpy.
+    counted and fixed one by one). Chunks of a few cycles rather than one: fewer calls, fewer cache misses on the
+    inputs. A compiled one-pass loop gives the same codes faster, on AVX-512 and AVX2 code alike, but numba's
+    import and first call cost every process more CPU than the loop saves in a default run, so the ADC stays
+    numpy. Measured: docs/bench/synth.md (the ADC stage), docs/bench/compiled.md (against numba).
     """
     n_cycles = rx.shape[0]
     if add is not None and (add.dtype != rx.dtype or add.ndim != rx.ndim
@@ -86,12 +83,7 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
         raise ValueError(f"adc_codes: add must be {rx.dtype} broadcasting to {rx.shape}, got {add.dtype} {add.shape}")
     lsb = adc_step(scene)
     if lsb is None:
-        rx = rx.copy() if add is None else rx + add
-        flat = rx.reshape(n_cycles, -1)
-        nonfinite = np.zeros(n_cycles, dtype=np.int64)
-        for i in np.flatnonzero(~np.isfinite(flat.sum(axis=1))):
-            nonfinite[i] = np.count_nonzero(~np.isfinite(flat[i]))
-        return rx, np.zeros(n_cycles, dtype=np.int64), nonfinite
+        return _ideal(rx, add)
     hi = np.float32(2 ** (scene.adc_bits - 1) - 1)
     lo = np.float32(-(2 ** (scene.adc_bits - 1)))
     scale = np.float32(1.0 / lsb)
@@ -114,27 +106,45 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
             np.add(rx[a:b], add if add.shape[0] == 1 else add[a:b], out=codes.view(rx.dtype).reshape(rx[a:b].shape))
             codes *= scale
         np.rint(codes, out=codes)
-        # two fast reductions over the whole chunk tell whether a cycle hit a rail or holds a NaN/Inf (NaN
-        # propagates through max and min, and fails both tests); only then are its cycles looked at one by one,
-        # and only those are counted and fixed
-        top = np.maximum.reduce(codes, axis=None, initial=lo)
-        bottom = np.minimum.reduce(codes, axis=None, initial=hi)
-        if top <= hi and bottom >= lo:
-            np.copyto(out[a:b], codes.reshape((b - a,) + shape[1:]), casting="unsafe")
-            continue
-        top, bottom = codes.max(axis=1, initial=lo), codes.min(axis=1, initial=hi)
-        for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
-            row = codes[i]
-            bad = ~np.isfinite(row)
-            over = ((row > hi) | (row < lo)) & ~bad
-            row[bad] = 0.0
-            np.clip(row, lo, hi, out=row)
-            if scene.iq:   # a sample's I and Q flags share two bytes: any -> != 0
-                over, bad = over.view(np.uint16), bad.view(np.uint16)
-            clipped[a + i] = np.count_nonzero(over)
-            nonfinite[a + i] = np.count_nonzero(bad)
+        _fix_rails(codes, lo, hi, scene.iq, clipped[a:b], nonfinite[a:b])
         np.copyto(out[a:b], codes.reshape((b - a,) + shape[1:]), casting="unsafe")
     return out, clipped, nonfinite
+
+
+def _ideal(rx: np.ndarray, add: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An ideal ADC's output: a copy of rx (+ add), nothing clipped, the NaN/Inf samples of each cycle counted."""
+    n_cycles = rx.shape[0]
+    rx = rx.copy() if add is None else rx + add
+    flat = rx.reshape(n_cycles, -1)
+    nonfinite = np.zeros(n_cycles, dtype=np.int64)
+    for i in np.flatnonzero(~np.isfinite(flat.sum(axis=1))):
+        nonfinite[i] = np.count_nonzero(~np.isfinite(flat[i]))
+    return rx, np.zeros(n_cycles, dtype=np.int64), nonfinite
+
+
+def _fix_rails(codes: np.ndarray, lo: np.float32, hi: np.float32, iq: bool, clipped: np.ndarray,
+               nonfinite: np.ndarray) -> None:
+    """Clip a chunk's rounded codes (float32 (cycles, values a cycle), in place) to [lo, hi], NaN/Inf to 0, and
+    count each cycle's clipped and non-finite samples into ``clipped`` and ``nonfinite`` (views of the chunk's
+    cycles; an I/Q sample counts once)."""
+    # two fast reductions over the whole chunk tell whether a cycle hit a rail or holds a NaN/Inf (NaN propagates
+    # through max and min, and fails both tests); only then are its cycles looked at one by one, and only those
+    # are counted and fixed
+    top = np.maximum.reduce(codes, axis=None, initial=lo)
+    bottom = np.minimum.reduce(codes, axis=None, initial=hi)
+    if top <= hi and bottom >= lo:
+        return
+    top, bottom = codes.max(axis=1, initial=lo), codes.min(axis=1, initial=hi)
+    for i in np.flatnonzero((top > hi) | (bottom < lo) | np.isnan(top)):
+        row = codes[i]
+        bad = ~np.isfinite(row)
+        over = ((row > hi) | (row < lo)) & ~bad
+        row[bad] = 0.0
+        np.clip(row, lo, hi, out=row)
+        if iq:   # a sample's I and Q flags share two bytes: any -> != 0
+            over, bad = over.view(np.uint16), bad.view(np.uint16)
+        clipped[i] = np.count_nonzero(over)
+        nonfinite[i] = np.count_nonzero(bad)
 
 
 def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:

@@ -1,11 +1,10 @@
 """Fast float32 Gaussian samples from a numpy Generator's raw bit stream (Box-Muller).
 
-``Generator.standard_normal(dtype=np.float32)`` costs about 10 ns per sample (the ziggurat's per-sample
-branch); vectorised Box-Muller on the generator's raw 64-bit words costs about 2.4 ns on an AVX-512 machine
-(AMD EPYC, 2 cores), 164 us for 64 x 1080 samples, beside 0.9 ns for its vector math alone (the noise stage and
-its bound in `python3 dev.py bench synth --repeats 15`, docs/bench/synth.md), and about 5 ns on an AVX2 one.
-The same steps compiled in one loop with numba are several times slower on both (the C library's log, cos and
-sin one value at a time: `python3 dev.py bench compiled`, docs/bench/compiled.md).
+Why by hand: ``Generator.standard_normal(dtype=np.float32)`` is a ziggurat with a branch per sample, which does
+not vectorise; Box-Muller on the generator's raw 64-bit words is vector math throughout, and costs a small multiple
+of that vector math alone. The same steps compiled in one loop with numba are slower, on AVX-512 and AVX2 code
+alike (the C library's log, cos and sin one value at a time). Measured: docs/bench/synth.md (the noise stage
+against its bound), docs/bench/compiled.md (against numba).
 
 A row of n samples takes h = ceil(n / 2) consecutive 64-bit words, read as 2h 32-bit integers (little
 endian: word j gives integers 2j and 2j + 1). Pair j (j < h) takes u = integer j, as u1 = (u + 1/2) 2^-32
@@ -13,21 +12,18 @@ in (0, 1], and v = integer h + j, signed, as the angle theta = 2 pi v 2^-32 in [
 
     r = sqrt(-2 ln u1),   sample j = r cos(theta),   sample h + j = r sin(theta)
 
-with numpy's float32 ln, cos and sin, which are vectorised on AVX2 and AVX-512 alike (about 1.7 ns an element
-each here; numpy's float32 tan, which could replace the cosine and the sine with one call, runs one element
-at a time without AVX-512: 12.6 ns). u1 >= 2^-33 bounds |z| at 6.8 (P(|N(0,1)| > 6.8) = 1e-11). Each
-row is filled from its own consecutive block of words, so drawing n rows at once gives exactly the rows that
-n one-row calls give, however the rows are chunked.
+with numpy's float32 ln, cos and sin, which are vectorised on AVX2 and AVX-512 alike (numpy's float32 tan,
+which could replace the cosine and the sine with one call, runs one element at a time without AVX-512).
+u1 >= 2^-33 bounds |z| at 6.8 (P(|N(0,1)| > 6.8) = 1e-11). Each row is filled from its own consecutive block of
+words, so drawing n rows at once gives exactly the rows that n one-row calls give, however the rows are chunked.
 
 Work is done a few rows at a time (about ``CHUNK_WORDS`` words, so the raw words, the radii and the
 output of a chunk stay in the core's L2 cache) in a reused scratch buffer per thread: no temporary the
 size of the whole batch is allocated (fresh multi-megabyte temporaries cost more in page faults than
 the arithmetic). The angles, cosines and sines are computed in the output rows themselves, half rows (2-D
 views with gaps) though they are: computing them in contiguous scratch and writing the rows with the two
-last products is faster into an output array in cache (64 x 1080 samples: 208 -> 184 us) but slower into
-the graph's case, output frames not in cache (a shared-memory slot): 197 -> 211 us per table1 cycle,
-medians of 10 alternated runs with the nodes' allocator settings, AMD EPYC (the rows are then first
-touched at the very end).
+last products is faster into an output array in cache but slower in the graph's case, output frames not in
+cache (a shared-memory slot), whose rows are then first touched at the very end.
 """
 from __future__ import annotations
 
@@ -45,9 +41,8 @@ def words(rng: np.random.Generator, n: int) -> np.ndarray:
     """The generator's next n 64-bit words, uint64: ``rng.bit_generator.random_raw(n)`` for numpy's 64-bit bit
     generators (PCG64, PCG64DXSM, SFC64, Philox). MT19937 is a 32-bit generator, whose raw values are 32-bit:
     its words come from ``Generator.integers`` over the whole uint64 range (two draws each).
-    ``Generator.integers`` gives the 64-bit generators' raw words too, but it is the slower path in the graph on
-    an AMD EPYC (Zen 4, numpy 2.4): the channel 234 against 225 us per table1 cycle, 7 alternated rounds of
-    `python3 dev.py bench compare`."""
+    ``Generator.integers`` gives the 64-bit generators' raw words too, but it made the graph's channel slower
+    (the two alternated by `python3 dev.py bench compare`)."""
     bits = rng.bit_generator
     if isinstance(bits, np.random.MT19937):
         return rng.integers(0, 1 << 64, n, dtype=np.uint64)

@@ -7,8 +7,7 @@ With a seed, SeedSequence(seed) spawns three independent streams (activation, no
 cycle order by the block that owns it, so a pipeline and `carav_stream.firmware.algorithm1.run_algorithm1` give the same
 numbers bit for bit. Without a seed (NO_SEED) the activation sequence comes from the OS's secure generator.
 The noise stream's bit generator is numpy's SFC64 (the others numpy's default, PCG64): the receiver noise takes
-one 64-bit word for every two samples (carav_stream.radar.noise), and SFC64 makes a word faster (1.7 against
-2.5 ns a word by random_raw, measured on an AMD EPYC, Zen 4).
+one 64-bit word for every two samples (carav_stream.radar.noise), and SFC64 makes a word faster than PCG64 does.
 
 A block restarted after a crash, or swapped in mid-run, is another `instance` (Block.instance): its streams
 come from SeedSequence(seed, spawn_key=instance), still reproducible but independent of the first instance's,

@@ -29,10 +29,10 @@ from carav_stream.radar.scene import Scene
 FIDELITIES = ("auto", "beat", "waveform")
 CHUNK_BYTES = 2 << 20
 # The channel draws noise and adds echoes a few cycles at a time, about one core's L2 cache (1 MiB): table1
-# (276 kB a cycle) goes 3 cycles at a time. Into output frames not in cache (the graph's shared-memory slots), with
-# the nodes' allocator settings (core.allocator), medians of 8 runs on an AMD EPYC: 210 us a cycle one cycle at a
-# time, 197 three at a time, 194 five or seven at a time (without those settings, the gathered echo rows of seven
-# cycles are a fresh mapping every time: 320).
+# (276 kB a cycle) goes 3 cycles at a time. Into output frames not in cache (the graph's shared-memory slots), a few
+# cycles at a time cost less per cycle than one at a time, and more than a few gain little more; that holds with
+# the nodes' allocator settings (core.allocator), without which the gathered echo rows of several cycles are a
+# fresh mapping every time.
 CHANNEL_CHUNK_BYTES = 1 << 20
 
 

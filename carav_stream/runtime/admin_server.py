@@ -115,9 +115,10 @@ class AdminServer:
                                     params=(self.pending or {}).get("params", st.spec.params))
             self.swaps.append({"node": st.name, "block": msg["block"], "version": msg["version"],
                                "generation": msg["generation"], "first_seq": msg["next_seq"],
+                               "first_cycle": msg.get("next_cycle"),
                                "params": st.spec.params, "asked": (self.pending or {}).get("asked", {}),
                                "at_s": self.since_go()})
-            self.log(f"carav: swapped {st.name} to {msg['block']} from seq {msg['next_seq']}")
+            self.log(f"carav: swapped {st.name} to {msg['block']} {_from(msg.get('next_cycle'), msg['next_seq'])}")
         self.reply_admin({"ok": kind == Report.SWAPPED, **{k: v for k, v in msg.items() if k != "type"},
                           **({"params": st.spec.params} if kind == Report.SWAPPED else {})})
 
@@ -182,3 +183,8 @@ class AdminServer:
                     + "the kernel's socket buffers hold frames beyond ZeroMQ's high-water marks")
             out[str(e)] = entry
         return out
+
+
+def _from(cycle: int | None, seq: int) -> str:
+    """Where a swap takes over, in cycles when the frames carry them: "from cycle 1200 (frame seq 75)"."""
+    return f"from cycle {cycle} (frame seq {seq})" if cycle is not None else f"from frame seq {seq}"

@@ -15,6 +15,9 @@ attributes so that the graph validator and `carav blocks` read them without buil
 """
 from __future__ import annotations
 
+import errno
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -23,7 +26,7 @@ import numpy as np
 from carav_stream.core.params import REQUIRED, Param, problems
 from carav_stream.runtime.frames import Frame
 
-__all__ = ["REQUIRED", "Block", "BlockError", "In", "Out", "Param"]
+__all__ = ["REQUIRED", "Block", "BlockError", "In", "Out", "Param", "writing"]
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,29 @@ class Out:
 
 
 class BlockError(ValueError):
-    """A block was given parameters it cannot work with."""
+    """A block was given parameters it cannot work with, or its input or output cannot go on; the text is the one
+    line the user reads. retry=False: a restarted process would meet the same fault (a full disk, a read-only
+    folder), so the supervisor fails the node at once whatever its restart policy."""
+
+    def __init__(self, message: str, *, retry: bool = True) -> None:
+        super().__init__(message)
+        self.retry = retry
+
+
+# errno values of a failed write that a restart does not cure: no space, no quota, a read-only file system, no
+# permission, a file grown beyond its limit
+_LASTING_WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})
+
+
+@contextmanager
+def writing(path: str) -> Iterator[None]:
+    """A failed write (a full disk, a quota, a lost mount) as a BlockError naming the file in one line, not the
+    block's traceback; a fault a restart would meet again says so (retry=False)."""
+    try:
+        yield
+    except OSError as exc:
+        raise BlockError(f"{exc.filename or path}: cannot write: {exc.strerror or exc}",
+                         retry=exc.errno not in _LASTING_WRITE_ERRORS) from None
 
 
 class Block:
@@ -89,6 +114,9 @@ class Block:
     # Why a restarted process of this block would leave its output wrong (say, a file whose end it writes from
     # what it held in memory); when set, the graph validator refuses any restart policy but "never" for it.
     not_restartable: ClassVar[str] = ""
+    # The parameter that selects a variant whose other parameters depend on it (the attacker's `model`): a graph
+    # that includes this node, or a --set, and changes it starts from the new variant's defaults (loader.py).
+    variant: ClassVar[str | None] = None
     cycle_budget: int | None = None   # sources: set by the runtime before each generate()
     # (incarnation, generation), set by the runtime before start(): (0, 0) for the block a run starts with; a
     # restarted process counts incarnations, a block swapped in counts generations. A block drawing from a

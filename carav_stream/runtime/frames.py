@@ -23,8 +23,8 @@ Reserved header keys (the runtime stamps them; blocks set their own fields besid
     resume         bool   first message of a producer's fresh connection to a restarted consumer (header only):
                           frames before `seq` on this stream went with the old connection, the next has
                           seq >= `seq`
-    shm            list   [slot, generation]: the arrays are not in the message but in that slot of the
-                          producer's shared-memory segment (runtime/shm.py), each at a 64-byte boundary, in order
+    shm            list   the arrays are not in the message: the edge's data plane holds them, and this names
+                          where (runtime/planes/; the shared-memory plane's is [slot, generation])
 
 Decoding validates everything before any use and never builds objects from the wire: msgpack ext types are
 refused, dtypes come from a whitelist of plain numeric types, and shape, size and header types are checked.
@@ -38,8 +38,6 @@ from typing import Any
 import msgpack
 import numpy as np
 
-from carav_stream.runtime.shm import offsets as slot_offsets
-
 SCHEMA_VERSION = 1
 MAX_HEADER_BYTES = 1 << 20          # 1 MiB of msgpack header
 MAX_ARRAY_BYTES = 1 << 30           # 1 GiB per message, all arrays together
@@ -47,10 +45,8 @@ MAX_ARRAYS = 16
 MAX_NDIM = 8
 
 # Plain numeric dtypes only, little-endian on the wire. Object, void, string and datetime dtypes are refused.
-ALLOWED_DTYPES = frozenset({
-    "bool", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64",
-    "float16", "float32", "float64", "complex64", "complex128",
-})
+ALLOWED_DTYPES = frozenset({"bool", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64",
+                            "float16", "float32", "float64", "complex64", "complex128"})
 
 # dtype -> wire name and wire name -> little-endian dtype, looked up instead of computed on every message
 _NAME_OF = {np.dtype(n).newbyteorder(o): n for n in ALLOWED_DTYPES for o in "<>="}
@@ -75,6 +71,7 @@ _STR = frozenset({str})
 _NUMBER = frozenset({float, int})
 _NO_TRAIL: list = []
 _INT = frozenset({int})
+PLANE_REF = "shm"          # the header key of a data plane's reference to the arrays it holds
 
 
 class FrameError(ValueError):
@@ -219,8 +216,8 @@ def encode_with_header(header: dict[str, Any], frame: Frame, packer: msgpack.Pac
                        place: Callable[[list[Any]], list[int] | None] | None = None) -> list[Any]:
     """`encode` for a caller that built the message's header itself (the runtime, once per frame): `header` is
     a new dict it hands over (completed with "v", "arrays" and the defaults of "eos" and "cycle", then packed);
-    the buffers are `frame`'s arrays. `place(buffers)` may store the buffers elsewhere (a shared-memory slot) and
-    return the reference that goes in the header as "shm"; then the message is the header alone."""
+    the buffers are `frame`'s arrays. `place(buffers)` may keep the buffers on a data plane (runtime/planes/) and
+    return its reference, which goes in the header as "shm"; then the message is the header alone."""
     header["v"] = SCHEMA_VERSION
     if "eos" not in header:
         header["eos"] = False
@@ -255,7 +252,7 @@ def encode_with_header(header: dict[str, Any], frame: Frame, packer: msgpack.Pac
     if place is not None and buffers:
         ref = place(buffers)
         if ref is not None:
-            header["shm"] = ref
+            header[PLANE_REF] = ref
             buffers = []
     try:
         head = (packer or header_packer()).pack(header)
@@ -268,11 +265,11 @@ def _reject_ext(code: int, data: bytes) -> Any:
     raise FrameError(f"header contains msgpack extension type {code}; extension types are refused")
 
 
-def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES, slots: Any = None) -> Frame:
+def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES, reader: Any = None) -> Frame:
     """Validate and decode a multipart message (bytes or zmq.Frame parts); arrays are read-only views.
 
-    A header with "shm" names a shared-memory slot instead of carrying buffer parts: `slots` (the input's
-    shm.SlotReader) resolves it, or the message is refused."""
+    A header with "shm" names arrays a data plane holds instead of carrying buffer parts: `reader` (the input's
+    planes.Reader) resolves it, or the message is refused."""
     if not parts:
         raise FrameError("empty message: expected a header part")
     head = getattr(parts[0], "buffer", None)      # a zmq.Frame received with copy=False: its memoryview
@@ -291,9 +288,9 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES, slots: A
         raise FrameError(f"header must be a msgpack map, got {type(header).__name__}")
     _check_header(header)
     specs = header["arrays"]
-    if "shm" in header:
-        return _decode_slot(header, parts, specs, max_array_bytes, slots)
-    if len(parts) - 1 != len(specs):
+    if PLANE_REF in header:
+        parts = _held_parts(header, parts, specs, max_array_bytes, reader)
+    elif len(parts) - 1 != len(specs):
         raise FrameError(f"header announces {len(specs)} array(s) but the message has {len(parts) - 1} "
                          "buffer part(s)")
     wire: dict[str, list] = {}
@@ -320,32 +317,24 @@ def decode(parts: list[Any], *, max_array_bytes: int = MAX_ARRAY_BYTES, slots: A
     return _received(header, wire)
 
 
-def _decode_slot(header: dict, parts: list[Any], specs: list, max_array_bytes: int, slots: Any) -> Frame:
-    """A frame whose arrays are in a shared-memory slot (header "shm"), as read-only views of it."""
-    if slots is None:
-        raise FrameError("header names a shared-memory slot, but this input has no shared-memory segment")
+def _held_parts(header: dict, parts: list[Any], specs: list, max_array_bytes: int, reader: Any) -> list[Any]:
+    """The message of a frame whose arrays a data plane holds (header "shm") as if they had come in it: the header
+    part, then the read-only buffers `reader` resolves (checked by decode like received parts)."""
+    if reader is None:
+        raise FrameError("header names arrays held by a data plane ('shm'), but this input has no data plane")
     if len(parts) != 1:
-        raise FrameError(f"a frame in shared memory is the header alone; the message has {len(parts) - 1} "
-                         "buffer part(s) besides")
-    checked, sizes = [], []
-    for i, spec in enumerate(specs):
-        name, dtype, shape = _check_spec(i, spec)
-        checked.append((name, dtype, spec))
-        sizes.append(dtype.itemsize * math.prod(shape))
+        raise FrameError(f"a frame whose arrays a data plane holds is the header alone; the message has "
+                         f"{len(parts) - 1} buffer part(s) besides")
+    sizes = [dtype.itemsize * math.prod(shape) for _, dtype, shape in map(_check_spec, range(len(specs)), specs)]
     if sum(sizes) > max_array_bytes:
         raise FrameError(f"arrays total more than the limit of {max_array_bytes} bytes")
-    starts, total = slot_offsets(sizes)
     try:
-        block = slots.resolve(header["shm"], total)
+        buffers = reader.resolve(header[PLANE_REF], sizes)
     except ValueError as exc:
-        raise FrameError(f"shared memory: {exc}") from None
-    wire: dict[str, list] = {}
-    for (name, dtype, spec), start, n in zip(checked, starts, sizes):
-        if name in wire:
-            raise FrameError(f"array name {name!r} appears twice")
-        buf = block[start:start + n]
-        wire[name] = [None, buf, spec, dtype, buf]
-    return _received(header, wire)
+        raise FrameError(str(exc)) from None
+    if len(buffers) != len(sizes):
+        raise FrameError(f"the data plane gave {len(buffers)} buffer(s) for {len(sizes)} array(s)")
+    return [parts[0], *buffers]
 
 
 def _as_buffer(part: Any) -> memoryview:

@@ -7,15 +7,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from carav_stream.runtime import planes
 from carav_stream.runtime.block import Block
 from carav_stream.runtime.registry import Registry
 
-TOP_KEYS = {"include", "description", "connections", "blocks", "run", "restart", "hosts", "security", "block_paths",
-            "template"}
+TOP_KEYS = {"include", "description", "connections", "remove_connections", "blocks", "run", "restart", "hosts",
+            "security", "block_paths", "template"}
 NODE_KEYS = {"type", "host", "restart"}
 RUN_DEFAULTS: dict[str, Any] = {"cycles": 0, "queue_frames": 8, "heartbeat_timeout_s": 15.0,
-                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": "zmq"}
-TRANSPORTS = ("zmq", "shm")   # data plane of same-host edges: arrays in ZeroMQ messages, or in shared memory
+                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": planes.DEFAULT}
+# the data planes of same-host edges a graph may name (runtime/planes/: arrays in ZeroMQ messages, in shared
+# memory, and those of CARAV_PLANE_PATH's folders when this module is first imported)
+TRANSPORTS = planes.names()
 RESTART_POLICIES = ("never", "on-failure")
 LOCAL_HOST = "local"
 
@@ -74,6 +77,7 @@ class Graph:
     params: dict[str, Any] = field(default_factory=dict)   # graph-wide parameters
     warnings: list[str] = field(default_factory=list)      # the blocks' param_warnings(), each once
     open_params: list[str] = field(default_factory=list)   # a template's `node.param`s still without a value
+    composed: list[str] = field(default_factory=list)      # what composition replaced: connections, parameters
 
     def params_for(self, block_type: str, explicit: dict[str, Any]) -> dict[str, Any]:
         """A block's parameters: the graph-wide ones it declares, overridden by `explicit`."""
@@ -118,3 +122,7 @@ class Source:
     data: dict[str, Any]
     folders: dict[str, Path]        # "top:<key>" or "node:<name>:<param>" -> folder of the file that wrote it
     files: list[Path]               # the graph file first, then every file it includes
+    # per node an including graph changed without a type: its spec in the included graph, and the keys it restated
+    bases: dict[str, dict[str, Any]] = field(default_factory=dict)
+    restated: dict[str, set[str]] = field(default_factory=dict)
+    composed: list[str] = field(default_factory=list)       # what composition replaced, in words

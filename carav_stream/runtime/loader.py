@@ -13,15 +13,20 @@
     sink   = { type = "jsonl_sink", path = "out.jsonl", restart = "on-failure", host = "b" }
 
     [run]      cycles, queue_frames, heartbeat_timeout_s, drain_timeout_s, ready_timeout_s,
-               transport = "zmq" | "shm" (same-host arrays in ZeroMQ messages or in shared memory: runtime/shm.py)
+               transport = "zmq" | "shm" | a plane of CARAV_PLANE_PATH (the data plane of same-host arrays: in
+               ZeroMQ messages, in shared memory, ...: runtime/planes/)
     [restart]  policy = "never" | "on-failure", max_restarts
     [hosts.b]  address = "127.0.0.1", bind = "127.0.0.1", port_base = 47000
     [security] curve_server_cert, curve_client_cert, curve_authorized   (ZeroMQ CURVE on tcp edges)
 
 Composition: a graph that includes another states only what differs. Its top-level values replace the included
 ones; its `[run]`, `[restart]`, `[hosts]` and `[security]` tables are merged key by key; its `connections` are
-added to the included ones; a node it writes with a `type` replaces the included node, a node it writes without
-one changes only the parameters it names (`attacker = { model = "smart", rarms = 3.0 }`).
+added to the included ones, after removing those it lists in `remove_connections` (each must be one of them), so
+a block goes between two nodes of an included chain in three lines; a node it writes with a `type` replaces the
+included node, a node it writes without one changes only the parameters it names (`attacker = { rarms = 3.0 }`),
+unless it changes the block's variant (Block.variant, e.g. the attacker's `model`): a node of another model starts
+from that model's own defaults, with only the parameters written beside the new model. `carav validate` names what
+composition replaced.
 
 Overrides (`carav run --set`): `node.param=value`, a graph-wide `param=value`, or `run.KEY=value` for the `[run]`
 table, each checked like the file's own values. Every problem is reported at once, each located:
@@ -69,6 +74,9 @@ def read_graph_file(path: Path, problems: list[str], seen: tuple[Path, ...] = ()
     own = Source(data, _written_where(data, folder), [path])
     include = data.pop("include", None)
     if include is None:
+        if "remove_connections" in data:
+            problems.append(f"{where}: remove_connections: only a graph that includes another can remove its "
+                            "connections")
         return own
     if not isinstance(include, str) or not include:
         problems.append(f"{where}: include: must be the name of a graph file, got {include!r}")
@@ -118,12 +126,46 @@ def _merge(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _connection(text: Any) -> str | None:
+    """A connection written `src.port -> dst.port`, spaced as the graph files write it; None for anything else."""
+    if not isinstance(text, str) or "->" not in text:
+        return None
+    src, _, dst = text.partition("->")
+    return f"{src.strip()} -> {dst.strip()}"
+
+
+def _remove_connections(base: Source, own: Source, where: str, problems: list[str]) -> list[Any]:
+    """The included graph's connections less those `own` removes (each must be one of them); the words for
+    what was removed go into own.composed."""
+    old = base.data.get("connections", [])
+    removed = own.data.get("remove_connections", [])
+    if not isinstance(removed, list) or not isinstance(old, list):
+        problems.append(f"{where}: remove_connections: must be a list of connections 'src.port -> dst.port'")
+        return old
+    written = {_connection(c): c for c in old}
+    drop = set()
+    for text in removed:
+        conn = _connection(text)
+        if conn not in written:
+            problems.append(f"{where}: remove_connections: {text!r} is not a connection of the included graph "
+                            f"({base.files[0].name}); its connections are {sorted(c for c in written if c)}")
+            continue
+        drop.add(conn)
+        own.composed.append(f"removes the connection {conn} of {base.files[0].name}")
+    return [c for c in old if _connection(c) not in drop]
+
+
 def _compose(base: Source, own: Source, where: str, problems: list[str]) -> Source:
     """`own` on top of the graph it includes (module docstring: what replaces, what merges)."""
     data = dict(base.data)
     folders = dict(base.folders)
+    bases, restated = dict(base.bases), dict(base.restated)
+    if "remove_connections" in own.data:
+        data["connections"] = _remove_connections(base, own, where, problems)
     for key, value in own.data.items():
         old = data.get(key)
+        if key == "remove_connections":
+            continue
         if key in MERGED_TABLES and isinstance(value, dict) and isinstance(old, dict):
             data[key] = _merge(old, value)
         elif key in ("connections", "block_paths") and isinstance(value, list) and isinstance(old, list):
@@ -136,15 +178,18 @@ def _compose(base: Source, own: Source, where: str, problems: list[str]) -> Sour
                         problems.append(f"{where}: blocks.{name}: changes a node the included graph does not have; "
                                         "give it a type")
                         continue
+                    bases[name], restated[name] = blocks[name], set(spec)
                     blocks[name] = {**blocks[name], **spec}
                 else:
                     blocks[name] = spec
+                    bases.pop(name, None)
+                    restated.pop(name, None)
                     folders = {k: v for k, v in folders.items() if not k.startswith(f"node:{name}:")}
             data[key] = blocks
         else:
             data[key] = value
     folders.update(own.folders)
-    return Source(data, folders, [*own.files, *base.files])
+    return Source(data, folders, [*own.files, *base.files], bases, restated, [*base.composed, *own.composed])
 
 
 def load_graph(path: str | Path, overrides: list[str] = (), extra_block_paths: list[str | Path] = (),

@@ -29,6 +29,7 @@ class NodeState:
     lost: dict[str, int] = field(default_factory=dict)
     rejects: list[str] = field(default_factory=list)
     error: str | None = None
+    retry: bool = True         # False: its last error said a restart would meet the same fault
     grace: bool = False        # exited; its last report may still be on the way
 
     def total(self, key: str) -> Any:

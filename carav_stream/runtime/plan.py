@@ -1,5 +1,6 @@
-"""A run's plan: the NodeSpec of every node of a graph that runs on this host, with its endpoints and, over
-shared memory, its segments. The supervisor writes each spec to the run folder and starts a node on it.
+"""A run's plan: the NodeSpec of every node of a graph that runs on this host, with its endpoints and what its
+data plane gave its ports (runtime/planes/), and the highest seq each input can carry (input_bounds). The
+supervisor writes each spec to the run folder and starts a node on it.
 
 Endpoints: an edge between two nodes of one host is an ipc endpoint in the run folder, named after its input
 (`<node>.<port>`); an edge across hosts is a TCP port of the receiving host, counted up from its port_base in
@@ -7,19 +8,20 @@ the order of (node, port) of the inputs. The consumer binds, the producer connec
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Collection
 from pathlib import Path
 from typing import Any
 
-from carav_stream.runtime import shm, transport
+from carav_stream.runtime import transport
 from carav_stream.runtime.graph import Graph
+from carav_stream.runtime.planes import Plane
 from carav_stream.runtime.protocol import LEASE_FRAMES, NodeSpec, OutEdge
 
 # A node waits for its go this long past the graph's run.ready_timeout_s (the supervisor's own wait for every
 # node to be ready), then exits: the supervisor sends go at the latest when that wait ends.
 START_SLACK_S = 30.0
 
-ShmOut = dict[tuple[str, str], dict[str, Any]]   # (node, port) -> {fd, edges}: a producer's segment
-ShmIn = dict[tuple[str, str], list[int]]         # (node, port) -> [fd, edge index]: a consumer's
+Ends = dict[tuple[str, str], Any]      # (node, port) -> the resources the plane gave that port's end
 
 
 def local_nodes(graph: Graph, host: str | None) -> list[str]:
@@ -30,10 +32,9 @@ def local_nodes(graph: Graph, host: str | None) -> list[str]:
 
 
 def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None,
-               segments: list[int]) -> dict[str, NodeSpec]:
-    """The spec of every local node, in the graph's order. The file descriptors of the shared-memory segments
-    it creates are appended to `segments` as they are made (the caller closes them when the run ends);
-    ValueError for an edge across hosts to a host without port_base."""
+               plane: Plane) -> dict[str, NodeSpec]:
+    """The spec of every local node, in the graph's order, with what the run's `plane` gave its ports (the caller
+    closes the plane when the run ends); ValueError for an edge across hosts to a host without port_base."""
     g = graph
     endpoints: dict[tuple[str, str], tuple[str, str]] = {}   # input -> (bind, connect)
     cross_ports: dict[str, int] = {}
@@ -49,7 +50,7 @@ def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None
             cross_ports[dst_host.name] += 1
             endpoints[(e.dst, e.dst_port)] = (f"tcp://{dst_host.bind}:{port}", f"tcp://{dst_host.address}:{port}")
     control = transport.ipc_endpoint(run_dir, "control")
-    shm_out, shm_in = plan_segments(graph, host, segments)
+    ends_out, ends_in, fds = plan_plane(graph, host, plane)
     specs = {}
     for name in local_nodes(graph, host):
         node = g.nodes[name]
@@ -58,8 +59,9 @@ def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None
             tap = any(p.name == e.dst_port and p.tap for p in g.block_class(e.dst).inputs)
             outputs.setdefault(e.src_port, []).append(OutEdge(str(e), endpoints[(e.dst, e.dst_port)][1], tap))
         specs[name] = NodeSpec(
-            shm_out={port: seg for (n, port), seg in shm_out.items() if n == name},
-            shm_in={port: ref for (n, port), ref in shm_in.items() if n == name},
+            plane=plane.name, plane_out={port: res for (n, port), res in ends_out.items() if n == name},
+            plane_in={port: res for (n, port), res in ends_in.items() if n == name},
+            inherit_fds=sorted(fds.get(name, ())),
             name=name, type=node.type, params=node.params, control=control,
             inputs={e.dst_port: endpoints[(e.dst, e.dst_port)][0] for e in g.edges_into(name)},
             outputs={port: tuple(edges) for port, edges in outputs.items()},
@@ -72,28 +74,60 @@ def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None
     return specs
 
 
-def plan_segments(graph: Graph, host: str | None, segments: list[int]) -> tuple[ShmOut, ShmIn]:
-    """With run.transport = "shm": a shared-memory segment (runtime/shm.py) for every output port of a local
-    node whose edges all stay on this host; {(node, port): {fd, edges}} for producers and
-    {(node, port): [fd, edge index]} for consumers. A port with an edge to another host stays inline. The
-    segments' file descriptors are appended to `segments`."""
-    g = graph
-    shm_out: ShmOut = {}
-    shm_in: ShmIn = {}
-    if g.run["transport"] != "shm":
-        return shm_out, shm_in
+def plan_plane(graph: Graph, host: str | None, plane: Plane) -> tuple[Ends, Ends, dict[str, set[int]]]:
+    """What `plane` gives every output port of a local node whose edges all stay on this host (a port with an
+    edge to another host stays inline): the producers' resources {(node, port): ...}, the consumers' likewise,
+    and {node: file descriptors it inherits}."""
     local = set(local_nodes(graph, host))
     ports: dict[tuple[str, str], list] = {}
-    for e in g.edges:
+    for e in graph.edges:
         if e.src in local:
             ports.setdefault((e.src, e.src_port), []).append(e)
-    n_slots = min(shm.MAX_SLOTS, 6 * int(g.run["queue_frames"]) + 4)   # ZeroMQ queues, pairing, in hand
+    ends_out: Ends = {}
+    ends_in: Ends = {}
+    fds: dict[str, set[int]] = {}
     for (src, port), edges in ports.items():
-        if any(e.dst not in local for e in edges) or len(edges) > shm.MAX_EDGES:
+        if any(e.dst not in local for e in edges):
             continue
-        fd = shm.create_segment(n_slots, len(edges), f"carav-{src}.{port}")
-        segments.append(fd)
-        shm_out[(src, port)] = {"fd": fd, "edges": [str(e) for e in edges]}
-        for i, e in enumerate(edges):
-            shm_in[(e.dst, e.dst_port)] = [fd, i]
-    return shm_out, shm_in
+        got = plane.open_port(f"{src}.{port}", [str(e) for e in edges])
+        if got is None:
+            continue
+        ends_out[(src, port)] = got.producer
+        fds.setdefault(src, set()).update(got.fds)
+        for e, resources in zip(edges, got.consumers, strict=True):
+            ends_in[(e.dst, e.dst_port)] = resources
+            fds.setdefault(e.dst, set()).update(got.fds)
+    return ends_out, ends_in, fds
+
+
+def input_sources(graph: Graph, local: Collection[str]) -> dict[tuple[str, str], frozenset[str] | None]:
+    """The sources whose seqs reach each input (node, port) of the `local` nodes; None when one of them runs on
+    another host."""
+    return {(e.dst, e.dst_port): _sources_upstream(graph, local, e.src) for e in graph.edges if e.dst in local}
+
+
+def _sources_upstream(graph: Graph, local: Collection[str], name: str) -> frozenset[str] | None:
+    """The sources whose seqs reach node `name`'s outputs (itself if a source); None if one is not local."""
+    seen, todo, found = {name}, [name], set()
+    while todo:
+        n = todo.pop()
+        if n not in local:
+            return None
+        into = graph.edges_into(n)
+        if not into:
+            found.add(n)
+        for e in into:
+            if e.src not in seen:
+                seen.add(e.src)
+                todo.append(e.src)
+    return frozenset(found)
+
+
+def input_bounds(graph: Graph, sources: dict[tuple[str, str], frozenset[str] | None], name: str,
+                 lease_of: Callable[[str], int]) -> dict[str, int]:
+    """The highest seq each input of node `name` can carry (pairing.py argues the bound): the largest lease
+    (`lease_of(source)`) of its `sources`, one lease more for a grant not read yet, plus the graph's depth; inputs
+    fed from another host are left out."""
+    slack = LEASE_FRAMES + len(graph.nodes)
+    return {port: max(lease_of(s) for s in srcs) + slack
+            for (dst, port), srcs in sources.items() if dst == name and srcs}

@@ -116,8 +116,11 @@ class NodeSpec:
     producers: dict[str, list[int]] = field(default_factory=dict)   # input port -> pids of its producer (local
                                                                     # edges), the current incarnation last
     recovering: bool = False                           # restarted, or fed by a restarted node
-    shm_out: dict[str, dict[str, Any]] = field(default_factory=dict)   # output port -> {fd, edges}: its segment
-    shm_in: dict[str, list[int]] = field(default_factory=dict)         # input port -> [fd, edge index]
+    plane: str = "zmq"                                 # the run's data plane (runtime/planes/)
+    plane_out: dict[str, Any] = field(default_factory=dict)   # output port -> what its plane writer opens
+    plane_in: dict[str, Any] = field(default_factory=dict)    # input port -> what its plane reader opens
+    inherit_fds: list[int] = field(default_factory=list)      # file descriptors of those, inherited from the
+                                                              # supervisor
 
     def to_wire(self) -> bytes:
         d = asdict(self)

@@ -19,13 +19,11 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from carav_stream.console.errors import CommandError, Exit
-
 RUN_ID_ENV = "CARAV_RUN_ID"
 
 
-class RunRootError(CommandError):
-    """The run root is not the user's own private folder; the message says which folder and what to do."""
+class RunRootError(Exception):
+    """The run root is not the user's own private folder; the message (one line) says which folder and what to do."""
 
 
 def run_root() -> Path:
@@ -46,7 +44,7 @@ def run_root() -> Path:
                else None)
     if problem:
         raise RunRootError(f"run folder {root} {problem}: someone else may read or plant runs in it; remove it "
-                           f"(or set CARAV_RUN_DIR to a folder of your own) and run again", Exit.FAILED)
+                           f"(or set CARAV_RUN_DIR to a folder of your own) and run again")
     return root
 
 

@@ -26,11 +26,11 @@ import zmq
 
 from carav_stream import node_start
 from carav_stream.core.allocator import MALLOC_ENV
-from carav_stream.runtime import transport
+from carav_stream.runtime import planes, transport
 from carav_stream.runtime.admin_server import AdminServer
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
 from carav_stream.runtime.node_state import NodeState
-from carav_stream.runtime.plan import plan_specs
+from carav_stream.runtime.plan import input_bounds, input_sources, plan_specs
 from carav_stream.runtime.protocol import LEASE_FRAMES, Control, Report, pack, unpack
 from carav_stream.runtime.report import RunReport
 from carav_stream.runtime.rundir import RUN_ID_ENV, remove_stale_runs, run_root
@@ -62,45 +62,24 @@ class Supervisor:
         self.stop_requested: str | None = None
         self.stop_deadline = 0.0
         self.pending_go: set[str] = set()
-        self.segments: list[int] = []       # file descriptors of the shared-memory segments (transport "shm")
+        self.plane: planes.Plane | None = None      # the run's data plane (run.transport), made by plan()
         self.report = RunReport(graph, self.nodes, run_id=self.run_id, host=host, cycles=self.cycles)
         self.admin = AdminServer(graph, self.nodes, self.report, send=self.send, request_stop=self.request_stop,
                                  log=self.log)
 
     # -- planning ------------------------------------------------------------------------------------------
     def plan(self) -> None:
-        specs = plan_specs(self.graph, self.host, self.run_dir, self.cycles, self.segments)
+        self.plane = planes.get(self.graph.run["transport"])(self.graph.run, self.run_dir)
+        specs = plan_specs(self.graph, self.host, self.run_dir, self.cycles, self.plane)
         for name, spec in specs.items():
             self.nodes[name] = NodeState(name, spec)
-        # the sources whose seqs reach each local input; None when one of them runs on another host
-        self.input_sources: dict[tuple[str, str], frozenset[str] | None] = {
-            (e.dst, e.dst_port): self.sources_upstream(e.src) for e in self.graph.edges if e.dst in self.nodes}
+        self.input_sources = input_sources(self.graph, self.nodes)
         for st in self.nodes.values():
             st.spec = st.spec.with_(input_bounds=self.input_bounds(st.name))
 
-    def sources_upstream(self, name: str) -> frozenset[str] | None:
-        """The sources whose seqs reach node `name`'s outputs (itself if a source); None if one is not local."""
-        seen, todo, found = {name}, [name], set()
-        while todo:
-            n = todo.pop()
-            if n not in self.nodes:
-                return None
-            into = self.graph.edges_into(n)
-            if not into:
-                found.add(n)
-            for e in into:
-                if e.src not in seen:
-                    seen.add(e.src)
-                    todo.append(e.src)
-        return frozenset(found)
-
     def input_bounds(self, name: str) -> dict[str, int]:
-        """The highest seq each input of node `name` can carry (pairing.py argues the bound): the largest lease
-        of its sources, one lease more for a grant not read yet, plus the graph's depth; inputs fed from another
-        host are left out."""
-        slack = LEASE_FRAMES + len(self.graph.nodes)
-        return {port: max(self.nodes[s].spec.seq_lease for s in srcs) + slack
-                for (dst, port), srcs in self.input_sources.items() if dst == name and srcs}
+        """The highest seq each input of node `name` can carry now (plan.input_bounds)."""
+        return input_bounds(self.graph, self.input_sources, name, lambda src: self.nodes[src].spec.seq_lease)
 
     def raise_bounds(self, source: str) -> None:
         """After a lease of `source` grew: every consumer its seqs reach learns its new bound first."""
@@ -125,9 +104,8 @@ class Supervisor:
         spec_path = self.run_dir / f"{st.name}.spec"
         spec_path.write_bytes(st.spec.to_wire())
         logf = open(self.run_dir / f"{st.name}.log", "ab")
-        fds = [s["fd"] for s in st.spec.shm_out.values()] + [fd for fd, _ in st.spec.shm_in.values()]
         st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.node_start", str(spec_path)],
-                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf, pass_fds=fds,
+                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf, pass_fds=st.spec.inherit_fds,
                                    env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id,
                                         node_start.SUPERVISOR_PID_ENV: str(os.getpid())})
         logf.close()
@@ -184,6 +162,7 @@ class Supervisor:
             st.lost = msg.get("lost", {})
         elif kind == Report.ERROR:
             st.error = msg.get("traceback") or msg.get("error")
+            st.retry = msg.get("retry") is not False
         elif kind == Report.REJECT:
             text = f"node {name!r} input {msg['port']!r}: rejected frame #{msg['count']}: {msg['reason']}"
             st.rejects.append(text)
@@ -225,13 +204,16 @@ class Supervisor:
         detail = st.error or self.log_tail(st.name)
         if st.error and "\n" not in st.error.strip():   # the block's own one-line statement: it is the reason
             reason, detail = f"{reason}: {st.error.strip()}", ""
+        policy = self.graph.nodes[st.name].restart
+        may_restart = policy.policy == "on-failure" and st.restarts < policy.max_restarts and not self.signals
+        if may_restart and not st.retry:
+            reason += " (not restarted: a new process would meet the same fault)"
         self.log(f"carav: node {st.name!r} ({st.spec.type}) failed: {reason}" + (f"\n{_indent(detail)}" * bool(detail)))
         st.grace = False
         st.unreported += st.error is None     # no last words: its counters are those of its last heartbeat
         st.dead_counters.append(st.counters)
         st.counters = {}
-        policy = self.graph.nodes[st.name].restart
-        if policy.policy == "on-failure" and st.restarts < policy.max_restarts and not self.signals:
+        if may_restart and st.retry:
             st.restarts += 1
             st.error = None
             if not self.graph.edges_into(st.name):   # a source resumes beyond every seq it was allowed to send
@@ -328,9 +310,8 @@ class Supervisor:
                 if st.proc:
                     st.proc.wait()
             self.ctx.destroy(linger=0)
-            for fd in self.segments:        # the kernel frees a segment when its last holder closes it
-                os.close(fd)
-            self.segments.clear()
+            if self.plane is not None:
+                self.plane.close()
             for s, h in old.items():
                 signal.signal(s, h)
             if not os.environ.get("CARAV_KEEP_RUN_DIR"):   # debugging aid: keep node logs and specs

@@ -21,7 +21,8 @@ MAX_MESSAGE_BYTES = (1 << 30) + (1 << 21)   # arrays limit plus header room: zmq
 TICK_S = 0.1            # longest a node waits inside one ZeroMQ send or receive before serving heartbeats and control
 
 # pyzmq's compiled send: the Python wrapper around it only adds routing_id/group options and, with
-# send_multipart, a type check per part and enum arithmetic per frame (about 5 us per message together).
+# send_multipart, a type check per part and enum arithmetic per frame, a cost per message that the compiled
+# send skips (measured: docs/bench/transport.md).
 _send = zmq.backend.Socket.send
 _SNDMORE = int(zmq.SNDMORE)
 
@@ -87,6 +88,9 @@ def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | Non
     sock.sndhwm = hwm
     sock.sndtimeo = int(TICK_S * 1000)
     sock.linger = linger_ms          # a clean exit waits for queued frames to leave
+    # queue only towards a consumer reached: a connection to one that died drops what it held when it breaks,
+    # so a restarted consumer bound at the same address never gets frames meant for its dead incarnation
+    sock.immediate = True
     if curve is not None and endpoint.startswith("tcp://"):
         curve.connect_as_client(sock)
     sock.connect(endpoint)

@@ -84,6 +84,10 @@ def node_pids(run_root: Path, node: str = "*") -> list[int]:
     return pids
 
 
+def _not_json(word: str):
+    raise ValueError(f"the summary holds {word}, which is not JSON")
+
+
 class GraphRun:
     """One `carav run GRAPH --json SUMMARY` in its own session (process group), with stdout and stderr in files."""
 
@@ -117,7 +121,9 @@ class GraphRun:
         return Path(self.out.name).read_text()
 
     def summary(self) -> dict:
-        return json.loads(self.summary_path.read_text())
+        """The run's --json summary, read as strict JSON (a bare NaN or Infinity, which no JSON reader but Python's
+        accepts, fails the test)."""
+        return json.loads(self.summary_path.read_text(), parse_constant=_not_json)
 
     def group_alive(self) -> bool:
         try:

@@ -37,17 +37,22 @@ def _inline(values: dict[str, Any]) -> str:
 
 
 def radar_graph(graphs: Graphs, replace: dict[str, dict[str, Any]] | None = None, *,
-                block_paths: list[str | Path] = (), name: str = "radar.toml", base: str | Path | None = None) -> Path:
+                block_paths: list[str | Path] = (), name: str = "radar.toml", base: str | Path | None = None,
+                remove_connections: list[str] = (), connections: list[str] = ()) -> Path:
     """A graph file in the working folder: the radar chain (graphs/radar_chain.toml, or `base`), the nodes of
-    `replace` replaced or changed ({node: {"type": ..., params}}; without "type": the included node's block with
-    other parameters), and taps of the verdicts and the judged cycles. Cycles until stopped unless --cycles."""
+    `replace` replaced, changed or added ({node: {"type": ..., params}}; without "type": the included node's block
+    with other parameters; another model starts from its defaults), `remove_connections` of the chain removed and
+    `connections` added (a block spliced into the chain: remove "channel.rx -> adc.rx", add "channel.rx ->
+    my.inp" and "my.out -> adc.rx"), and taps of the verdicts and the judged cycles. Cycles until stopped unless
+    --cycles."""
     base = Path(base) if base else graph_file("radar_chain")
     blocks = {node: _inline(values) for node, values in (replace or {}).items()}
     blocks["vlog"] = _inline({"type": "jsonl_sink", "path": VERDICTS, "max_values": 100000})
     blocks["elog"] = _inline({"type": "jsonl_sink", "path": JUDGED})
-    body = "\n".join([f"include = {json.dumps(str(base))}",
-                      f"connections = {json.dumps(TAPS)}", "", "[run]", "cycles = 0", "", "[blocks]",
-                      *(f"{node} = {table}" for node, table in blocks.items()), ""])
+    removed = [f"remove_connections = {json.dumps(list(remove_connections))}"] if remove_connections else []
+    body = "\n".join([f"include = {json.dumps(str(base))}", *removed,
+                      f"connections = {json.dumps([*TAPS, *connections])}", "", "[run]", "cycles = 0", "",
+                      "[blocks]", *(f"{node} = {table}" for node, table in blocks.items()), ""])
     return graphs.graph(body, name, block_paths=block_paths)
 
 

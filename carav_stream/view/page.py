@@ -10,7 +10,7 @@ skipped). Every model carries a `name` so tests (and scripts) find it in the bro
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -39,43 +39,74 @@ class PageConfig:
     title: str
 
 
+@dataclass
+class _Models:
+    """The models the page's update changes, and what this page has drawn so far (`seen`)."""
+    q_src: dict[str, Any]
+    eta_line: Any
+    eta_div: Any
+    est_src: Any
+    rd_src: Any
+    rd_div: Any
+    attacker_div: Any
+    model_in: Any
+    rarms_in: Any
+    swap_div: Any
+    node_src: Any
+    edge_src: Any
+    info: Any
+    choices: list[str]
+    seen: dict[str, Any] = field(default_factory=lambda: {"points": 0, "estimates": 0, "map": 0, "status": None,
+                                                          "model": None})
+
+
 def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: PageConfig) -> None:
+    """The page in `doc` (one per browser tab), updated from `state` `cfg.update_hz` times a second."""
+    # Bokeh is the view extra's: imported when a page is made, not with the package
+    import bokeh.models as bm
     from bokeh.layouts import column, row
-    from bokeh.models import (
-        Button,
-        ColorBar,
-        ColumnDataSource,
-        DataRange1d,
-        DataTable,
-        Div,
-        HoverTool,
-        LinearColorMapper,
-        Select,
-        Span,
-        Spinner,
-        TableColumn,
-    )
     from bokeh.plotting import figure
 
     doc.title = cfg.title
+    q_fig, q_src, eta_line, eta_div = _q_plot(bm, figure, cfg)
+    r_fig, v_fig, est_src = _estimate_plots(bm, figure, cfg)
+    rd_fig, rd_src, rd_div = _rd_plot(bm, figure, cfg.geometry)
+    attacker_div, model_in, rarms_in, swap_button, swap_div, choices = _swap_form(bm, control)
+    nodes, node_src, edges, edge_src = _tables(bm)
+    info = bm.Div(name="info", text="", width=980)
+
+    doc.add_root(column(
+        bm.Div(text=f"<h2>{cfg.title}</h2>"), info, row(q_fig), eta_div, row(r_fig, v_fig),
+        row(column(rd_fig, rd_div), column(attacker_div, row(model_in, rarms_in), swap_button, swap_div, nodes)),
+        edges))
+    m = _Models(q_src, eta_line, eta_div, est_src, rd_src, rd_div, attacker_div, model_in, rarms_in, swap_div,
+                node_src, edge_src, info, choices)
+    doc.add_periodic_callback(lambda: _update(m, state, cfg), max(50, int(1000 / cfg.update_hz)))
+
+
+def _q_plot(bm: Any, figure: Any, cfg: PageConfig) -> tuple[Any, dict[str, Any], Any, Any]:
+    """Q per cycle by category, with the threshold's line: (figure, sources by category, eta line, eta text)."""
     q_fig = figure(name="q_plot", height=300, width=980, title="Detector statistic Q per cycle against eta",
                    x_axis_label="cycle", y_axis_label="Q (dimensionless)", tools="pan,wheel_zoom,box_zoom,reset",
-                   y_range=DataRange1d(start=0.0))   # from 0: eta and the refusals (drawn at 0) stay in view
-    q_src = {c: ColumnDataSource({"cycle": [], "q": [], "detail": [], "attacked": []}, name=f"q_{c}")
+                   y_range=bm.DataRange1d(start=0.0))   # from 0: eta and the refusals (drawn at 0) stay in view
+    q_src = {c: bm.ColumnDataSource({"cycle": [], "q": [], "detail": [], "attacked": []}, name=f"q_{c}")
              for c in CATEGORIES}
     for c in CATEGORIES:
         q_fig.scatter("cycle", "q", source=q_src[c], color=COLOURS[c], size=4 if c == "clean" else 6,
                       marker="x" if c == "refused" else "circle", legend_label=LABELS[c])
-    q_fig.add_tools(HoverTool(tooltips=[("cycle", "@cycle"), ("Q", "@q"), ("by / reason", "@detail"),
-                                        ("attack on", "@attacked")]))
-    eta_line = Span(name="eta_line", location=cfg.eta if cfg.eta is not None else float("nan"), dimension="width",
-                    line_color="black", line_dash="dashed", line_width=1.5)
+    q_fig.add_tools(bm.HoverTool(tooltips=[("cycle", "@cycle"), ("Q", "@q"), ("by / reason", "@detail"),
+                                           ("attack on", "@attacked")]))
+    eta_line = bm.Span(name="eta_line", location=cfg.eta if cfg.eta is not None else float("nan"),
+                       dimension="width", line_color="black", line_dash="dashed", line_width=1.5)
     q_fig.add_layout(eta_line)
     q_fig.legend.location = "top_left"
     q_fig.legend.click_policy = "hide"
-    eta_div = Div(name="eta_text", text="")
+    return q_fig, q_src, eta_line, bm.Div(name="eta_text", text="")
 
-    est_src = ColumnDataSource({"cycle": [], "range_m": [], "velocity_mps": []}, name="estimates")
+
+def _estimate_plots(bm: Any, figure: Any, cfg: PageConfig) -> tuple[Any, Any, Any]:
+    """Range and velocity estimates against the true targets: (range figure, velocity figure, their source)."""
+    est_src = bm.ColumnDataSource({"cycle": [], "range_m": [], "velocity_mps": []}, name="estimates")
     r_fig = figure(name="range_plot", height=260, width=485, title="Range estimates against the true targets",
                    x_axis_label="cycle", y_axis_label="range (m)", tools="pan,wheel_zoom,box_zoom,reset")
     v_fig = figure(name="velocity_plot", height=260, width=485, title="Velocity estimates against the true targets",
@@ -84,113 +115,136 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
     v_fig.scatter("cycle", "velocity_mps", source=est_src, size=4, legend_label="estimate (every listed target)")
     for fig, truths in ((r_fig, cfg.truth_range_m), (v_fig, cfg.truth_velocity_mps)):
         for t in truths:   # the legend item of a Span needs a glyph: a zero-length line carries it
-            fig.add_layout(Span(location=t, dimension="width", line_color="green", line_width=2))
+            fig.add_layout(bm.Span(location=t, dimension="width", line_color="green", line_width=2))
         if truths:
             fig.line([0, 0], [truths[0], truths[0]], line_color="green", line_width=2, legend_label="true target")
         fig.legend.location = "top_left"
+    return r_fig, v_fig, est_src
 
-    g = cfg.geometry
+
+def _rd_plot(bm: Any, figure: Any, g: Geometry) -> tuple[Any, Any, Any]:
+    """The range-Doppler map of the latest clean cycle: (figure, its image source, its caption)."""
     n_range = g.n_samples if g.iq else (g.n_samples - 1) // 2
     r_max = float(g.range_from_beat(n_range * g.fs_hz / g.n_samples))
     v_max = float(g.max_velocity_mps)
-    mapper = LinearColorMapper(palette="Viridis256", low=0.0, high=40.0)
-    rd_src = ColumnDataSource({"image": [np.zeros((2, 2), dtype=np.float32)], "x": [0.0], "y": [-v_max],
-                               "dw": [r_max], "dh": [2 * v_max]}, name="rd_map")
+    mapper = bm.LinearColorMapper(palette="Viridis256", low=0.0, high=40.0)
+    rd_src = bm.ColumnDataSource({"image": [np.zeros((2, 2), dtype=np.float32)], "x": [0.0], "y": [-v_max],
+                                  "dw": [r_max], "dh": [2 * v_max]}, name="rd_map")
     rd_fig = figure(name="rd_plot", height=360, width=485, title="Range-Doppler map of the latest clean cycle",
                     x_axis_label="range (m)", y_axis_label="range rate (m/s)", x_range=(0, r_max),
                     y_range=(-v_max, v_max), tools="pan,wheel_zoom,box_zoom,reset")
     rd_fig.image("image", x="x", y="y", dw="dw", dh="dh", source=rd_src, color_mapper=mapper)
-    rd_fig.add_layout(ColorBar(color_mapper=mapper, title="power over noise (dB)"), "right")
-    rd_div = Div(name="rd_text", text="no clean cycle yet")
+    rd_fig.add_layout(bm.ColorBar(color_mapper=mapper, title="power over noise (dB)"), "right")
+    return rd_fig, rd_src, bm.Div(name="rd_text", text="no clean cycle yet")
 
-    attacker_div = Div(name="attacker", text="attacker: waiting for the run's status", width=470)
+
+def _swap_form(bm: Any, control: RunControl | None) -> tuple[Any, Any, Any, Any, Any, list[str]]:
+    """The attacker's line and the form that swaps it: (attacker text, model select, RARMS spinner, button, swap
+    log, the models offered)."""
+    attacker_div = bm.Div(name="attacker", text="attacker: waiting for the run's status", width=470)
     choices = models()
-    model_in = Select(name="swap_model", title="attacker model", value=choices[0], options=choices, width=150)
-    rarms_in = Spinner(name="swap_rarms", title="RARMS (sigma_a / sigma_n)", value=3.0, low=0.0, step=0.1, width=150)
-    swap_button = Button(name="swap_button", label="swap attacker", button_type="warning", width=150,
-                         disabled=control is None)
-    swap_div = Div(name="swap_log", text="" if control else "swaps need the run's supervisor (carav run --view)")
+    model_in = bm.Select(name="swap_model", title="attacker model", value=choices[0], options=choices, width=150)
+    rarms_in = bm.Spinner(name="swap_rarms", title="RARMS (sigma_a / sigma_n)", value=3.0, low=0.0, step=0.1,
+                          width=150)
+    swap_button = bm.Button(name="swap_button", label="swap attacker", button_type="warning", width=150,
+                            disabled=control is None)
+    swap_div = bm.Div(name="swap_log", text="" if control else "swaps need the run's supervisor (carav run --view)")
     if control is not None:
         swap_button.on_click(lambda: control.swap(model_in.value, rarms_in.value))
+    return attacker_div, model_in, rarms_in, swap_button, swap_div, choices
 
-    node_src = ColumnDataSource({k: [] for k in NODE_COLUMNS}, name="nodes")
-    nodes = DataTable(name="node_table", source=node_src, width=470, height=230, index_position=None, columns=[
-        TableColumn(field="node", title="node"), TableColumn(field="block", title="block"),
-        TableColumn(field="state", title="state"), TableColumn(field="cycles", title="cycles"),
-        TableColumn(field="frames_s", title="frames/s (last s)"),
-        TableColumn(field="cycles_s", title="cycles/s (last s)"),
-        TableColumn(field="restarts", title="restarts")])
-    edge_src = ColumnDataSource({k: [] for k in ("edge", "fill", "skipped")}, name="edges")
-    edges = DataTable(name="edge_table", source=edge_src, width=470, height=230, index_position=None, columns=[
-        TableColumn(field="edge", title="edge", width=300),
-        TableColumn(field="fill", title="in flight / queue capacity (why beyond it)", width=320),
-        TableColumn(field="skipped", title="skipped (tap)")])
-    info = Div(name="info", text="", width=980)
 
-    doc.add_root(column(
-        Div(text=f"<h2>{cfg.title}</h2>"), info, row(q_fig), eta_div, row(r_fig, v_fig),
-        row(column(rd_fig, rd_div), column(attacker_div, row(model_in, rarms_in), swap_button, swap_div, nodes)),
-        edges))
+def _tables(bm: Any) -> tuple[Any, Any, Any, Any]:
+    """The node and edge tables: (node table, its source, edge table, its source)."""
+    node_src = bm.ColumnDataSource({k: [] for k in NODE_COLUMNS}, name="nodes")
+    nodes = bm.DataTable(name="node_table", source=node_src, width=470, height=230, index_position=None, columns=[
+        bm.TableColumn(field="node", title="node"), bm.TableColumn(field="block", title="block"),
+        bm.TableColumn(field="state", title="state"), bm.TableColumn(field="cycles", title="cycles"),
+        bm.TableColumn(field="frames_s", title="frames/s (last s)"),
+        bm.TableColumn(field="cycles_s", title="cycles/s (last s)"),
+        bm.TableColumn(field="restarts", title="restarts")])
+    edge_src = bm.ColumnDataSource({k: [] for k in ("edge", "fill", "skipped")}, name="edges")
+    edges = bm.DataTable(name="edge_table", source=edge_src, width=470, height=230, index_position=None, columns=[
+        bm.TableColumn(field="edge", title="edge", width=300),
+        bm.TableColumn(field="fill", title="in flight / queue capacity (why beyond it)", width=320),
+        bm.TableColumn(field="skipped", title="skipped (tap)")])
+    return nodes, node_src, edges, edge_src
 
-    seen: dict[str, Any] = {"points": 0, "estimates": 0, "map": 0, "status": None,   # what this page has drawn
-                            "model": None}
 
-    def update() -> None:
-        pts, seen["points"], est, seen["estimates"] = state.since(seen["points"], seen["estimates"])
-        for c in CATEGORIES:
-            mine = [p for p in pts if p.category == c]
-            if mine:
-                q_src[c].stream({"cycle": [p.cycle for p in mine],
-                                 "q": [0.0 if p.q is None else p.q for p in mine],
-                                 "detail": [p.detail for p in mine], "attacked": [p.attacked for p in mine]},
-                                rollover=cfg.history)
-        if est:
-            flat = [(e.cycle, r, v) for e in est for r, v in zip(e.range_m, e.velocity_mps)]
-            if flat:
-                c, r, v = zip(*flat)
-                est_src.stream({"cycle": list(c), "range_m": list(r), "velocity_mps": list(v)}, rollover=cfg.history)
-        eta = cfg.eta if cfg.eta is not None else state.eta
-        if eta is not None and eta_line.location != eta:
-            eta_line.location = eta
-            eta_div.text = f"dashed line: the detector's threshold eta = {eta:g} (an alarm when Q >= eta)"
-        latest = state.latest_clean(seen["map"])
-        if latest is not None:
-            seen["map"], cycle, x, rho = latest
-            samples = from_codes(cfg.scene, np.asarray(x)[None])[0]
-            db, ranges, velocities = rd_map_db(samples, np.asarray(rho, bool), g, cfg.scene.sigma_n)
-            rd_src.data = {"image": [db], "x": [float(ranges[0])], "y": [float(velocities[0])],
-                           "dw": [float(ranges[-1] - ranges[0])], "dh": [float(velocities[-1] - velocities[0])]}
-            rd_div.text = f"cycle {cycle}: peak {float(db.max()):.1f} dB over the noise"
-            state.drawn(seen["map"])
-        with state.lock:
-            status, status_error, swaps = state.status, state.status_error, list(state.swap_log[-5:])
-        if status is not None and status is not seen["status"]:   # a new one comes once a second: tables
-            before, seen["status"] = seen["status"], status        # redrawn only then (the browser's work)
-            recent = [p.attacked for p in state.recent(200)]
-            on = (f"attack on in {sum(recent)} of the last {len(recent)} cycles shown" if recent
-                  else "no cycle shown yet")
-            node_src.data = node_rows(status, before)
-            edge_src.data = edge_rows(status)
-            attacker_div.text = attacker_text(status, cfg.attacker, on)
-            running = ((status.get("nodes", {}).get(cfg.attacker) or {}).get("params") or {})
-            if running.get("model") in choices and running.get("model") != seen["model"]:
-                # the form shows what runs whenever that changes (a swap from here, the CLI or a restart); a
-                # choice the user is making in between is left alone
-                seen["model"] = model_in.value = running["model"]
-                if isinstance(running.get("rarms"), int | float):
-                    rarms_in.value = float(running["rarms"])
-        if swaps and swap_div.text != "<br>".join(swaps):
-            swap_div.text = "<br>".join(swaps)
-        k = state.counts()
-        skipped = sum(e.get("skipped", 0) for e in (status or {}).get("edges", {}).values())
-        info_text = (f"latest cycle {k['last_cycle']} &middot; cycles run {(status or {}).get('cycles', 'n/a')} "
-                     f"&middot; range-Doppler maps drawn {k['maps_drawn']}, clean frames not drawn "
-                     f"{k['frames_not_drawn']} &middot; frames the taps skipped for display {skipped} (not lost)"
-                     + (f" &middot; status: {status_error}" if status_error else ""))
-        if info.text != info_text:
-            info.text = info_text
+def _update(m: _Models, state: ViewState, cfg: PageConfig) -> None:
+    """What the page shows, brought up to `state`: new points and estimates, the threshold, the latest map, the
+    tables and the attacker's form (when a new status came), the counters."""
+    _draw_points(m, state, cfg)
+    _draw_map(m, state, cfg)
+    status, status_error = _draw_status(m, state, cfg)
+    k = state.counts()
+    skipped = sum(e.get("skipped", 0) for e in (status or {}).get("edges", {}).values())
+    info_text = (f"latest cycle {k['last_cycle']} &middot; cycles run {(status or {}).get('cycles', 'n/a')} "
+                 f"&middot; range-Doppler maps drawn {k['maps_drawn']}, clean frames not drawn "
+                 f"{k['frames_not_drawn']} &middot; frames the taps skipped for display {skipped} (not lost)"
+                 + (f" &middot; status: {status_error}" if status_error else ""))
+    if m.info.text != info_text:
+        m.info.text = info_text
 
-    doc.add_periodic_callback(update, max(50, int(1000 / cfg.update_hz)))
+
+def _draw_points(m: _Models, state: ViewState, cfg: PageConfig) -> None:
+    """The Q points and the estimates that came since the last update; the threshold once it is known."""
+    pts, m.seen["points"], est, m.seen["estimates"] = state.since(m.seen["points"], m.seen["estimates"])
+    for c in CATEGORIES:
+        mine = [p for p in pts if p.category == c]
+        if mine:
+            m.q_src[c].stream({"cycle": [p.cycle for p in mine],
+                               "q": [0.0 if p.q is None else p.q for p in mine],
+                               "detail": [p.detail for p in mine], "attacked": [p.attacked for p in mine]},
+                              rollover=cfg.history)
+    if est:
+        flat = [(e.cycle, r, v) for e in est for r, v in zip(e.range_m, e.velocity_mps)]
+        if flat:
+            c, r, v = zip(*flat)
+            m.est_src.stream({"cycle": list(c), "range_m": list(r), "velocity_mps": list(v)}, rollover=cfg.history)
+    eta = cfg.eta if cfg.eta is not None else state.eta
+    if eta is not None and m.eta_line.location != eta:
+        m.eta_line.location = eta
+        m.eta_div.text = f"dashed line: the detector's threshold eta = {eta:g} (an alarm when Q >= eta)"
+
+
+def _draw_map(m: _Models, state: ViewState, cfg: PageConfig) -> None:
+    """The range-Doppler map of the latest clean cycle not drawn yet, if any."""
+    latest = state.latest_clean(m.seen["map"])
+    if latest is None:
+        return
+    m.seen["map"], cycle, x, rho = latest
+    samples = from_codes(cfg.scene, np.asarray(x)[None])[0]
+    db, ranges, velocities = rd_map_db(samples, np.asarray(rho, bool), cfg.geometry, cfg.scene.sigma_n)
+    m.rd_src.data = {"image": [db], "x": [float(ranges[0])], "y": [float(velocities[0])],
+                     "dw": [float(ranges[-1] - ranges[0])], "dh": [float(velocities[-1] - velocities[0])]}
+    m.rd_div.text = f"cycle {cycle}: peak {float(db.max()):.1f} dB over the noise"
+    state.drawn(m.seen["map"])
+
+
+def _draw_status(m: _Models, state: ViewState, cfg: PageConfig) -> tuple[dict[str, Any] | None, str | None]:
+    """The tables, the attacker's line and its form from a status the page has not drawn, and the swap log:
+    returns (the latest status, the error of reading it)."""
+    with state.lock:
+        status, status_error, swaps = state.status, state.status_error, list(state.swap_log[-5:])
+    if status is not None and status is not m.seen["status"]:   # a new one comes once a second: tables
+        before, m.seen["status"] = m.seen["status"], status      # redrawn only then (the browser's work)
+        recent = [p.attacked for p in state.recent(200)]
+        on = (f"attack on in {sum(recent)} of the last {len(recent)} cycles shown" if recent
+              else "no cycle shown yet")
+        m.node_src.data = node_rows(status, before)
+        m.edge_src.data = edge_rows(status)
+        m.attacker_div.text = attacker_text(status, cfg.attacker, on)
+        running = ((status.get("nodes", {}).get(cfg.attacker) or {}).get("params") or {})
+        if running.get("model") in m.choices and running.get("model") != m.seen["model"]:
+            # the form shows what runs whenever that changes (a swap from here, the CLI or a restart); a
+            # choice the user is making in between is left alone
+            m.seen["model"] = m.model_in.value = running["model"]
+            if isinstance(running.get("rarms"), int | float):
+                m.rarms_in.value = float(running["rarms"])
+    if swaps and m.swap_div.text != "<br>".join(swaps):
+        m.swap_div.text = "<br>".join(swaps)
+    return status, status_error
 
 
 def node_rows(status: dict[str, Any], before: dict[str, Any] | None) -> dict[str, list]:

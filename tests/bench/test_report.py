@@ -5,10 +5,11 @@ from pathlib import Path
 
 import pytest
 
+from bench import pages, report
 from bench import records as bench_records
-from bench import report
 
 ROOT = Path(__file__).resolve().parents[2]
+HEAD = f"{pages.HEAD_BEGIN}\n{pages.HEAD_END}\n"          # a page's head, rendered from the benchmark list
 
 
 def test_the_committed_benchmark_documents_are_what_the_committed_records_give():
@@ -30,17 +31,40 @@ def transport_doc(ratio: float) -> dict:
 def test_a_figure_is_judged_against_its_target(tmp_path, ratio, met):
     (tmp_path / "docs" / "bench" / "records").mkdir(parents=True)
     (tmp_path / "docs" / "bench" / "records" / "transport.json").write_text(json.dumps(transport_doc(ratio)))
-    (tmp_path / "docs" / "bench" / "transport.md").write_text(f"# T\n\nmethod\n\n{report.BEGIN}\nold\n{report.END}\n")
+    (tmp_path / "docs" / "bench" / "transport.md").write_text(f"# T\n\n{HEAD}\nmethod\n\n{report.BEGIN}\nold\n"
+                                                                  f"{report.END}\n")
     docs = report.render(tmp_path)
     summary = docs[tmp_path / "BENCHMARKS.md"]
     assert f"| {ratio:.2f} ({100 * ratio:.0f} / 100 frames/s; CPU ratio 0.90) | >= 0.8 | {met} |" in summary
     assert "No records yet: run `python3 dev.py bench pipeline --json docs/bench/records/pipeline.json`" in summary
     page = docs[tmp_path / "docs" / "bench" / "transport.md"]
-    assert page.startswith("# T\n\nmethod\n\n") and "old" not in page and "| 4x8 | runtime |" in page
+    assert page.startswith(f"# T\n\n{pages.HEAD_BEGIN}\n`python3 dev.py bench transport [--json FILE]")
+    assert "\nmethod\n\n" in page and "old" not in page and "| 4x8 | runtime |" in page
     args = argparse.Namespace(root=tmp_path, check=True)
     assert report.run(args) == 1                                   # not written yet
     assert report.run(argparse.Namespace(root=tmp_path, check=False)) == 0
     assert report.run(args) == 0                                   # now current
+
+
+def test_a_page_head_names_the_command_module_and_records_from_the_benchmark_list(tmp_path):
+    """The head states the benchmark's own options, its module and its record file; a page without records gets
+    its head all the same, a page without the head's markers is refused."""
+    (tmp_path / "docs" / "bench" / "records").mkdir(parents=True)
+    page_file = tmp_path / "docs" / "bench" / "dca1000_udp.md"
+    page_file.write_text(f"# D\n\n{HEAD}\nprose\n\n{report.BEGIN}\n{report.END}\n")
+    page = report.render(tmp_path)[page_file]
+    head = page.split(pages.HEAD_BEGIN)[1].split(pages.HEAD_END)[0]
+    assert head.startswith("\n`python3 dev.py bench dca1000-udp [--json FILE] [--cycles CYCLES]")
+    assert "Module `bench/dca1000_udp.py`; records `docs/bench/records/dca1000_udp.json`" in head
+    assert all(len(line) <= pages.WIDTH for line in head.splitlines())
+    page_file.write_text(f"# D\n\n{report.BEGIN}\n{report.END}\n")
+    with pytest.raises(ValueError, match="dca1000_udp.md: lacks the markers <!-- begin: dev.py bench report, head"):
+        report.render(tmp_path)
+
+
+def test_a_long_usage_breaks_between_options_only():
+    text = "`prog [--a A] [--shapes {x,y} [{x,y} ...]] [--json FILE]`"
+    assert pages.wrap(text, 20) == ["`prog [--a A]", "[--shapes {x,y} [{x,y} ...]]", "[--json FILE]`"]
 
 
 def test_a_record_file_without_command_or_machine_is_refused(tmp_path):
@@ -67,7 +91,7 @@ def test_the_pipeline_over_shared_memory_is_judged_against_its_own_targets(tmp_p
     (tmp_path / "docs" / "bench" / "records").mkdir(parents=True)
     (tmp_path / "docs" / "bench" / "records" / "pipeline.json").write_text(json.dumps(
         {**transport_doc(1.0), "command": "python3 dev.py bench pipeline", "records": [rec]}))
-    (tmp_path / "docs" / "bench" / "pipeline.md").write_text(f"# P\n\n{report.BEGIN}\n{report.END}\n")
+    (tmp_path / "docs" / "bench" / "pipeline.md").write_text(f"# P\n\n{HEAD}\n{report.BEGIN}\n{report.END}\n")
     docs = report.render(tmp_path)
     summary = docs[tmp_path / "BENCHMARKS.md"]
     targets = ("2.5", "1.6") if transport == "shm" else ("1", "1.3")
@@ -97,7 +121,7 @@ def render_one(tmp_path: Path, name: str, records: list[dict], **machine) -> tup
     doc = transport_doc(1.0)
     doc.update(command=f"python3 dev.py bench {name}", records=records, machine={**doc["machine"], **machine})
     (tmp_path / "docs" / "bench" / "records" / f"{name}.json").write_text(json.dumps(doc))
-    (tmp_path / "docs" / "bench" / f"{name}.md").write_text(f"# {name}\n\n{report.BEGIN}\n{report.END}\n")
+    (tmp_path / "docs" / "bench" / f"{name}.md").write_text(f"# {name}\n\n{HEAD}\n{report.BEGIN}\n{report.END}\n")
     docs = report.render(tmp_path)
     return docs[tmp_path / "BENCHMARKS.md"], docs[tmp_path / "docs" / "bench" / f"{name}.md"]
 

@@ -42,3 +42,38 @@ def test_a_log_its_group_or_others_may_reach_is_refused_naming_its_mode(tmp_path
     with pytest.raises(ActivationLogError, match=rf"shared.activation: activation log has mode {mode:04o}: its group "
                                                  "or others have access to it"):
         read_log(path, 8)
+
+
+def _written(tmp_path, rows=4):
+    path = tmp_path / "r.activation"
+    write_log(path, list(range(rows)), np.random.default_rng(5).random((rows, 8)) < 0.5)
+    return path
+
+
+@pytest.mark.parametrize("edit", [
+    lambda t: t.replace(t.splitlines()[2], t.splitlines()[2][:-1] + "10"[int(t.splitlines()[2][-1])]),
+    lambda t: t.replace(t.splitlines()[3] + "\n", ""),                    # a row removed
+    lambda t: t.replace(t.splitlines()[2], t.splitlines()[2] + "\n9 " + t.splitlines()[2].split()[1]),  # one added
+    lambda t: t.replace(t.splitlines()[2], "7 " + t.splitlines()[2].split()[1]),   # a cycle renumbered
+], ids=["bit flipped", "row removed", "row added", "cycle renumbered"])
+def test_a_tampered_row_is_refused_naming_the_file(tmp_path, edit):
+    path = _written(tmp_path)
+    path.write_text(edit(path.read_text()))
+    path.chmod(0o600)
+    with pytest.raises(ActivationLogError, match=r"r.activation: activation log does not match its checksum"):
+        read_log(path, 8)
+
+
+def test_a_log_cut_before_its_checksum_line_is_refused(tmp_path):
+    path = _written(tmp_path)
+    path.write_text("".join(path.read_text().splitlines(keepends=True)[:-2]))
+    path.chmod(0o600)
+    with pytest.raises(ActivationLogError, match=r"r.activation: activation log has no checksum line"):
+        read_log(path, 8)
+
+
+def test_the_checksum_line_is_the_sha256_of_everything_before_it(tmp_path):
+    import hashlib
+    text = _written(tmp_path).read_text()
+    body, last = text[:text.rindex("# sha256 ")], text.splitlines()[-1]
+    assert last == f"# sha256 {hashlib.sha256(body.encode()).hexdigest()}"

@@ -9,6 +9,7 @@ import sigmf
 
 from carav_blocks.sigmf_sink import SigmfSink
 from carav_blocks.sigmf_source import SigmfSource
+from carav_stream.capture.activation_log import write_log
 from carav_stream.capture.sigmf_io import RecordingError, open_recording
 from carav_stream.runtime import Frame
 from tests.blocks.helpers import wire
@@ -70,7 +71,7 @@ def test_the_activation_sequence_stays_out_of_the_recording_and_its_log_is_priva
     assert "k_max" not in meta and "rbar" not in meta and "rho" not in meta
     assert stat.S_IMODE((tmp_path / "rec.activation").stat().st_mode) == 0o600
     lines = (tmp_path / "rec.activation").read_text().splitlines()
-    assert lines[-1] == "5 " + "".join("1" if b else "0" for b in rho[5])
+    assert lines[-2] == "5 " + "".join("1" if b else "0" for b in rho[5]) and lines[-1].startswith("# sha256 ")
 
 
 def test_a_real_adc_recording_is_ri16(tmp_path):
@@ -95,8 +96,8 @@ def corrupt(tmp_path, edit):
     (lambda m, d: m["global"].update({"core:datatype": "ri16_le"}), r"core:datatype ri16_le does not fit carav:iq"),
     (lambda m, d: m["global"].update({"carav:n_chirps": "4"}), r"global carav:n_chirps: expected int, got '4'"),
     (lambda m, d: (d / "rec.activation").unlink(), r"rec.activation: activation log not found"),
-    (lambda m, d: (d / "rec.activation").write_text("0 1100\n1 0011\n"), r"rec.activation: 2 cycles, shorter than "
-                                                                          r"the recording's 6"),
+    (lambda m, d: write_log(d / "rec.activation", [0, 1], np.array([[1, 1, 0, 0], [0, 0, 1, 1]], bool)),
+     r"rec.activation: 2 cycles, shorter than the recording's 6"),
     (lambda m, d: (d / "rec.sigmf-data").write_bytes(b"\x01" + (d / "rec.sigmf-data").read_bytes()[1:]),
      r"rec.sigmf-data: .*hash.*core:sha512"),
     (lambda m, d: m.update({"global": {**m["global"], "core:sample_rate": "fast"}}),

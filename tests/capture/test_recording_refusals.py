@@ -63,3 +63,44 @@ def test_replay_refuses_an_activation_log_others_can_read_in_one_line(tmp_path, 
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1, err
     assert "rec.activation: activation log has mode 0644: its group or others have access to it" in err, err
+
+
+@pytest.mark.parametrize("top, message", [
+    ({"global": []}, "global: expected a table, got list"),
+    ({"annotations": {}}, "annotations: expected a list, got dict"),
+    ({"captures": "x"}, "captures: expected a list, got str"),
+])
+def test_replay_refuses_metadata_of_the_wrong_shape_in_one_line(tmp_path, capsys, top, message):
+    record(tmp_path / "rec")
+    meta_path = tmp_path / "rec.sigmf-meta"
+    meta = json.loads(meta_path.read_text())
+    key, value = next(iter(top.items()))
+    meta[key] = [meta[key]] if key == "global" else value
+    meta_path.write_text(json.dumps(meta))
+    assert carav(["replay", str(tmp_path / "rec"), "--no-progress"]) == Exit.INVALID
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert f"rec.sigmf-meta: not valid SigMF: {message}" in err, err
+
+
+def test_a_recording_of_no_cycle_opens_empty(tmp_path):
+    from carav_blocks.sigmf_sink import SigmfSink
+    from tests.capture.test_recording_blocks import IQ_SCENE
+
+    sink = SigmfSink(path=str(tmp_path / "rec"), scene=IQ_SCENE, batch=2)
+    sink.start()
+    sink.finish()                               # the recorder received no frame at all
+    rec = open_recording(tmp_path / "rec")
+    assert rec.samples.shape == (0, 4, 256, 2) and rec.rho.shape == (0, 4)
+
+
+def test_a_recording_refuses_its_log_turned_into_one_without_checksum(tmp_path, capsys):
+    record(tmp_path / "rec")
+    log = tmp_path / "rec.activation"
+    lines = log.read_text().splitlines()
+    lines[0] = lines[0].replace("log v2", "log v1")     # a log "downgraded" by hand: header edited, checksum cut
+    log.write_text("\n".join(lines[:-1]) + "\n")
+    log.chmod(0o600)
+    assert carav(["replay", str(tmp_path / "rec"), "--no-progress"]) == Exit.INVALID
+    err = capsys.readouterr().err
+    assert "rec.activation: activation log is not the checksummed log its recording was written with" in err, err

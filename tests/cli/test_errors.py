@@ -1,5 +1,6 @@
 """Bad input on the command line: one line naming the option, file or field, the documented exit code, and no
 work started (so nothing is lost or left behind). Exit codes: console.errors.Exit."""
+import os
 from pathlib import Path
 
 import pytest
@@ -25,8 +26,8 @@ def test_no_arguments_prints_the_help_with_the_exit_codes(capsys):
 
 
 @pytest.mark.parametrize("argv, code, text", [
-    (["run", DEMO, "--cycles", "-5"], Exit.INVALID, "demo.toml: run.cycles: must be >= 0, got -5"),
-    (["run", str(ROOT / "graphs")], Exit.INVALID, "graphs: is a folder, not a graph file"),
+    (["run", DEMO, "--cycles", "-5"], Exit.USAGE, "argument --cycles: must be >= 0, got -5"),
+    (["run", str(ROOT / "graphs")], Exit.USAGE, "graphs: is a folder, not a graph file"),
     (["run", DEMO, "--set", "detector.eta=nan"], Exit.INVALID, "blocks.detector.eta: must be a finite number, got nan"),
     (["run", DEMO, "--set", "batch=0"], Exit.INVALID, "batch: must be >= 1, got 0"),
     (["run", DEMO, "--blocks", "/nonexistent"], Exit.INVALID, "block folder '/nonexistent' does not exist"),
@@ -34,7 +35,7 @@ def test_no_arguments_prints_the_help_with_the_exit_codes(capsys):
     (["validate", DEMO, "--set", "attacker.rarms=-1"], Exit.INVALID, "blocks.attacker.rarms: must be >= 0, got -1"),
     (["run", DEMO, "--json", "/nonexistent/dir/out.json"], Exit.USAGE,
      "argument --json: /nonexistent/dir/out.json: folder '/nonexistent/dir' does not exist"),
-    (["run", DEMO, "--cycles", "x"], Exit.USAGE, "argument --cycles: invalid int value: 'x'"),
+    (["run", DEMO, "--cycles", "x"], Exit.USAGE, "argument --cycles: expected a whole number, got 'x'"),
     (["experiment", "secondary-antenna", "--trials", "0"], Exit.USAGE, "argument --trials: must be >= 1, got 0"),
     (["stop", "no-such-run"], Exit.USAGE, "carav stop: no running graph matches 'no-such-run'"),
     (["nosuchcommand"], Exit.USAGE, "invalid choice: 'nosuchcommand'"),
@@ -115,3 +116,16 @@ def test_validate_passes_every_shipped_graph_and_names_what_a_template_leaves_op
     assert "a template" not in out.replace("replay.toml: ok (5 nodes, 7 connections; a template", "")
     assert carav(["run", str(ROOT / "graphs" / "replay.toml")]) == Exit.INVALID     # run, it needs its recording
     assert "give it with --set source.path=VALUE" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [["status"], ["stop"], ["run", DEMO, "--cycles", "10"]])
+def test_a_run_folder_open_to_others_is_refused_in_one_line_before_anything_runs(capsys, tmp_path, monkeypatch,
+                                                                                   argv):
+    monkeypatch.setenv("CARAV_RUN_DIR", str(tmp_path))
+    root = tmp_path / f"carav-{os.getuid()}"
+    root.mkdir()
+    root.chmod(0o755)
+    assert carav(argv) == Exit.FAILED
+    err = error_of(capsys)
+    assert err.startswith(f"carav {argv[0]}: run folder {root} has mode 0755, not 0700") and err.count("\n") == 1
+    assert list(root.iterdir()) == []

@@ -38,6 +38,18 @@ def test_in_place_needs_the_repository_root_and_takes_no_other_output(tmp_path, 
     assert "give it alone" in capsys.readouterr().err
 
 
+@pytest.mark.slow
+def test_a_quoted_command_that_fails_is_refused_in_one_line_naming_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "docs").mkdir()
+    (tmp_path / "docs" / "Y.md").write_text("<!-- output of: carav design --pf 7 -->\n```\n```\n"
+                                            "<!-- end of output -->\n")
+    assert carav(["reproduce", "--in-place", *QUICK]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("carav reproduce: docs/Y.md: `carav design --pf 7` failed (exit 2): ")
+    assert err.count("\n") == 1
+
+
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
 
 
@@ -68,7 +80,8 @@ def test_a_quoted_command_output_is_what_the_code_prints(quote, tmp_path):
     now = doc_outputs.output(quote, ROOT, tmp_path)
     diff = "\n".join(difflib.unified_diff(quote.body.splitlines(), now.splitlines(), "quoted", "now", lineterm="",
                                           n=0))
-    assert now == quote.body, f"{quote.path.relative_to(ROOT)}: `{quote.command}` prints otherwise now:\n{diff[:3000]}"
+    assert doc_outputs.same(quote.body, now), \
+        f"{quote.path.relative_to(ROOT)}: `{quote.command}` prints otherwise now:\n{diff[:3000]}"
 
 
 @pytest.mark.slow

@@ -80,3 +80,16 @@ def test_a_graph_without_a_run_summary_prints_no_real_time_factor(capsys):
     print_summary(s)
     out = capsys.readouterr().out
     assert "400 cycles in 200 ms of wall time: 2000 cycles/s" in out and "real-time factor" not in out
+
+
+def test_whole_run_figures_print_no_coverage_line_and_a_restarted_summary_says_what_it_covers(capsys):
+    per = {"cycle_index": [5, 6, 7], "attack_active": [False] * 3}
+    print_summary(summarised(per, 3, 0.5))
+    assert "figures cover" not in capsys.readouterr().out      # the whole run: nothing to warn about
+    restarted = RunSummary(scene=SCENE)
+    restarted.instance = (1, 0)                                 # the run_summary's first restart
+    restarted.start()
+    restarted.process(None, wire(Frame.of(None, cycles=3, per_cycle=per), 0))
+    print_summary(with_radar_time({**runtime(3, 0.5), **restarted.summary()["run"]}))
+    lines = [line for line in capsys.readouterr().out.splitlines() if "figures cover" in line]
+    assert lines == ["  figures cover cycles 5-7 only (3 cycles counted): run_summary restarted 1 time"]

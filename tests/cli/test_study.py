@@ -6,10 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from carav_stream.console.errors import CommandError
+from carav_stream.cli import main as carav
 from carav_stream.montecarlo.engine import eta_grid, sweep
 from carav_stream.montecarlo.sources import source_from_spec
-from carav_stream.montecarlo.study import load_study, plan, results, run_batches
+from carav_stream.montecarlo.study import plan, results, run_batches
+from carav_stream.montecarlo.study_file import StudyError, load_study
 
 GOOD = """
 description = "t"
@@ -45,11 +46,11 @@ def drawn_in_process(study, points) -> dict:
     return draws
 
 
-def test_every_problem_of_a_study_file_is_reported_at_once_and_located(tmp_path):
+def test_every_problem_of_a_study_file_is_reported_at_once_and_located(tmp_path, capsys):
     bad = GOOD.replace("seed = 11", "seeds = 11").replace('preset = "table1"', 'preset = "table9"') \
         .replace('kind = "smart"', 'kind = "clever"').replace('eta = "0.5:3:0.05"', 'eta = "3:1:0.1"') \
         .replace("trials = 300", 'trials = -4\ndetectors = ["carav", "psychic"]')
-    with pytest.raises(CommandError) as info:
+    with pytest.raises(StudyError) as info:
         load_study(write(tmp_path, bad))
     text = str(info.value)
     for line in ("s.toml: seeds: unknown parameter (did you mean 'seed'?)", "s.toml: seed: missing required parameter",
@@ -57,15 +58,18 @@ def test_every_problem_of_a_study_file_is_reported_at_once_and_located(tmp_path)
                  "s.toml: detectors[1]: unknown detector 'psychic'", "s.toml: attacks[1].kind: expected one of",
                  "s.toml: scenes[0].preset: no such preset 'table9'"):
         assert line in text, (line, text)
-    assert info.value.code == 3
+    assert carav(["study", str(tmp_path / "s.toml")]) == 3                  # Exit.INVALID, the same lines
+    err = capsys.readouterr().err
+    assert err.startswith(f"carav study: {tmp_path / 's.toml'} is not valid:\n") and all(line in err for line in
+                                                                                    text.splitlines()[1:])
 
 
 def test_a_scene_file_is_found_next_to_the_study_and_a_bad_parameter_is_named(tmp_path):
-    with pytest.raises(CommandError, match=r"scenes\[0\].file: .*nope.toml not found"):
+    with pytest.raises(StudyError, match=r"scenes\[0\].file: .*nope.toml not found"):
         load_study(write(tmp_path, GOOD.replace('preset = "table1"', 'file = "nope.toml"')))
-    with pytest.raises(CommandError, match=r"attacks\[0\].rarms\[1\]: must be float, got str 'x'"):
+    with pytest.raises(StudyError, match=r"attacks\[0\].rarms\[1\]: must be float, got str 'x'"):
         load_study(write(tmp_path, GOOD.replace("[0.5, 1.2, 3.0]", '[0.5, "x"]', 1)))
-    with pytest.raises(CommandError, match=r"s.toml: scenes\[0\]: .*range_m"):
+    with pytest.raises(StudyError, match=r"s.toml: scenes\[0\]: .*range_m"):
         load_study(write(tmp_path, GOOD.replace('kind = "random"', 'kind = "ghost"\nparams = { range_m = -3 }')))
 
 

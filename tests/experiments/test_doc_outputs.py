@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import pytest
 
-from carav_stream.console.errors import CommandError
 from carav_stream.experiments import doc_outputs
+from carav_stream.experiments.errors import ExperimentError
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.radar.scene_loader import load_scene
 
@@ -51,7 +51,7 @@ def test_a_quoted_command_that_fails_names_the_document_and_the_command(tmp_path
     (tmp_path / "docs").mkdir()
     (tmp_path / "docs" / "Y.md").write_text("<!-- output of: carav design --pf 7 -->\n```\n```\n"
                                             "<!-- end of output -->\n")
-    with pytest.raises(CommandError, match=r"docs/Y.md: `carav design --pf 7` failed \(exit 2\): .*--pf"):
+    with pytest.raises(ExperimentError, match=r"docs/Y.md: `carav design --pf 7` failed \(exit 2\): .*--pf"):
         doc_outputs.stale(tmp_path)
 
 
@@ -65,3 +65,21 @@ def test_a_check_writes_no_file_a_quoted_command_would_write(tmp_path):
     assert not (tmp_path / "out" / "d.json").exists()
     doc_outputs.regenerate(tmp_path)
     assert (tmp_path / "out" / "d.json").exists()
+
+
+RUN = """graph graphs/demo.toml  run demo-47f84a
+  300 cycles in 921 ms of wall time: 326 cycles/s
+  real-time factor 0.153 (radar time / wall time): radar time 141 ms = 300 cycles x the scene's cycle duration 469 us
+  range error, first target: RMSE 2.43 mm, mean 0.201 mm, absolute maximum 7.13 mm over 150 cycles
+"""
+
+
+def test_a_quoted_run_is_compared_without_the_machines_own_figures():
+    from carav_stream.experiments.doc_outputs import same
+
+    other_machine = (RUN.replace("demo-47f84a", "demo-0b1c2d").replace("921 ms", "1.31 s").replace("326 cyc", "229 cyc")
+                     .replace("factor 0.153", "factor 0.108"))
+    assert same(RUN, other_machine)
+    assert not same(RUN, RUN.replace("RMSE 2.43 mm", "RMSE 2.62 mm"))          # a figure of the seed's: checked
+    assert not same(RUN, RUN.replace("300 cycles in", "299 cycles in"))        # the cycles too
+    assert not same(RUN, RUN.replace("radar time 141 ms", "radar time 142 ms"))

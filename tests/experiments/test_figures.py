@@ -66,11 +66,11 @@ def test_the_error_against_time_figure(drawn, tmp_path):
 
 
 def test_the_secondary_antenna_figure(drawn):
-    from carav_stream.experiments.secondary_antenna import _plot
+    from carav_stream.experiments.secondary_antenna import plot
     rng = np.random.default_rng(0)
     results = [{"attacker": "secondary_antenna", "power": p, "rarms": r, "q": rng.gamma(4, 0.4, 200),
                 "range_error_m": rng.exponential(0.5, 200)} for p, r in (("low", 0.5), ("high", 3.0))]
-    _plot(results, rng.gamma(3, 0.3, 500), 1.5, "unused.png")
+    plot(results, rng.gamma(3, 0.3, 500), 1.5, "unused.png")
     check(drawn[0])
 
 

@@ -1,18 +1,16 @@
 """`carav experiment interference`: another car's radar in the scene; the detectors' alarms are false alarms."""
 from __future__ import annotations
 
-import argparse
 import json
 
 import pytest
 
-from carav_stream.experiments import interference
+from carav_stream.cli import main as carav
+from carav_stream.experiments.interference import simulate
 
 
 def _run(argv):
-    parser = argparse.ArgumentParser()
-    interference.configure(parser)
-    return interference.run(parser.parse_args(argv))
+    return carav(["experiment", "interference", *argv])
 
 
 @pytest.mark.slow
@@ -34,7 +32,14 @@ def test_a_matched_interferer_is_flagged_like_an_attack_and_a_faint_one_is_not(t
 
 
 def test_results_are_reproducible_for_a_seed(tmp_path):
-    a, b = tmp_path / "a.json", tmp_path / "b.json"
-    for f in (a, b):
-        _run(["--trials", "10", "--rarms", "1", "--slopes", "0.5", "--seed", "4", "--json", str(f)])
-    assert json.loads(a.read_text()) == json.loads(b.read_text())
+    a, b = (simulate(10, [1.0], [0.5], 60.0, 1.37, seed=4) for _ in range(2))
+    assert a == b and len(a["cells"]) == len(a["random"]) == 1
+    f = tmp_path / "a.json"
+    assert _run(["--trials", "10", "--rarms", "1", "--slopes", "0.5", "--seed", "4", "--json", str(f)]) == 0
+    assert json.loads(f.read_text()) == a                                   # --json writes what simulate returns
+
+
+def test_the_engine_reports_its_progress_in_cycles_up_to_the_whole():
+    seen = []
+    simulate(4, [1.0, 3.0], [0.5], 60.0, 1.37, seed=4, progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(4, 16), (8, 16), (12, 16), (16, 16)]     # per RARMS: the random attacker, then each slope

@@ -1,26 +1,18 @@
 """Secondary-antenna experiment (paper V.G): run end to end on a few cycles, check the physics it reports."""
-import argparse
 import json
 
 import numpy as np
 import pytest
 
-from carav_stream.experiments import secondary_antenna as exp  # noqa: E402
-
-
-def _args(tmp_path, **over):
-    parser = argparse.ArgumentParser()
-    exp.configure(parser)
-    args = parser.parse_args(["--trials", "8", "--json", str(tmp_path / "out.json")])
-    for k, v in over.items():
-        setattr(args, k, v)
-    return args
+from carav_stream.cli import main as carav
+from carav_stream.experiments import secondary_antenna as exp
+from carav_stream.experiments.errors import ExperimentError
 
 
 @pytest.mark.parametrize("attacker", ["ghost", "secondary_antenna"])
 def test_high_power_attacks_are_all_detected_and_low_power_ones_all_missed(tmp_path, attacker):
-    args = _args(tmp_path, attacker=attacker, power="all")
-    assert exp.run(args) == 0
+    assert carav(["experiment", "secondary-antenna", "--trials", "8", "--json", str(tmp_path / "out.json"),
+                  "--attacker", attacker, "--power", "all"]) == 0
     out = json.loads((tmp_path / "out.json").read_text())
     by_power = {lv["power"]: lv for lv in out["levels"]}
     assert set(by_power) == {"low", "medium", "high"}
@@ -35,8 +27,7 @@ def test_high_power_attacks_are_all_detected_and_low_power_ones_all_missed(tmp_p
 def test_secondary_antenna_power_matches_requested_rarms():
     from carav_stream.radar.scene_loader import load_scene
     scene = load_scene("table1")
-    args = argparse.Namespace(antenna_range=30.0, ghost_range=45.0)
-    att, p_w = exp._make_attacker("secondary_antenna", scene, 1.05, args)
+    att, p_w = exp._make_attacker("secondary_antenna", scene, 1.05, antenna_range_m=30.0, ghost_range_m=45.0)
     assert att.equivalent_rarms() == pytest.approx(1.05, rel=1e-9)
     assert p_w > 0
 
@@ -50,6 +41,7 @@ def test_summary_flags_a_harmful_miss(tmp_path):
     assert s["harmless_range"] is False and s["pm"] == pytest.approx(2 / 3)
 
 
-def test_bad_trial_count_is_named(tmp_path):
-    with pytest.raises(SystemExit, match="--trials must be >= 1, got 0"):
-        exp.run(_args(tmp_path, trials=0))
+def test_bad_trial_count_is_named():
+    with pytest.raises(ExperimentError, match="trials must be >= 1, got 0"):
+        exp.experiment(power="all", trials=0, attacker="both", eta=2.0, method="music", antenna_range_m=30.0,
+                       ghost_range_m=45.0, snr_db=None, seed=7)

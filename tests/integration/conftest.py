@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from carav_stream.console.errors import Exit
 from carav_stream.testing.graphs import GraphRun, Graphs, read_jsonl, wait_for
 
-__all__ = ["PACED", "ROOT", "TOYS", "carav", "read_jsonl", "wait_until"]
+__all__ = ["PACED", "ROOT", "TOYS", "carav", "exit_code_after_a_kill", "read_jsonl", "wait_until"]
 
 ROOT = Path(__file__).resolve().parents[2]
 TOYS = ROOT / "tests" / "toy_blocks"
@@ -34,6 +35,21 @@ def carav(tmp_path, request):
                            env={"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))})
     yield graphs
     graphs.close()
+
+
+def exit_code_after_a_kill(summary: dict, killed: str) -> int:
+    """What `carav run` must exit with after `killed` was SIGKILLed mid-run and restarted, and nothing else failed:
+    1 (failed) when the summary counts lost frames, 0 when it counts none. A node's counts are those of its last
+    heartbeat (runtime.node.HEARTBEAT_S), so the frames it took, or had queued, since then die with it and are
+    counted lost; whether there were any depends on when the kill fell (none, if it fell just after a heartbeat
+    and no frame had come since). Asserts that every loss is on an edge of the killed node, or inside it."""
+    def nodes(edge: str) -> set[str]:
+        if edge.startswith("inside "):
+            return {edge.removeprefix("inside ").split(" ")[0]}
+        return {end.strip().split(".")[0] for end in edge.split("->")}
+    elsewhere = {edge: n for edge, n in summary["lost_by_edge"].items() if killed not in nodes(edge)}
+    assert elsewhere == {}, f"frames lost away from the killed node {killed!r}: {elsewhere}"
+    return Exit.FAILED if summary["lost"] else Exit.OK
 
 
 def wait_until(predicate, what: str, *runs: GraphRun, interval_s: float = 0.05):

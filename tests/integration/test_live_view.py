@@ -108,7 +108,8 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
     assert run.wait() == 0, run.stderr()
     s = run.summary()
     assert s["lost"] == 0 and [w["node"] for w in s["swaps"]] == ["attacker"]
-    assert "swap: node attacker runs block attacker (version 1) (none) from frame seq" in run.stdout()
+    assert re.search(r"swap: node attacker runs block attacker \(version 1\) \(none\) from cycle \d+ \(frame seq",
+                     run.stdout()), run.stdout()
     view = s["per_node"]["view"]
     assert view["block"] == "live_view" and view["in"]["alarms"] > 0 and view["in"]["clean"] > 0
     assert view["history"][0]["summary"]["view"]["maps_drawn"] >= 1

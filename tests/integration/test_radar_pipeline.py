@@ -12,7 +12,7 @@ from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.graph import TRANSPORTS
 from carav_stream.testing.graphs import by_cycle, node_pids
-from tests.integration.conftest import PACED, read_jsonl, wait_until
+from tests.integration.conftest import PACED, exit_code_after_a_kill, read_jsonl, wait_until
 
 pytestmark = pytest.mark.integration
 
@@ -192,9 +192,10 @@ def test_a_killed_radar_node_is_restarted_and_the_graph_goes_on_in_order_without
     run = radar(carav, 0, "radar_taps_restart.toml", seed=24, batch=4)
     judged = carav.workdir / "judged.jsonl"
     n_at_restart = _kill_mid_run_and_stop(carav, run, victim, judged)
-    assert run.wait() in (0, 1), run.stderr()          # 1: frames died with the killed node (counted lost)
+    code = run.wait()
     s = run.summary()
     assert s["restarts"] == 1 and s["estimated_counts"] == [victim] and not s["failures"], s["failures"]
+    assert code == exit_code_after_a_kill(s, victim), run.stderr()
     rejects = [line for line in run.stderr().splitlines() if "rejected frame" in line]
     if victim == "source":
         # the restarted source resumes beyond its killed incarnation's lease, so no seq ever has two contents;

@@ -100,3 +100,17 @@ def test_restarted_jsonl_and_csv_sinks_append_and_keep_every_line_they_wrote(car
     cycles = [int(r[0]) for r in rows[1:]]
     assert cycles == sorted(set(cycles)) and cycles[0] == 0
     assert s["per_node"]["log"]["restarts"] == 1 and s["per_node"]["csv"]["restarts"] == 1
+
+
+def test_a_sink_on_a_full_disk_fails_once_in_one_line_and_is_not_restarted(carav):
+    # /dev/full takes the open and refuses every write with ENOSPC: a restarted sink would meet the same disk
+    graph = CHAIN.replace('path = "out.jsonl"', 'path = "/dev/full"')
+    run = carav.run(carav.graph(graph), "--cycles", "40")
+    assert run.wait() == 1, run.stderr()
+    err = run.stderr()
+    assert "Traceback" not in err and "restarting 'log'" not in err, err
+    line = ("carav: node 'log' (jsonl_sink) failed: exited with status 1: BlockError: /dev/full: cannot write: "
+            "No space left on device (not restarted: a new process would meet the same fault)")
+    assert line in err.splitlines(), err
+    summary = run.summary()
+    assert summary["per_node"]["log"]["restarts"] == 0 and len(summary["failures"]) == 1

@@ -139,7 +139,8 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
     assert refused.returncode == 3 and "has no input 'inp'" in refused.stderr
     wait_until(lambda: len(read_jsonl(out)) > 2500, "frames after the last swap", run)
     status = carav.cli("status").stdout                            # the swaps in words, not @1#1
-    assert re.search(r"swap: node t runs block tagger \(version 1\)( \([^)]*\))? from frame seq", status), status
+    assert re.search(r"swap: node t runs block tagger \(version 1\)( \([^)]*\))? from (cycle \d+ \()?frame seq",
+                     status), status
     assert "its swap number 2" in status
     assert "frames/s" in status and "cycles/s" in status
     assert carav.cli("stop").returncode == 0

@@ -50,7 +50,7 @@ def reference_cycles(att, cycles) -> list[np.ndarray]:
 
 def reference_at(att, phase0: float) -> np.ndarray:
     """The secondary antenna's samples in a cycle that starts phase0 seconds into its chirp period, from its
-    equations (attackers module docstring)."""
+    equations (SecondaryAntennaAttacker.mixed, carav_stream/radar/attackers/secondary_antenna.py)."""
     s = att.scene
     g = physics.waveform_grid(s)
     tau = (att.range_m + (att.velocity_mps - s.radar_speed_mps) * g.t_cycle_s) / C_MPS

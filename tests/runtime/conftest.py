@@ -33,8 +33,8 @@ def harness():
                     queue_frames=2, drain_timeout_s=1.0)
     runners = [NodeRunner(spec)]
     runner = runners[0]
-    runner.block.start()
-    runner.tell(Report.READY)                 # the ROUTER drops messages to a peer it has not heard from yet
+    runner.driver.block.start()
+    runner.link.tell(Report.READY)                 # the ROUTER drops messages to a peer it has not heard from yet
     assert router.poll(5000), "the node's control connection did not come up"
     assert unpack(router.recv_multipart()[1])["type"] == Report.READY
     feeds = {p: transport.connect_output(ctx, ep[p], hwm=100, linger_ms=0) for p in ("a", "b")}
@@ -57,12 +57,12 @@ def harness():
             """Receive and pump until the node handed `n_processed` frame sets to its block in all (and `until()`
             holds)."""
             deadline = time.monotonic() + DEADLINE_S
-            while runner.processed < n_processed or not until():
-                assert time.monotonic() < deadline, (f"{runner.processed} of {n_processed} frame sets processed; "
-                                                     f"waiting for {what}")
+            while runner.driver.processed < n_processed or not until():
+                assert time.monotonic() < deadline, (f"{runner.driver.processed} of {n_processed} frame sets "
+                                                     f"processed; waiting for {what}")
                 for p in ("a", "b"):
-                    runner.receive(p)
-                runner.pump()
+                    runner.ports.receive(p)
+                runner.driver.pump()
 
         @staticmethod
         def outputs(n):
@@ -78,8 +78,8 @@ def harness():
         def control(kind, **msg):
             """Send a control message to the node and have it served (waits for it to arrive)."""
             router.send_multipart([b"p", pack(kind, **msg)])
-            assert runner.control.poll(DEADLINE_S * 1000), "control message did not arrive"
-            runner.serve_control()
+            assert runner.link.sock.poll(DEADLINE_S * 1000), "control message did not arrive"
+            runner.link.serve()
 
         @staticmethod
         def restarted(**changes):

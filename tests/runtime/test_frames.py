@@ -1,6 +1,7 @@
 import msgpack
 import numpy as np
 import pytest
+import zmq
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -224,7 +225,6 @@ def test_end_of_stream_is_an_explicit_frame():
 
 
 def test_arrays_forwarded_unchanged_are_sent_as_the_received_zmq_frames():
-    zmq = pytest.importorskip("zmq")
     ctx = zmq.Context()
     a, b = ctx.socket(zmq.PAIR), ctx.socket(zmq.PAIR)
     try:

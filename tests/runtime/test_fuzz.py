@@ -69,7 +69,7 @@ def test_a_live_node_refuses_fuzzed_and_forged_input_counts_it_and_keeps_running
     h.feed("b", 0, 1)
     h.feed("a", 1)                                                      # forged: seq 1 again on a
     h.feed("b", 0)                                                      # forged: seq 0 again on b
-    h.run_until(2, lambda: sum(h.node.c_rejected.values()) == len(garbage) + 2, "every refusal to be counted")
+    h.run_until(2, lambda: sum(h.node.ports.c_rejected.values()) == len(garbage) + 2, "every refusal to be counted")
     assert h.outputs(2) == [(0, "paired", None), (1, "paired", None)]
-    assert h.node.c_rejected == {"a": len(garbage) + 1, "b": 1}
-    assert h.node.c_in == {"a": 2, "b": 2} and h.node.processed == 2   # nothing refused reached the block
+    assert h.node.ports.c_rejected == {"a": len(garbage) + 1, "b": 1}
+    assert h.node.ports.c_in == {"a": 2, "b": 2} and h.node.driver.processed == 2   # nothing refused reached the block

@@ -8,6 +8,7 @@ import pytest
 
 from carav_stream.runtime import shm
 from carav_stream.runtime.frames import Frame, FrameError, decode, encode_with_header
+from carav_stream.runtime.planes.shm import ShmReader
 
 BIG = (64, 1100)            # a Table I cycle of float64: far above shm.MIN_FRAME_BYTES
 
@@ -40,7 +41,7 @@ def test_a_frame_in_a_slot_reads_back_equal_as_read_only_views_and_the_message_i
     header = {"stream": "a.out", "seq": 0, "cycle": 0}
     parts = encode_with_header(header, Frame.of(x).derive(keep_data=True, arrays={"k": extra}), None, w.place)
     assert len(parts) == 1 and msgpack.unpackb(parts[0])["shm"] == [0, 1]
-    f = decode(parts, slots=r)
+    f = decode(parts, reader=ShmReader(r))
     np.testing.assert_array_equal(f.payload, x)
     np.testing.assert_array_equal(f.arrays["k"], extra)
     assert not f.payload.flags.writeable and not f.arrays["k"].flags.writeable
@@ -52,14 +53,14 @@ def test_a_frame_in_a_slot_reads_back_equal_as_read_only_views_and_the_message_i
 def test_a_slot_is_reused_only_after_every_view_of_it_is_gone_and_the_lowest_free_slot_first(segment):
     fd = segment(n_slots=3)
     w, r = shm.SlotWriter(fd, ["e"]), shm.SlotReader(fd, 0)
-    f0, f1, f2 = (decode(frame_parts(np.full(BIG, float(i)), w), slots=r) for i in range(3))
+    f0, f1, f2 = (decode(frame_parts(np.full(BIG, float(i)), w), reader=ShmReader(r)) for i in range(3))
     assert [f.header["shm"] for f in (f0, f1, f2)] == [[0, 1], [1, 2], [2, 3]]
     kept = f0.payload[5:9, ::2]                      # a view of a view of slot 0 outlives its frame
     assert f1.payload[0, 0] == 1.0                   # slot 1: its array built, then everything dropped
     del f0, f1
     gc.collect()
     assert w.free_slot(0) == 1                       # slot 0 still held through `kept`
-    f3 = decode(frame_parts(np.full(BIG, 3.0), w), slots=r)
+    f3 = decode(frame_parts(np.full(BIG, 3.0), w), reader=ShmReader(r))
     assert f3.header["shm"] == [1, 4]
     assert np.all(kept == 0.0)                       # never overwritten while viewed
     assert frame_parts(np.full(BIG, 4.0), w) != [] and w.c_full == 1   # every slot taken: inline ...
@@ -72,7 +73,7 @@ def test_a_slot_is_reused_only_after_every_view_of_it_is_gone_and_the_lowest_fre
 def test_with_every_slot_taken_the_producer_waits_then_goes_inline_and_counts_it(segment):
     fd = segment(n_slots=1)
     w, r = shm.SlotWriter(fd, ["e"]), shm.SlotReader(fd, 0)
-    held = decode(frame_parts(np.ones(BIG), w), slots=r).payload
+    held = decode(frame_parts(np.ones(BIG), w), reader=ShmReader(r)).payload
     calls = []
     assert w.place([np.ones(BIG)], wait_s=0.05, idle=lambda: calls.append(1)) is None
     assert calls and w.counters()["no_free_slot"] == 1 and w.counters()["held"] == 1
@@ -114,14 +115,14 @@ def test_decode_refuses_slot_headers_without_a_segment_or_with_buffer_parts(segm
     fd = segment()
     w, r = shm.SlotWriter(fd, ["e"]), shm.SlotReader(fd, 0)
     parts = frame_parts(np.zeros(BIG), w)
-    with pytest.raises(FrameError, match="this input has no shared-memory segment"):
+    with pytest.raises(FrameError, match="this input has no data plane"):
         decode(parts)
     with pytest.raises(FrameError, match="the header alone"):
-        decode([*parts, b"\0" * 8], slots=r)
+        decode([*parts, b"\0" * 8], reader=ShmReader(r))
     bad = msgpack.unpackb(parts[0])
     bad["arrays"] = [["data", "float64", [1 << 20]]]
     with pytest.raises(FrameError, match="shared memory: slot 0: the header's arrays need"):
-        decode([msgpack.packb(bad)], slots=r)
+        decode([msgpack.packb(bad)], reader=ShmReader(r))
 
 
 def test_a_reference_before_the_producer_laid_out_its_slots_is_refused(segment):
@@ -135,7 +136,7 @@ def test_a_slot_sent_to_two_consumers_is_free_only_when_both_gave_it_back_or_one
     w = shm.SlotWriter(fd, ["to_a", "to_b"])
     ra, rb = shm.SlotReader(fd, 0), shm.SlotReader(fd, 1)
     parts = frame_parts(np.ones(BIG), w)
-    fa, fb = decode(parts, slots=ra), decode(parts, slots=rb)      # written once, read by both
+    fa, fb = decode(parts, reader=ShmReader(ra)), decode(parts, reader=ShmReader(rb))      # written once, read by both
     np.testing.assert_array_equal(fa.payload, fb.payload)
     del fa
     gc.collect()
@@ -145,9 +146,9 @@ def test_a_slot_sent_to_two_consumers_is_free_only_when_both_gave_it_back_or_one
     gc.collect()
     assert w.free_slot(0) == 0
     ref = w.place([np.ones(BIG)])                    # a tap that had no room: it owes nothing
-    keep = decode(frame_parts(np.ones(BIG), w), slots=ra)   # slot 1, held by a
+    keep = decode(frame_parts(np.ones(BIG), w), reader=ShmReader(ra))   # slot 1, held by a
     w.unsend(ref, ["to_b"])
-    decode([msgpack.packb({**msgpack.unpackb(parts[0]), "shm": ref})], slots=ra)   # a got it and dropped it
+    decode([msgpack.packb({**msgpack.unpackb(parts[0]), "shm": ref})], reader=ShmReader(ra))   # a got it and dropped it
     gc.collect()
     assert w.free_slot(0) == 0 and keep.header["shm"][0] == 1
 
@@ -165,17 +166,17 @@ def test_a_restarted_producer_continues_the_generations_and_the_layout(segment):
 def test_a_restarted_consumer_gives_back_what_its_dead_incarnation_held_and_refuses_older_frames(segment):
     fd = segment(n_slots=4)
     w = shm.SlotWriter(fd, ["e"])
-    dead = shm.SlotReader(fd, 0)
-    held_by_dead = [decode(frame_parts(np.zeros(BIG), w), slots=dead) for _ in range(2)]   # slots 0, 1
+    dead = ShmReader(shm.SlotReader(fd, 0))
+    held_by_dead = [decode(frame_parts(np.zeros(BIG), w), reader=dead) for _ in range(2)]   # slots 0, 1
     lost_in_flight = frame_parts(np.zeros(BIG), w)                                      # slot 2, never read
     assert w.free_slot(0) == 3
-    new = shm.SlotReader(fd, 0)                      # the restarted consumer, on the same edge
-    mine = decode(frame_parts(np.ones(BIG), w), slots=new)          # slot 3: held by this process at the marker
-    new.resume(w.generation)                         # the producer's resume marker
+    new = ShmReader(shm.SlotReader(fd, 0))           # the restarted consumer, on the same edge
+    mine = decode(frame_parts(np.ones(BIG), w), reader=new)        # slot 3: held by this process at the marker
+    new.resume({"resume": True, "seq": 4, "shm_gen": w.generation})   # the producer's resume marker
     assert w.free_slot(0) == 0                       # 0, 1, 2 given back; 3 is held by this process
     assert [f.header["shm"][0] for f in held_by_dead] == [0, 1] and mine.header["shm"] == [3, 4]
     with pytest.raises(FrameError, match="stale generation 3"):
-        decode(lost_in_flight, slots=new)            # arriving late from the old connection
+        decode(lost_in_flight, reader=new)           # arriving late from the old connection
     del mine
     gc.collect()
     assert w.counters()["held"] == 0
@@ -206,7 +207,7 @@ def test_a_payload_computed_in_its_slot_is_sent_without_a_copy_and_an_unused_res
     side = np.arange(5.0)
     header = {"stream": "a.out", "seq": 0, "cycle": 0}
     parts = encode_with_header(header, Frame.of(out).derive(keep_data=True, arrays={"side": side}), None, w.place)
-    f = decode(parts, slots=r)
+    f = decode(parts, reader=ShmReader(r))
     assert f.header["shm"] == [0, 1] and w.counters()["computed_in_place"] == 1
     np.testing.assert_array_equal(f.payload, out)
     np.testing.assert_array_equal(f.arrays["side"], side)     # the arrays beside it copied after it
@@ -249,8 +250,8 @@ def test_when_only_a_tap_holds_the_slots_the_frame_goes_inline_at_once_instead_o
     w = shm.SlotWriter(fd, ["chain", "view"], taps=["view"])
     chain, view = shm.SlotReader(fd, 0), shm.SlotReader(fd, 1)
     parts = frame_parts(np.ones(BIG), w)
-    decode(parts, slots=chain)                       # the chain gave it back at once
-    held_by_view = decode(parts, slots=view).payload
+    decode(parts, reader=ShmReader(chain))                       # the chain gave it back at once
+    held_by_view = decode(parts, reader=ShmReader(view)).payload
     waited = []
     assert w.place([np.ones(BIG)], wait_s=5.0, idle=lambda: waited.append(1)) is None and not waited
     del held_by_view

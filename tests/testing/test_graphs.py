@@ -11,7 +11,7 @@ import pytest
 
 from carav_stream.testing.graphs import by_cycle, node_pids, read_jsonl, wait_for
 from carav_stream.testing.waiting import group_cpu_s, wait_until
-from tests.integration.conftest import TOYS
+from tests.integration.conftest import TOYS, exit_code_after_a_kill
 
 pytestmark = pytest.mark.integration
 
@@ -42,9 +42,10 @@ def test_kill_node_and_swap_steer_a_running_graph_and_nothing_is_lost(carav):
     assert "now t" in reply.stdout + reply.stderr
     wait_for(lambda: any(r.get("tag") == "b2" for r in read_jsonl(out)), "frames of the swapped-in block", run)
     assert carav.cli("stop").returncode == 0
-    assert run.wait() in (0, 1), run.stderr()             # 1: frames died with the killed node (counted lost)
+    code = run.wait()
     s = run.summary()
     assert s["restarts"] == 1 and s["estimated_counts"] == ["t"] and not s["failures"], s["failures"]
+    assert code == exit_code_after_a_kill(s, "t"), run.stderr()
     assert len(s["swaps"]) == 1 and s["swaps"][0]["block"] == "tagger_b"
     records = read_jsonl(out)
     seqs = [r["seq"] for r in records]

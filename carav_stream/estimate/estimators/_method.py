@@ -13,6 +13,8 @@ class Method:
     """An estimation method. Subclasses set what differs from the interpolated start without refinement:
 
     order        place in METHODS, the order of every list and table that names all the methods
+    range_words, velocity_words   how it reads the range (beat) and the velocity, in words (`carav estimators`
+                 prints them as the table docs/ESTIMATION.md quotes)
     start_pad    Doppler zero padding of the interpolated start (_grid.start); None: no start, the cell is kept
     padding      (range, Doppler) zero-padding factors of the map's FFTs
     locate       sub-bin (f, nu, |RD|) at the strongest cells
@@ -23,6 +25,8 @@ class Method:
     """
 
     order: int
+    range_words: str
+    velocity_words: str
     start_pad: int | None = 8
     refine = None
 

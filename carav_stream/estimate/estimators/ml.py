@@ -23,6 +23,13 @@ CUT_FRACTION = 0.04  # ... where the window is cut by more than this fraction
 
 class Ml(Method):
     order = 5
+    range_words = ("start: Candan across the three range bins at the start's Doppler cell; one target: one joint "
+                   "Newton step in (beat, Doppler) on the 2-D periodogram of the samples from the echo's onset on "
+                   '(more for a cycle whose step was large); several: alternating steps on the periodogram of the '
+                   'Doppler-compensated coherent sum over the active chirps')
+    velocity_words = ("start: parabolic vertex on a 2x padded FFT of the peak's slow-time column; then the joint step, "
+                      'or (several targets) Newton on the non-uniform slow-time periodogram of the per-chirp DTFT at '
+                      'the refined beat')
     start_pad = 2
 
     def refine(self, x, chirps, f, nu, *, n_newton: int, music_length: int | None, iq: bool,

@@ -41,6 +41,7 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     graph_from_file = dict(graph_params)
     tables.apply_overrides(nodes, graph_params, overrides, problems)
     classes = _block_classes(nodes, registry, where, problems)
+    composed = [*source.composed, *tables.restart_variants(nodes, classes, source, from_file, overrides)]
     tables.resolve_files(source, nodes, classes, graph_params, from_file, graph_from_file)
     _apply_graph_params(nodes, classes, graph_params, where, problems)
     bad_wide = params.check_graph_wide(nodes, classes, where, problems)
@@ -49,12 +50,13 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     edges = ports.edges(data.get("connections", []), nodes, classes, where, problems)
     ports.check_inputs(nodes, classes, edges, where, problems)
     ports.check_cycles(nodes, edges, where, problems)
+    warnings += ports.unused_outputs(nodes, classes, edges)
     security = tables.security(data.get("security", {}), where, problems)
     if problems:
         raise GraphError(problems)
     still_open = [f"{n}.{p}" for n, names in left_open.items() for p in sorted(names) if p not in nodes[n].params]
     return Graph(path, str(data.get("description", "")), nodes, edges, run, hosts, security, block_paths, registry,
-                 graph_params, warnings, still_open)
+                 graph_params, warnings, still_open, composed)
 
 
 def _block_folders(data: dict, extra_block_paths: list[str | Path], where: str,

@@ -3,6 +3,7 @@
 that wrote them, and [security] (CURVE key files)."""
 from __future__ import annotations
 
+import ipaddress
 import re
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,14 @@ from carav_stream.runtime.graph import (
 )
 
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+HOSTNAME_RE = re.compile(r"^(?=.{1,253}$)([A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?)(\.[A-Za-z0-9]([A-Za-z0-9-]{0,61}"
+                         r"[A-Za-z0-9])?)*\.?$")        # RFC 1123 host names: labels of letters, digits and -
 CHOICES = {"transport": TRANSPORTS}      # settings of [run] with a fixed set of values
+# The numeric settings of [run]: (low, high, strict low). A queue of 0 frames would be ZeroMQ's "no limit"; a
+# deeper queue than 1024 frames holds that many frames in memory on every edge, and a timeout of 0 fails at once.
+RUN_RANGES = {"cycles": (0, None, False), "queue_frames": (1, 1024, False),
+              "heartbeat_timeout_s": (0, 3600, True), "drain_timeout_s": (0, 86400, True),
+              "ready_timeout_s": (0, 3600, True)}
 
 
 def list_of_str(value: Any, where: str, key: str, problems: list[str]) -> list[str]:
@@ -55,7 +63,9 @@ def table(data: dict, key: str, where: str, problems: list[str], defaults: dict[
         if k not in defaults:
             problems.append(f"{where}: {key}.{k}: unknown setting; expected one of {sorted(defaults)}")
             continue
-        p = Param(k, type(defaults[k]), choices=CHOICES[k]) if k in CHOICES else Param(k, type(defaults[k]), low=0)
+        low, high, strict = RUN_RANGES.get(k, (0, None, False))
+        p = (Param(k, type(defaults[k]), choices=CHOICES[k]) if k in CHOICES
+             else Param(k, type(defaults[k]), low=low, high=high, strict=strict))
         v, problem = p.check(v)
         if problem:
             problems.append(f"{where}: {key}.{k}: {problem}")
@@ -101,11 +111,29 @@ def hosts(spec: Any, where: str, problems: list[str]) -> dict[str, Host]:
         if not isinstance(port_base, int) or not (1024 <= port_base <= 65000):
             problems.append(f"{where}: hosts.{name}.port_base: must be an integer port in 1024..65000, "
                             f"got {port_base!r}")
-        address = h.get("address", "127.0.0.1")
+        address, bind = h.get("address", "127.0.0.1"), h.get("bind", "127.0.0.1")
+        for key, value, wildcard in (("address", address, False), ("bind", bind, True)):
+            problem = network_address(value, wildcard)
+            if problem:
+                problems.append(f"{where}: hosts.{name}.{key}: {problem}")
         # Loopback unless the graph says otherwise: bind defaults to the loopback address, not to `address`.
-        hosts[name] = Host(name, str(address), str(h.get("bind", "127.0.0.1")),
-                           port_base if isinstance(port_base, int) else 0)
+        hosts[name] = Host(name, str(address), str(bind), port_base if isinstance(port_base, int) else 0)
     return hosts
+
+
+def network_address(value: Any, wildcard: bool) -> str | None:
+    """None for an IP address or a host name (and, where a socket binds, the wildcard * or 0.0.0.0), else why not."""
+    if isinstance(value, str):
+        if wildcard and value == "*":
+            return None
+        try:
+            ipaddress.ip_address(value)
+            return None
+        except ValueError:
+            if HOSTNAME_RE.match(value) and not value.replace(".", "").isdigit():
+                return None
+    expected = "an IP address or a host name" + (" (or * for every interface)" if wildcard else "")
+    return f"must be {expected}, got {value!r:.60}"
 
 
 def node(name: str, spec: Any, where: str, hosts: dict[str, Host], restart_default: Restart,
@@ -148,6 +176,38 @@ def apply_overrides(nodes: dict[str, Node], graph_params: dict[str, Any], overri
             problems.append(f"--set {item!r}: unknown node {node!r}; nodes are {sorted(nodes)}")
         else:
             nodes[node].params[param] = parse_value(value.strip())
+
+
+def restart_variants(nodes: dict[str, Node], classes: dict[str, type[Block]], source: Source,
+                     from_file: dict[str, dict[str, Any]], overrides: list[str]) -> list[str]:
+    """A node whose variant (Block.variant: the attacker's `model`) an including graph or a `--set` changed starts
+    from the new variant's own defaults: the parameters it kept from below that change are dropped (the node's
+    `host` and `restart` stay). Returns what was dropped, in words."""
+    set_keys: dict[str, set[str]] = {}
+    for item in overrides:
+        node, dot, param = item.partition("=")[0].strip().partition(".")
+        if dot:
+            set_keys.setdefault(node, set()).add(param)
+    notes = []
+    for name, node in nodes.items():
+        variant = getattr(classes.get(name), "variant", None)
+        if not variant:
+            continue
+        if variant in set_keys.get(name, ()) and node.params.get(variant) != from_file[name].get(variant):
+            kept, below = set_keys[name], f"{source.files[0].name}"
+        elif name in source.bases and variant in source.restated[name] \
+                and source.bases[name].get(variant) != from_file[name].get(variant):
+            kept = source.restated[name] | set_keys.get(name, set())
+            below = ", ".join(p.name for p in source.files[1:])
+        else:
+            continue
+        dropped = sorted(k for k in node.params if k not in kept)
+        for k in dropped:
+            del node.params[k]
+        if dropped:
+            notes.append(f"blocks.{name}: {variant} {node.params.get(variant)!r} starts from its own defaults: "
+                         f"{', '.join(dropped)} of {below} not inherited")
+    return notes
 
 
 def resolve_files(source: Source, nodes: dict[str, Node], classes: dict[str, type[Block]],

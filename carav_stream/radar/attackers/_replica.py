@@ -1,0 +1,31 @@
+"""A delayed replica of the victim's chirp at a per-sample RMS: what the ghost and the reactive repeater send."""
+import math
+
+from carav_stream.radar import physics
+from carav_stream.radar.attackers._base import Attacker
+
+
+class ReplicaAttacker(Attacker):
+    """Shared by ghost and reactive: a delayed replica of the victim's chirp at per-sample RMS rarms."""
+
+    def _replica(self, tau0_s, alpha, gate_from_s, fidelity):
+        key = (fidelity,)
+        if getattr(self, "_cache_key", None) != key:
+            amp = self.rarms * self.scene.sigma_n * (1.0 if self.scene.iq else math.sqrt(2.0))
+            if fidelity == "beat":
+                main, tail = physics.beat_replica(self.scene, tau0_s, alpha, amp, gate_from_s)
+            else:
+                main, tail = physics.waveform_replica(self.scene, tau0_s, alpha, amp)
+            tail = None if tail is None else tail.astype(self.dtype)
+            main = main.astype(self.dtype)
+            for x in (main, tail):
+                if x is not None:
+                    x.setflags(write=False)   # shared by every cycle (and sent by a node without a copy)
+            self._cache = (main, tail)
+            self._cache_key = key
+        return self._cache
+
+    def peak_amplitude(self):
+        return self.rarms * self.scene.sigma_n * (1.0 if self.scene.iq else math.sqrt(2.0))
+
+
