@@ -294,8 +294,10 @@ def detector_table(doc: dict) -> list[str]:
 def estimators_rows(doc: dict) -> list[Row]:
     recs = doc["records"]
     presets = sorted({r["preset"] for r in recs})
-    frames = ", ".join(dict.fromkeys(where(r) for r in sorted(recs, key=lambda r: where(r) != "tones")))
-    over = f"({', '.join(presets)}; {frames})"
+    fidelities = sorted({r["fidelity"] for r in recs if r.get("source") == "chain"})
+    frames = [s for s in ("tones",) if any(r.get("source", "tones") == s for r in recs)]
+    frames += [f"the radar chain at {' and '.join(fidelities)} fidelity"] if fidelities else []
+    over = f"({', '.join(presets)}; {', '.join(frames)})"
     target = f"<= {TARGET_RATIO:g} x CRLB at <= {TARGET_TIME_FACTOR:g} x fft_peak time"
     rows = []
     for m, (ratio, tf) in sorted(scores(recs, presets).items(), key=lambda kv: kv[1][1]):

@@ -21,6 +21,11 @@ where the active chirps are irregular, keeps the observed curvature (it costs no
 
 Every product and sum is within one cycle (matmul over the stack of cycles, reductions along a cycle's own axes):
 a cycle's result does not depend on the batch it came in.
+
+An echo read from sample r_c of cycle c on (`read`: its window starts after its round trip, estimators/_onset.py)
+is the same tone over N - r_c samples: the fast-time sums run from r_c on, with the time origin at their middle
+(n' = n - (N - 1 + r_c) / 2), and k, the beat curvature's (N^2 - 1) / 12 and the step's clip use N - r_c; the
+samples before r_c weigh zero in the one product, so cycles of any read starts go through it together.
 """
 from __future__ import annotations
 
@@ -47,15 +52,20 @@ def _powers(n_len: int, n_orders: int, dtype=float, columns: bool = False):
     return out
 
 
-def fast_time_moments(x, f, order: int = 2):
-    """(Z, e): Z[c, p, a] = sum_n x[c, a, n] n'^p exp(-j 2 pi f_c n') complex128 (C, order + 1, A), and the phasor
-    e[c, n] = exp(-j 2 pi f_c n') complex128 (C, N); n' = n - (N - 1) / 2.
+def fast_time_moments(x, f, order: int = 2, read=None):
+    """(Z, e): Z[c, p, a] = sum_{n >= r_c} x[c, a, n] n'^p exp(-j 2 pi f_c n') complex128 (C, order + 1, A), and the
+    phasor e[c, n] = exp(-j 2 pi f_c n') complex128 (C, N), zero before r_c; n' = n - (N - 1 + r_c) / 2.
 
-    x  float32 or complex64 (C, A, N); f float (C,) [cycles/sample]. Single-precision products (the data's
-    precision) from one real matrix product per cycle: complex samples are read as interleaved (re, im) pairs."""
+    x  float32 or complex64 (C, A, N); f float (C,) [cycles/sample]; read None (r = 0) or int (C,): each cycle's
+    first sample. Single-precision products (the data's precision) from one real matrix product per cycle: complex
+    samples are read as interleaved (re, im) pairs."""
     n_cycles, n_rows, n_samp = x.shape
     e = spectral.phasor(f, n_samp, origin=0.5 * (n_samp - 1))  # (C, N)
     n_centred = _powers(n_samp, 2, np.float32)[1]
+    if read is not None:               # the origin at the middle of n >= r: shift it, and weigh the rest zero
+        half = 0.5 * np.asarray(read, dtype=float)
+        e = e * np.exp((2j * np.pi) * f * half)[:, None] * (np.arange(n_samp) >= read[:, None])
+        n_centred = (n_centred - half[:, None].astype(np.float32))[:, None, :]       # (C, 1, N)
     if np.iscomplexobj(x):
         # sum (xr + j xi)(c - j s) n'^p: the xr samples weigh (c, -s), the xi samples (s, c)
         w = np.empty((n_cycles, 2, order + 1, n_samp, 2), dtype=np.float32)
@@ -81,11 +91,12 @@ def fast_time_moments(x, f, order: int = 2):
     return z, e
 
 
-def _sums(x, f, nu, t, tq, iq: bool, k):
+def _sums(x, f, nu, t, tq, iq: bool, k, read=None):
     """S[c, p, q] = S_pq(f, nu) (C, 2, Q), p = 0, 1 (fast time), Q = tq.shape[1] (slow time), with the image removed
     for real samples (then S_00 = a k, a the tone's complex amplitude). t (C, A): centred chirp times; tq (C, Q, A):
-    t'^q on active rows, 0 on padding rows (q = 0: the mask); k (C,): N times the active chirps."""
-    z, e = fast_time_moments(x, f, 1)  # (C, 2, A)
+    t'^q on active rows, 0 on padding rows (q = 0: the mask); k (C,): the samples read times the active chirps;
+    read: None or each cycle's first sample (C,)."""
+    z, e = fast_time_moments(x, f, 1, read)  # (C, 2, A)
     em = np.exp((-2j * np.pi) * (nu[:, None] * t))  # (C, A)
     wq = np.swapaxes(em[:, None, :] * tq, 1, 2)  # (C, A, Q)
     s = np.matmul(z, wq)  # (C, 2, Q): a product per cycle
@@ -93,23 +104,29 @@ def _sums(x, f, nu, t, tq, iq: bool, k):
         return s
     # the image conj(a) exp(-j 2 pi (f n' + nu t')) adds conj(a) F_p(2 f) G_q(2 nu) to S_pq; a from
     # S_00 = a k + conj(a) F_0 G_0
-    fm = np.matmul(np.square(e)[:, None, :], _powers(e.shape[-1], 2, complex, True))[:, 0]  # (C, 2): per cycle
+    if read is None:
+        fm = np.matmul(np.square(e)[:, None, :], _powers(e.shape[-1], 2, complex, True))[:, 0]  # (C, 2): per cycle
+    else:               # e is zero before each read start; n' from the middle of the samples read
+        e2 = np.square(e)
+        n_mid = np.arange(e.shape[-1]) - 0.5 * (e.shape[-1] - 1 + np.asarray(read, dtype=float))[:, None]
+        fm = np.stack((e2.sum(axis=1), (e2 * n_mid).sum(axis=1)), axis=1)
     gm = np.matmul(em[:, None, :], wq)[:, 0]  # (C, Q): sum_a em^2 t'^q
     b = fm[:, 0] * gm[:, 0]
     a = (k * s[:, 0, 0] - b * np.conj(s[:, 0, 0])) / (k * k - np.abs(b) ** 2)
     return s - np.conj(a)[:, None, None] * fm[:, :, None] * gm[:, None, :]
 
 
-def refine_tone(x, index, mask, n_chirps: int, f, nu, *, iq: bool, n_iter: int = 1):
+def refine_tone(x, index, mask, n_chirps: int, f, nu, *, iq: bool, n_iter: int = 1, read=None):
     """One tone per cycle refined jointly in beat f and Doppler nu: (f, nu, amplitude) each float (C,).
 
     x       float32 or complex64 (C, A, N): the active chirps of each cycle (rows past its count are zero)
     index   int (C, A): chirp number of each row; mask bool (C, A): the row holds an active chirp
     f, nu   float (C,): start [cycles/sample], [cycles/chirp] (within a fraction of a bin: an interpolated peak)
     n_iter  Newton steps (each one pass over x)
+    read    None, or int (C,): the first sample of each cycle's tone (module docstring)
     Amplitude: |a| of the tone a e^{j..} per sample (normalised units), from the second-order expansion of S_00
     about the last step's start (the periodogram is not evaluated again at the result)."""
-    n_samp = x.shape[-1]
+    n_samp = x.shape[-1] if read is None else (x.shape[-1] - np.asarray(read)).astype(float)
     m = mask.astype(float)
     t = (index - 0.5 * (n_chirps - 1)) * m  # centred chirp times, 0 on padding rows
     tq = np.stack((m, t, t * t), axis=1)  # (C, 3, A)
@@ -119,7 +136,7 @@ def refine_tone(x, index, mask, n_chirps: int, f, nu, *, iq: bool, n_iter: int =
     f, nu = np.asarray(f, dtype=float), np.asarray(nu, dtype=float)
     s_end = np.full(f.shape, np.nan)
     for _ in range(n_iter):
-        s = _sums(x, f, nu, t, tq, iq, k)
+        s = _sums(x, f, nu, t, tq, iq, k, read)
         step_f, step_v, s_end = _newton_step(s, n_samp, n_chirps, no_doppler)
         f, nu = f + step_f, nu + step_v
     return f, nu, np.abs(s_end) / k
@@ -128,9 +145,10 @@ def refine_tone(x, index, mask, n_chirps: int, f, nu, *, iq: bool, n_iter: int =
 _W = 2.0 * np.pi
 
 
-def _newton_step(s, n_samp: int, n_chirps: int, no_doppler):
+def _newton_step(s, n_samp, n_chirps: int, no_doppler):
     """(step in beat, step in Doppler, S_00 at the step by its second-order expansion), each (C,): a safeguarded
-    Newton step on P = |S_00|^2 from the moments s (C, 2, 3); in beat alone where no_doppler (C,) bool.
+    Newton step on P = |S_00|^2 from the moments s (C, 2, 3); in beat alone where no_doppler (C,) bool; n_samp the
+    samples read, an int or per cycle (C,).
 
     With d^(p+q) S / df^p dnu^q = (-j w)^(p+q) S_pq, w = 2 pi:
         grad P = 2 w Im(conj(S) [S_10, S_01]),

@@ -124,3 +124,31 @@ def test_one_active_chirp_gives_a_beat_and_no_velocity():
     xn, _, _ = _normalise(x, chirps)
     _, nu, _ = refine_tone(xn, chirps.index, chirps.mask, 32, np.full(2, 0.2), np.full(2, 0.1), iq=True)
     assert nu[0] == 0.1                                                   # no step where nu is not observable
+
+
+@pytest.mark.parametrize("iq", [True, False])
+def test_a_tone_read_from_a_later_sample_is_refined_as_on_the_window_cut_there(iq):
+    # the samples before each cycle's read start weigh zero and the time origin moves to the middle of the rest:
+    # the same steps as on the cut window, for cycles of different starts in one product
+    n_cyc, m, n = 3, 32, 128
+    rng = np.random.default_rng(6)
+    rho = random_rho(rng, n_cyc, m)
+    read = np.array([0, 17, 50])
+    f_true, nu_true = np.array([0.11, 0.23, 0.37]), np.array([0.05, -0.21, 0.33])
+    t = np.arange(n)
+    x = np.exp(2j * np.pi * (f_true[:, None, None] * t + nu_true[:, None, None] * np.arange(m)[:, None]))
+    x = (x if iq else 2 * x.real) * (t >= read[:, None, None]) * rho[:, :, None]
+    x = x + 0.3 * rng.standard_normal(x.shape)
+    chirps = _Chirps.of(rho)
+    xc = chirps.gather(x.astype(np.complex64 if iq else np.float32))
+    f0, nu0 = f_true + 0.2 / n, nu_true - 0.1 / m
+    together = refine_tone(xc, chirps.index, chirps.mask, m, f0, nu0, iq=iq, n_iter=2, read=read)
+    for c in range(n_cyc):
+        cut = refine_tone(xc[c:c + 1, :, read[c]:], chirps.index[c:c + 1], chirps.mask[c:c + 1], m, f0[c:c + 1],
+                          nu0[c:c + 1], iq=iq, n_iter=2)
+        for a, b in zip(together, cut):
+            np.testing.assert_allclose(a[c], b[0], rtol=1e-6, atol=1e-9)
+        alone = refine_tone(xc[c:c + 1], chirps.index[c:c + 1], chirps.mask[c:c + 1], m, f0[c:c + 1], nu0[c:c + 1],
+                            iq=iq, n_iter=2, read=read[c:c + 1])
+        for a, b in zip(together, alone):
+            assert a[c] == b[0]                                                 # bit for bit, alone or batched

@@ -8,8 +8,11 @@ Pipeline, vectorised over cycles (C cycles, M chirps, N fast-time samples):
    MDL/AIC) found one by one, each removed from the data before the next search (RELAX-style).
 3. Sub-bin frequencies at the cell and their refinement, by method: one file each in this package, named after
    the method, its docstring the method's mathematics; METHODS lists them in their declared order.
-   The refining methods refine all targets of a cycle together, the others cancelled (_relax).
-4. Range with range-Doppler coupling removed: R = c/(2S) (f_b - 2 v / lambda)   (see geometry.py)
+   The refining methods refine all targets of a cycle together, the others cancelled (_relax), each target's echo
+   modelled from its round trip on and read from a few samples later (_onset).
+4. Range with range-Doppler coupling removed: R = c/(2S) (f_b - 2 v / lambda), the range the beat measures
+   (Geometry.range_seen); velocity from the chirp-to-chirp progression where the sums read it, the middle of the
+   samples read (Geometry.doppler_scale_at)   (see geometry.py)
 
 Inputs are scaled per cycle by their largest magnitude first, so amplitudes of 1e-30 and noise-free frames
 (rank-deficient covariances) are handled; cycles without active chirps, with non-finite samples or with no

@@ -4,8 +4,8 @@
 
 from the interpolated start (_grid.start at 2 x Doppler padding: a start, not the answer), by safeguarded Newton
 steps. One target: joint steps in (f, nu), each one pass over the samples read (per-chirp DTFT moments, then sums
-over the active chirp times; estimate/joint.py on the window cut at r, cycles of equal r together), the image of
-real samples removed in closed form; a cycle whose last beat step was large takes more (_refine_one). Several
+over the active chirp times; estimate/joint.py from each cycle's r on), the image of real samples removed in closed
+form; a cut cycle whose last beat step was large takes more (_refine_one). Several
 targets: alternating steps, Doppler-compensated coherent integration over the active chirps for the beat f and the
 non-uniform slow-time periodogram (sparse chirp times) for nu, the others and the images removed by RELAX-style
 cancellation (_relax).
@@ -18,6 +18,7 @@ from carav_stream.estimate.estimators._method import Method
 
 STEP_BINS = 0.005    # a beat step [bins of the cut window] past which the next one is taken too
 EXTRA_STEPS = 2
+CUT_FRACTION = 0.04  # ... where the window is cut by more than this fraction
 
 
 class Ml(Method):
@@ -44,32 +45,27 @@ class Ml(Method):
 
 def _refine_one(x, chirps, f, nu, n_newton: int, iq: bool, read):
     """One target: joint Newton steps on the 2-D periodogram of the samples read for it, from read (C,) on (None:
-    all) (joint.py), the cycles of each read start together on their window cut there (the beat f is the same on
-    the cut window, its phase origin moved).
+    all; joint.py, every cycle in the one product whatever its read start).
 
-    After n_newton steps, a cycle whose last beat step exceeded STEP_BINS takes up to EXTRA_STEPS more: its start was
-    that far off (a late echo's: the start interpolates the whole window's spectrum, where a tone cut 20 % of the way
-    in is up to 0.11 bin off, 40 % in 0.25), and a step leaves about 4 step^2 [bins] behind (0.01 bin: 0.4 mm on
-    table1, 1.5 times its bound 20 dB above its SNR). Each cycle's steps depend on its own samples alone."""
-    n0 = np.zeros(f.shape[0], dtype=np.int64) if read is None else read
-    out = np.empty((3, f.shape[0]))
-    alike = not n0.size or (n0 == n0[0]).all()                    # the usual batch: one target, one onset
-    for start in n0[:1] if alike else np.unique(n0):
-        rows = np.arange(n0.size) if alike else np.flatnonzero(n0 == start)
-        part = x if rows.size == x.shape[0] else x[rows]
-        part = np.ascontiguousarray(part[..., start:]) if start else part
-        index, mask = chirps.index[rows], chirps.mask[rows]
-        fr, nur = f[rows, 0], nu[rows, 0]
-        active = np.arange(rows.size)
-        for i in range(n_newton + EXTRA_STEPS):
-            before = fr[active]
-            fr[active], nur[active], amp = joint.refine_tone(part[active] if active.size < rows.size else part,
-                                                             index[active], mask[active], chirps.n_chirps,
-                                                             fr[active], nur[active], iq=iq, n_iter=1)
-            out[2, rows[active]] = amp
-            if i + 1 >= n_newton:       # the steps asked for are taken: only cycles still far go on
-                active = active[np.abs(fr[active] - before) * part.shape[-1] > STEP_BINS]
-                if not active.size:
-                    break
-        out[0, rows], out[1, rows] = fr, nur
-    return out[0][:, None], out[1][:, None], out[2][:, None]
+    Where more than CUT_FRACTION of the window is cut, a cycle whose last beat step exceeded STEP_BINS takes up to
+    EXTRA_STEPS more after the n_newton steps: the start interpolates the whole window's spectrum, where a tone cut
+    20 % of the way in is up to 0.11 bin off (40 % in, 0.25; 2.5 %, the table1 car's, 0.0024), and a step leaves
+    about 4 step^2 [bins] behind (0.01 bin: 0.4 mm on table1, 1.5 times its bound 20 dB above its SNR). Below that
+    cut the start's error is the noise's, and a step's residue far below it. Each cycle's steps depend on its own
+    samples alone."""
+    if read is not None and not read.any():
+        read = None                                   # the echoes fill the window: the plain sums
+    fr, nur, amp = f[:, 0].copy(), nu[:, 0].copy(), np.empty(f.shape[0])
+    active = np.arange(f.shape[0])
+    for i in range(n_newton + (EXTRA_STEPS if read is not None else 0)):
+        before, every = fr[active], active.size == f.shape[0]
+        fr[active], nur[active], amp[active] = joint.refine_tone(
+            x if every else x[active], chirps.index[active], chirps.mask[active], chirps.n_chirps, before,
+            nur[active], iq=iq, n_iter=1, read=None if read is None else read[active])
+        if read is not None and i + 1 >= n_newton:      # the steps asked for are taken: cut cycles still far go on
+            n_read = x.shape[-1] - read[active]
+            far = (np.abs(fr[active] - before) * n_read > STEP_BINS) & (read[active] > CUT_FRACTION * x.shape[-1])
+            active = active[far]
+            if not active.size:
+                break
+    return fr[:, None], nur[:, None], amp[:, None]
