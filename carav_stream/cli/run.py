@@ -171,7 +171,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "refused_by_estimator", "unreadable_cycles", "figures_cover"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
-                "estimated_counts", "skipped_by_taps", "transport", "shared_memory"}
+                "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security"}
 
 
 def _radar_lines(s: dict[str, Any]) -> list[str]:

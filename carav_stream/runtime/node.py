@@ -32,7 +32,7 @@ import zmq
 from carav_stream import node_start
 from carav_stream.runtime.block import BlockError
 from carav_stream.runtime.node_driver import BlockDriver, new_block
-from carav_stream.runtime.node_link import ControlLink
+from carav_stream.runtime.node_link import ControlLink, connection_id
 from carav_stream.runtime.node_ports import NodePorts
 from carav_stream.runtime.protocol import NodeSpec, Report, pack
 from carav_stream.runtime.registry import Registry
@@ -61,7 +61,7 @@ class NodeRunner:
         d, p = self.driver, self.ports
         out = p.outputs
         return {"in": dict(p.c_in), "out": dict(p.c_out), "sent": dict(out.c_sent),
-                "rejected": dict(p.c_rejected), "unpaired": dict(d.c_unpaired),
+                "rejected": dict(p.c_rejected), "refused": dict(p.c_refused), "unpaired": dict(d.c_unpaired),
                 "undeliverable": dict(out.c_undeliverable), "skipped": dict(out.c_skipped),
                 "processed": d.processed, "consumed": d.consumed, "cycles": d.cycles, "busy_s": d.busy_s,
                 "cpu_s": time.process_time(),           # the whole node process, ZeroMQ I/O thread included
@@ -121,7 +121,7 @@ def _report_crash(spec: NodeSpec, runner: NodeRunner | None, exc: BaseException)
     if runner is None:
         ctx = zmq.Context()
         ctl = ctx.socket(zmq.DEALER)
-        ctl.identity = spec.name.encode()
+        ctl.identity = connection_id()
         ctl.connect(spec.control)
         ctl.send(msg)
         ctl.close(linger=2000)

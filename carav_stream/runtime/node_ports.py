@@ -4,8 +4,8 @@ the data plane's writers). Which plane carries the arrays is the spec's (runtime
 no resources to carries them inline, in the ZeroMQ message.
 
 A bad message is rejected with its reason, counted on its port and reported (the first MAX_REPORTED_REJECTS),
-and the node keeps running. On a local (ipc) input a message is taken only from the pid of that input's producer
-(the kernel's SO_PEERCRED, read from ZeroMQ's Peer-Address).
+and the node keeps running. On a local (ipc) input a message is taken only from an incarnation of that input's
+producer (the kernel's SO_PEERCRED, read from ZeroMQ's Peer-Address, with the start time of that pid: senders.py).
 """
 from __future__ import annotations
 
@@ -21,23 +21,10 @@ from carav_stream.runtime.node_link import ControlLink
 from carav_stream.runtime.outputs import Outputs
 from carav_stream.runtime.pairing import Pairing
 from carav_stream.runtime.protocol import NodeSpec, Report
+from carav_stream.runtime.senders import sender_pid
 
 MAX_REPORTED_REJECTS = 20
 RECEIVE_BURST = 64       # messages taken from one input before looking at the others
-
-
-def _sender(part: Any) -> int | None:
-    """The pid of the process that sent a message received over ipc: ZeroMQ's Peer-Address of a Unix socket
-    ends in ":uid:gid:pid", taken by the kernel (SO_PEERCRED) when that process connected. None over tcp or for
-    a part that is not a received zmq.Frame."""
-    try:
-        address = part.get("Peer-Address")
-    except (AttributeError, zmq.ZMQError):
-        return None
-    fields = address.rsplit(":", 3)
-    if len(fields) != 4 or not fields[3].isdigit():
-        return None
-    return int(fields[3])
 
 
 class NodePorts:
@@ -69,6 +56,7 @@ class NodePorts:
         self.c_in = collections.Counter()
         self.c_out = collections.Counter()
         self.c_rejected = collections.Counter()
+        self.c_refused = collections.Counter()      # per tcp input: connections refused at the CURVE handshake
         self.n_reports = 0
 
     def connect(self, endpoint: str) -> zmq.Socket:
@@ -106,7 +94,7 @@ class NodePorts:
         except FrameError as exc:
             self.reject(port, str(exc))
             return None
-        sender = _sender(parts[0]) if port in self.ipc_inputs else None
+        sender = sender_pid(parts[0]) if port in self.ipc_inputs else None
         reason = self.pairing.check(port, frame, sender)
         if reason is not None:
             # a producer's pid or lease the supervisor sent may still be queued on the control socket: take it

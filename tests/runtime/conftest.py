@@ -34,8 +34,10 @@ def harness():
     runners = [NodeRunner(spec)]
     runner = runners[0]
     runner.driver.block.start()
-    runner.link.tell(Report.READY)                 # the ROUTER drops messages to a peer it has not heard from yet
+    runner.link.tell(Report.READY)
     assert router.poll(5000), "the node's control connection did not come up"
+    route, hello = router.recv_multipart()         # the node says hello at once: where messages to it go
+    assert unpack(hello)["type"] == Report.HELLO
     assert unpack(router.recv_multipart()[1])["type"] == Report.READY
     feeds = {p: transport.connect_output(ctx, ep[p], hwm=100, linger_ms=0) for p in ("a", "b")}
 
@@ -77,7 +79,7 @@ def harness():
         @staticmethod
         def control(kind, **msg):
             """Send a control message to the node and have it served (waits for it to arrive)."""
-            router.send_multipart([b"p", pack(kind, **msg)])
+            router.send_multipart([route, pack(kind, **msg)])
             assert runner.link.sock.poll(DEADLINE_S * 1000), "control message did not arrive"
             runner.link.serve()
 
