@@ -56,6 +56,7 @@ class NodeRunner:
     def apply_control(self) -> None:
         """What the served control messages say, done on the ports at once (node_link.py: re-entrancy)."""
         self.ports.apply_control(self.driver.resume_messages)
+        self.ports.watch_handshakes()
 
     def counters(self) -> dict[str, Any]:
         d, p = self.driver, self.ports
@@ -96,6 +97,7 @@ class NodeRunner:
         else:
             d.run_filter()
         d.finish()
+        self.ports.watch_handshakes()       # what its tcp inputs refused to the end, in its final counters
         eos, c_in = self.ports.pairing.eos, self.ports.c_in
         lost = {p: n - c_in[p] for p, n in eos.items() if n is not None and n != c_in[p]}
         link.tell(Report.DONE, counters=self.counters(), history=d.history, lost=lost,

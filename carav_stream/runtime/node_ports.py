@@ -16,6 +16,8 @@ from typing import Any
 import zmq
 
 from carav_stream.runtime import planes, transport
+from carav_stream.runtime.block import BlockError
+from carav_stream.runtime.curve import Curve, key_files
 from carav_stream.runtime.frames import PLANE_REF, Frame, FrameError, decode, encode_with_header, header_packer
 from carav_stream.runtime.node_link import ControlLink
 from carav_stream.runtime.outputs import Outputs
@@ -38,12 +40,12 @@ class NodePorts:
         taps = {e.edge for edges in spec.outputs.values() for e in edges if e.tap}
         self.writers = {port: plane.writer(res, taps) for port, res in spec.plane_out.items()}
         header_only = plane is not None and plane.header_only
-        sec = spec.security
-        self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
-                                     sec["curve_authorized"]) if sec else None
+        keys = key_files(spec.security)
+        self.curve = Curve(keys) if keys else None
         self.inputs = {p: transport.bind_input(ctx, spec.inputs[p], spec.queue_frames, self.curve,
-                                               header_only=header_only and p in spec.plane_in)
+                                               header_only=header_only and p in spec.plane_in, name=p)
                        for p in in_ports}
+        self.edge_at = {e.connect: e.edge for edges in spec.outputs.values() for e in edges}
         self.ipc_inputs = {p for p in in_ports if spec.inputs[p].startswith("ipc://")}
         self.header_only_endpoints = {e.connect for port in spec.plane_out for e in spec.outputs.get(port, ())
                                       if header_only}
@@ -61,7 +63,22 @@ class NodePorts:
 
     def connect(self, endpoint: str) -> zmq.Socket:
         return transport.connect_output(self.ctx, endpoint, self.spec.queue_frames, self.curve,
-                                        int(self.spec.drain_timeout_s * 1000), endpoint in self.header_only_endpoints)
+                                        int(self.spec.drain_timeout_s * 1000), endpoint in self.header_only_endpoints,
+                                        name=self.edge_at[endpoint])
+
+    def watch_handshakes(self) -> None:
+        """Count and report the tcp connections the node's inputs refused since the last call (curve.py); raise
+        BlockError(retry=False), naming the edge and the key, when an output edge's consumer refused this node's
+        CURVE handshake."""
+        if self.curve is None:
+            return
+        for port, reason in self.curve.watch.poll():
+            self.c_refused[port] += 1
+            if self.n_reports < MAX_REPORTED_REJECTS:
+                self.n_reports += 1
+                self.link.tell(Report.REJECT, port=port, reason=reason, count=self.c_refused[port], what="connection")
+        if self.curve.watch.failure is not None:
+            raise BlockError(self.curve.watch.failure, retry=False)
 
     # -- inputs --------------------------------------------------------------------------------------------
     def reject(self, port: str, reason: str) -> None:

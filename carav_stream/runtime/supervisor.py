@@ -29,6 +29,7 @@ from carav_stream.core.allocator import MALLOC_ENV
 from carav_stream.runtime import planes, transport
 from carav_stream.runtime.admin_server import AdminServer
 from carav_stream.runtime.control_router import ControlRouter
+from carav_stream.runtime.curve_keys import plan_keys
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
 from carav_stream.runtime.node_state import NodeState
 from carav_stream.runtime.plan import input_bounds, input_sources, plan_specs
@@ -74,7 +75,8 @@ class Supervisor:
     # -- planning ------------------------------------------------------------------------------------------
     def plan(self) -> None:
         self.plane = planes.get(self.graph.run["transport"])(self.graph.run, self.run_dir)
-        specs = plan_specs(self.graph, self.host, self.run_dir, self.cycles, self.plane)
+        keys, self.security = plan_keys(self.graph, self.host, self.run_dir / "keys")
+        specs = plan_specs(self.graph, self.host, self.run_dir, self.cycles, self.plane, keys)
         for name, spec in specs.items():
             self.nodes[name] = NodeState(name, spec)
         self.input_sources = input_sources(self.graph, self.nodes)
@@ -160,7 +162,8 @@ class Supervisor:
             st.error = msg.get("traceback") or msg.get("error")
             st.retry = msg.get("retry") is not False
         elif kind == Report.REJECT:
-            text = f"node {name!r} input {msg['port']!r}: rejected frame #{msg['count']}: {msg['reason']}"
+            what = "refused connection" if msg.get("what") == "connection" else "rejected frame"
+            text = f"node {name!r} input {msg['port']!r}: {what} #{msg['count']}: {msg['reason']}"
             st.rejects.append(text)
             self.log(f"carav: {text}")
         elif kind == Report.LEASE and isinstance(msg.get("upto"), int):
