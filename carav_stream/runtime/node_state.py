@@ -71,11 +71,12 @@ class NodeState:
             return None
         return info.si_status if info.si_code == os.CLD_EXITED else -info.si_status
 
-    def kill(self) -> None:
-        """SIGKILL the current process and wait until it has ended, without reaping it."""
+    def kill(self, wait: bool = True) -> None:
+        """SIGKILL the current process and (`wait`) wait until it has ended, without reaping it."""
         if self.proc is not None and self.exit_code() is None:
             os.kill(self.proc.pid, signal.SIGKILL)
-            os.waitid(os.P_PID, self.proc.pid, os.WEXITED | os.WNOWAIT)
+            if wait:
+                os.waitid(os.P_PID, self.proc.pid, os.WEXITED | os.WNOWAIT)
 
     def reap_all(self) -> None:
         """Wait for every incarnation's process (the run is over: their pids may be given to others now)."""

@@ -272,7 +272,7 @@ class Supervisor:
 
     def kill_all(self) -> None:
         for st in self.nodes.values():
-            st.kill()
+            st.kill(wait=False)         # also from a signal handler: reaped when the run ends
 
     # -- main ----------------------------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
