@@ -14,9 +14,9 @@ Every header field the pairing acts on is checked against what the node already 
 
 - sender: on a local edge the kernel names the process that connected (ZeroMQ's `Peer-Address` over ipc ends
   in its pid); a message from any process but an incarnation of the port's producer, whose pid and start time the
-  supervisor tells the node (`producers`), is refused, and so is a message from such a pid held by a process
-  that started at another time (senders.py: why a pid the supervisor names cannot change hands while the run
-  lasts), so no other process on the host can speak for a producer.
+  supervisor tells the node (`producers`: it starts producers before their consumers), is refused, and so is a
+  message from such a pid held by a process that started at another time (senders.py: why a pid the supervisor
+  names cannot change hands while the run lasts), so no other process on the host can speak for a producer.
 - seq: every seq in a graph comes from a source, which generates a seq only below the lease its supervisor
   granted; a frame inherits the seq of its inputs, and a node adds at most 1 to the last seq it handled (the
   frames its block returns at the end, the resume marker). So no seq on a port can exceed the largest lease of
@@ -66,7 +66,8 @@ class Pairing:
 
     `bounds` (port -> highest seq its producer can send) and `producers` (port -> {pid: start time} of its
     producer's incarnations, the current one last: frames an ended one sent may still be queued) are the node's
-    dicts, kept up to date by its control messages; a port missing from either is not checked on it.
+    dicts, kept up to date by its control messages. A port without a bound is not checked against one; a message
+    with a sender (a local edge) on a port without producers is refused.
     `start_of(pid)` reads a process's start time (senders.start_ticks), once per pid that matches."""
 
     def __init__(self, ports: list[str], limit: int, *, recovering: bool = False,
@@ -100,8 +101,10 @@ class Pairing:
     def check(self, port: str, frame: Frame, sender: int | None = None) -> str | None:
         """Why the message from `port` must be refused, or None; changes nothing. Who sent it is judged first
         (a message from another process is refused whatever it says), then its fields against the stream."""
-        producers = self.producers.get(port)
-        if sender is not None and producers is not None:
+        if sender is not None:
+            producers = self.producers.get(port)
+            if producers is None:
+                return f"sent by process {sender} before this input's producer was named"
             reason = self.check_sender(sender, producers)
             if reason is not None:
                 return reason

@@ -292,8 +292,9 @@ class Supervisor:
                 "run": self.run_id, "pid": os.getpid(), "graph": str(self.graph.path.resolve()),
                 "host": self.host or LOCAL_HOST, "started": time.time(),
                 "admin": transport.ipc_endpoint(self.run_dir, "admin")}))
-            for st in self.nodes.values():
-                self.spawn(st)
+            for name in self.graph.topological_order():   # producers first: each consumer's spec names them
+                if name in self.nodes:
+                    self.spawn(self.nodes[name])
             self.loop()
         finally:
             deadline = time.monotonic() + 10

@@ -1,4 +1,5 @@
 """The in-process node harness: a real NodeRunner on real ZeroMQ sockets, driven by the test."""
+import os
 import shutil
 import tempfile
 import time
@@ -12,6 +13,7 @@ from carav_stream.runtime import transport
 from carav_stream.runtime.frames import Frame, decode, encode
 from carav_stream.runtime.node import NodeRunner
 from carav_stream.runtime.protocol import NodeSpec, OutEdge, Report, pack, unpack
+from carav_stream.runtime.senders import start_ticks
 from tests.integration.conftest import TOYS
 
 EDGE = "p.out -> sink.inp"
@@ -30,7 +32,8 @@ def harness():
     sink = transport.bind_input(ctx, ep["out"], hwm=100)
     spec = NodeSpec(name="p", type="pairer", params={}, control=ep["ctl"], block_paths=(str(TOYS),),
                     inputs={"a": ep["a"], "b": ep["b"]}, outputs={"out": (OutEdge(EDGE, ep["out"]),)},
-                    queue_frames=2, drain_timeout_s=1.0)
+                    queue_frames=2, drain_timeout_s=1.0,
+                    producers={p: [[os.getpid(), start_ticks(os.getpid())]] for p in ("a", "b")})   # the test feeds
     runners = [NodeRunner(spec)]
     runner = runners[0]
     runner.driver.block.start()

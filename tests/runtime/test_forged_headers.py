@@ -186,3 +186,10 @@ def test_a_senders_start_time_is_read_once_per_pid():
     assert feed(p, *range(5)) == list(range(5))
     assert reads == [PRODUCER]
     assert p.admit("a", message(5), OTHER)[0] is False and reads == [PRODUCER]   # not a producer: no read
+
+
+def test_a_local_message_before_its_inputs_producer_is_named_is_refused():
+    p = Pairing(["a"], 8, start_of=STARTED.get)        # the supervisor has named no producer for "a" yet
+    ok, reason = p.admit("a", message(0), OTHER)
+    assert not ok and reason == f"sent by process {OTHER} before this input's producer was named"
+    assert p.admit("a", message(0)) == (True, None)     # no sender (tcp): judged on its fields alone
