@@ -181,11 +181,12 @@ class HandshakeWatch:
                             f"(curve_client_cert {c.files['curve_client_cert']}): it is not in the consumer's "
                             "curve_authorized")
         elif event in (zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL, zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL):
-            self.no_detail[edge] += event == zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL
-            if self.failure is None and (event == zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
-                                         or self.no_detail[edge] >= NO_DETAIL_FAILURES):
-                why = PROTOCOL_ERRORS.get(value, "the handshake failed") if event == \
-                    zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL else "the handshake failed"
+            # a protocol error is the consumer's answer; a failure without detail may be a connection that broke
+            # mid-handshake, and only a run of them says the keys are wrong
+            protocol = event == zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+            self.no_detail[edge] += not protocol
+            if self.failure is None and (protocol or self.no_detail[edge] >= NO_DETAIL_FAILURES):
+                why = PROTOCOL_ERRORS.get(value, "the handshake failed") if protocol else "the handshake failed"
                 self.failure = (f"{where}: CURVE with the consumer failed ({why}): it does not hold the secret key "
                                 f"of server key {public(c.server_public)} (curve_server_cert "
                                 f"{c.files['curve_server_cert']}), or does not use CURVE")
