@@ -3,8 +3,10 @@ in order.
 
 Each run has a folder of its own (rundir.py), holding the ipc endpoints, the node specs, each node's log and
 `run.json` (how `carav status|stop|swap` find the run). It is removed when the run ends, whatever the way it ends.
-The supervisor plans the nodes (plan.py), answers admin requests through admin_server.AdminServer, keeps what it
-knows of each node in node_state.NodeState and reports the run through report.RunReport.
+The supervisor plans the nodes (plan.py) and the keys of their tcp edges (curve_keys.py), hears and tells them
+through control_router.ControlRouter (a node's word only from its own processes), answers admin requests through
+admin_server.AdminServer, keeps what it knows of each node in node_state.NodeState (none of its processes reaped
+before the run ends) and reports the run through report.RunReport.
 
 Stop order: sources are told to stop, end of stream flows down the graph behind the last frames, and each
 node exits once it has drained; the sinks end last. A second Ctrl-C (or the drain deadline) kills what is left.
