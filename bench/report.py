@@ -22,7 +22,7 @@ from bench import pages
 from bench import records as bench_records
 from bench.chaos import met as chaos_met
 from bench.compiled import KERNELS, choice
-from bench.estimators import LISTS, TARGET_RATIO, TARGET_TIME_FACTOR, scores
+from bench.estimators import LISTS, TARGET_RATIO, TARGET_TIME_FACTOR, pareto, scores, where
 from bench.pipeline import ceiling
 from bench.soak import SOAK_RSS_MB_PER_H, no_growth
 from bench.study import TARGET
@@ -294,15 +294,17 @@ def detector_table(doc: dict) -> list[str]:
 def estimators_rows(doc: dict) -> list[Row]:
     recs = doc["records"]
     presets = sorted({r["preset"] for r in recs})
+    frames = ", ".join(dict.fromkeys(where(r) for r in sorted(recs, key=lambda r: where(r) != "tones")))
+    over = f"({', '.join(presets)}; {frames})"
     target = f"<= {TARGET_RATIO:g} x CRLB at <= {TARGET_TIME_FACTOR:g} x fft_peak time"
     rows = []
     for m, (ratio, tf) in sorted(scores(recs, presets).items(), key=lambda kv: kv[1][1]):
         if m in LISTS:
             rows.append((f"`{m}` target list (CFAR stage + ml), strongest listed target, worst RMSE / CRLB from 10 to "
-                         f"30 dB ({', '.join(presets)}), median time over fft_peak", f"{_g(ratio)} x CRLB at "
-                         f"{tf:.2f} x", "(reported: the stage a target list adds)", "-"))
+                         f"30 dB {over}, median time over fft_peak", f"{_g(ratio)} x CRLB at {tf:.2f} x",
+                         "(reported: the stage a target list adds)", "-"))
             continue
-        rows.append((f"`{m}`, worst RMSE / CRLB from 10 to 30 dB ({', '.join(presets)}), median time over fft_peak",
+        rows.append((f"`{m}`, worst RMSE / CRLB from 10 to 30 dB {over}, median time over fft_peak",
                      f"{_g(ratio)} x CRLB at {tf:.2f} x", target,
                      _met(ratio <= TARGET_RATIO and tf <= TARGET_TIME_FACTOR)))
     default, reason = doc.get("default"), doc.get("reason")
@@ -312,12 +314,30 @@ def estimators_rows(doc: dict) -> list[Row]:
 
 
 def estimators_table(doc: dict) -> list[str]:
-    lines = ["| preset | estimator | rho | SNR dB | range RMSE / CRLB | velocity RMSE / CRLB | us per cycle "
-             "| x fft_peak | missing |", "|---|---|---|---:|---:|---:|---:|---:|---:|"]
-    for r in sorted(doc["records"], key=lambda r: (r["preset"], r["estimator"], r["rho"], r["snr_db"])):
+    recs = doc["records"]
+    lines = ["| preset | frames | estimator | rho | SNR dB | range RMSE / CRLB | velocity RMSE / CRLB | us per cycle "
+             "| x fft_peak | missing |", "|---|---|---|---|---:|---:|---:|---:|---:|---:|"]
+    order = {"tones": 0, "chain": 1}
+    for r in sorted(recs, key=lambda r: (r["preset"], order.get(r.get("source", "tones"), 2), r.get("fidelity") or "",
+                                         r["estimator"], r["rho"], r["snr_db"])):
         tf = "-" if r["time_ratio_to_fft_peak"] is None else f"{r['time_ratio_to_fft_peak']:.2f}"
-        lines.append(f"| {r['preset']} | {r['estimator']} | {r['rho']} | {r['snr_db']:g} | {_g(r['range_ratio'])} | "
-                     f"{_g(r['velocity_ratio'])} | {r['time_per_cycle_s'] * 1e6:.0f} | {tf} | {r['n_missing']} |")
+        lines.append(f"| {r['preset']} | {where(r)} | {r['estimator']} | {r['rho']} | {r['snr_db']:g} | "
+                     f"{_g(r['range_ratio'])} | {_g(r['velocity_ratio'])} | {r['time_per_cycle_s'] * 1e6:.0f} | {tf} | "
+                     f"{r['n_missing']} |")
+    snr = doc.get("pareto_snr")
+    if snr is None:
+        return lines
+    lines += ["", f"Pareto front at {snr:g} dB after integration, range RMSE against time per cycle, frame by frame "
+              "(* = no other estimator is faster and not worse beyond the Monte Carlo noise, or no slower and better "
+              "beyond it: bench/estimators.py, `dominates`):", "",
+              "| preset | frames | front | estimator | us per cycle | range RMSE / CRLB |",
+              "|---|---|---|---|---:|---:|"]
+    groups = sorted({(r["preset"], r.get("source", "tones"), r.get("fidelity")) for r in recs},
+                    key=lambda g: (g[0], order.get(g[1], 2), g[2] or ""))
+    for preset, source, fidelity in groups:
+        for r in pareto(recs, preset, snr, source, fidelity):
+            lines.append(f"| {preset} | {where(r)} | {'*' if r['pareto'] else ''} | {r['estimator']} | "
+                         f"{r['time_per_cycle_s'] * 1e6:.0f} | {_g(r['range_ratio'])} |")
     return lines
 
 

@@ -6,6 +6,7 @@
     carav validate GRAPH ...
     carav blocks [TYPE]
     carav attackers [--brief]        the attacker models: what each puts on the air, hears and takes (markdown)
+    carav estimators                 the estimation methods: how each reads range and velocity (markdown)
     carav scenes [NAME | FILE ...]   what a scene implies (resolution, max range and velocity, SNR, warnings)
     carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml]   the scene of a TI mmWave CLI profile
     carav capture inspect FILE --scene S [--lanes N] [--encoding E] [--json OUT]   what a DCA1000 capture holds
@@ -16,7 +17,7 @@
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency | near-echoes
-                     | blind-zones ...
+                     | blind-zones | fidelities ...
     carav new block NAME [--kind filter|source|sink] [--dir DIR]   a block, its test and a graph to start from
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
@@ -41,6 +42,8 @@ COMMANDS = {
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
     "attackers": ("carav_stream.cli.attackers", "the attacker models as a markdown table: what each sends and takes"),
+    "estimators": ("carav_stream.cli.estimators", "the estimation methods as a markdown table: how each reads range "
+                   "and velocity"),
     "scenes": ("carav_stream.cli.scenes", "what the presets or scene files imply: rates, resolution, SNR, warnings"),
     "capture": ("carav_stream.cli.capture", "inspect a TI DCA1000 capture: cycles, noise, chirp spread, cells"),
     "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
@@ -62,6 +65,7 @@ EXPERIMENTS = {name: (f"carav_stream.cli.experiment.{name.replace('-', '_')}", t
     "latency": "spill test: PF over echo power, PM over repeater latency",
     "near-echoes": "a near car's echo against every detector, attack-free",
     "blind-zones": "what each detector misses of the weak attacks, per scene",
+    "fidelities": "beat against waveform fidelity at the range edge, loud",
 }.items()}   # each in cli/experiment/, its engine in carav_stream/experiments/
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 

@@ -1,7 +1,7 @@
 """`carav design`: the threshold of every detector for a target false-alarm rate per cycle on one scene.
 
-    carav design --preset NAME | --scene FILE [--pf 1e-6] [--nr N] [--ns N] [--iq] [--snr-db DB] [--rarms LIST]
-                 [--trials N] [--seed S] [--fidelity beat|waveform] [--benign-trials N] [--json FILE]
+    carav design --preset NAME | --scene FILE [--pf 1e-6] [--nr N] [--ns N] [--iq] [--snr-db DB] [--ideal-adc]
+                 [--rarms LIST] [--trials N] [--seed S] [--fidelity beat|waveform] [--benign-trials N] [--json FILE]
 
 Thresholds (closed forms; model and limits: carav_stream/firmware/design.py):
 - C(eta), the RMS detector (D0 on the silent chirps, D1 on the active ones): eta with PF(eta) = pf per cycle, and PF
@@ -30,12 +30,12 @@ import numpy as np
 
 from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
-from carav_stream.console.options import count, float_list, number, output_file
+from carav_stream.console.options import count, even_count, float_list, number, output_file
 from carav_stream.detect.detector import PAPER_ETA
-from carav_stream.detect.opt_in import cusum_threshold, spectral_threshold
+from carav_stream.detect.opt_in import cusum_threshold, exact_bins, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
-from carav_stream.firmware.design import pf_per_cycle, pm_random, rms_threshold, scene_law
+from carav_stream.firmware.design import QUANTISED_BELOW, pf_per_cycle, pm_random, rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
@@ -54,10 +54,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--scene", default=None, metavar="FILE", help="a scene file")
     parser.add_argument("--pf", type=number(0.0, strict=True), default=1e-6,
                         help="target false-alarm probability per cycle (default 1e-6)")
-    parser.add_argument("--nr", type=count(2), default=None, help="override the number of chirps per cycle N_r")
-    parser.add_argument("--ns", type=count(2), default=None, help="override the samples per chirp N_s")
+    parser.add_argument("--nr", type=even_count(2), default=None, help="override the number of chirps per cycle N_r")
+    parser.add_argument("--ns", type=count(1), default=None, help="override the samples per chirp N_s")
     parser.add_argument("--iq", action="store_true", help="complex I/Q samples instead of the scene's I only")
     parser.add_argument("--snr-db", type=float, default=None, help="per-sample echo SNR of the first target, dB")
+    parser.add_argument("--ideal-adc", action="store_true", help="no quantisation (adc_bits = 0)")
     parser.add_argument("--rarms", type=float_list(0.0), default=[0.5, 1.0, 1.5, 2.0, 3.0, 5.0],
                         help="attack strengths for the miss rates (default 0.5,1,1.5,2,3,5)")
     parser.add_argument("--trials", type=count(1), default=2000, help="Monte Carlo cycles per smart-attack point")
@@ -82,6 +83,8 @@ def _scene(args: argparse.Namespace):
         over["iq"] = True
     if args.snr_db is not None:
         over["snr_db"] = args.snr_db
+    if args.ideal_adc:
+        over["adc_bits"] = 0
     try:
         return load_scene(args.scene or args.preset or "table1", over or None)
     except (SceneError, OSError) as exc:
@@ -97,8 +100,8 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
     law = scene_law(scene)
     eta = rms_threshold(law, pf)
     m = scene.n_chirps // 2
-    bins = scene.n_samples if scene.iq else (scene.n_samples - 1) // 2     # the spectral test's bins per chirp
-    spectral = spectral_threshold(pf, m * bins)
+    bins = exact_bins(scene.n_samples, scene.iq)                          # the spectral test's bins per chirp
+    spectral = spectral_threshold(pf, m * bins) if bins else None
     source = RadarSource(scene, fidelity=fidelity)
     seeds = np.random.SeedSequence(seed).spawn(len(rarms) + 1)
     benign = None
@@ -131,12 +134,13 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
                   "dof": law.dof, "echo_snr_db": float(10 * np.log10(law.snr)) if law.snr > 0 else None,
                   "echo_snr_per_sample_db": float(scene.snr_db(0)) if scene.targets else None,
                   "fidelity": fidelity,
-                  "adc_bits": scene.adc_bits, "noise_inflation_by_adc": law.sigma_eff / law.sigma_n},
+                  "adc_bits": scene.adc_bits, "noise_inflation_by_adc": law.sigma_eff / law.sigma_n,
+                  "noise_in_adc_steps": law.steps(), "quantised_law": law.steps() < QUANTISED_BELOW},
         "pf": pf,
         "rms_detector": {"eta": eta, "pf_at_eta": float(pf_per_cycle(law, eta)),
                          "paper_eta": PAPER_ETA, "pf_at_paper_eta": float(pf_per_cycle(law, PAPER_ETA))},
-        "spectral_silent_test": {"threshold": spectral, "threshold_db": float(10 * np.log10(spectral)),
-                                 "bins_tested": m * bins},
+        "spectral_silent_test": {"threshold": spectral, "bins_tested": m * bins,
+                                 "threshold_db": None if spectral is None else float(10 * np.log10(spectral))},
         "cusum_silent_power": {"k": 0.5, "h": cusum_threshold(1 / pf, 0.5), "arl0_cycles": 1 / pf},
         "benign": benign, "misses": misses, "smart_trials": trials, "seed": seed,
         "leaks": [dataclasses.asdict(k) for k in scene_leaks(scene, eta, pf_design=pf)], "ghost": ghost,
@@ -149,25 +153,37 @@ def _print(d: dict, stream=None) -> None:
     snr = ("no echo" if s["echo_snr_db"] is None else
            f"echoes' SNR {s['echo_snr_db']:+.1f} dB averaged over a slot, ADC noise included (target 1: "
            f"{s['echo_snr_per_sample_db']:+.1f} dB per sample once its echo has arrived)")
+    adc = (f"noise {s['noise_in_adc_steps']:.3g} steps: most silent samples quantise to 0, D0's law is the "
+           "quantised noise's" if s["quantised_law"] else f"noise x{s['noise_inflation_by_adc']:.6f}")
     print(f"scene {s['name']}: N_r = {s['n_chirps']}, N_s = {s['n_samples']}, {'I/Q' if s['iq'] else 'I only'} "
-          f"(nu = {s['dof']}), {snr}, {s['adc_bits']}-bit ADC (noise x{s['noise_inflation_by_adc']:.6f}); "
+          f"(nu = {s['dof']}), {snr}, {s['adc_bits']}-bit ADC ({adc}); "
           f"target PF {d['pf']:g} per cycle", file=stream)
     print(f"  C(eta), RMS detector (D0 + D1)   eta = {rd['eta']:.4f}    PF per cycle {rd['pf_at_eta']:.3g} "
           f"(at the paper's eta = {rd['paper_eta']:g}: {rd['pf_at_paper_eta']:.3g})", file=stream)
     sp = d["spectral_silent_test"]
-    print(f"  spectral silent-chirp test       {sp['threshold']:.2f} x noise power per bin ({sp['threshold_db']:.1f} "
-          f"dB) over {sp['bins_tested']} bins", file=stream)
+    if sp["threshold"] is None:
+        print(f"  spectral silent-chirp test       not defined: N_s = {s['n_samples']} I only has no range bin with "
+              "an exact law (the opt-in tests take N_s >= 3, or --iq)", file=stream)
+    else:
+        print(f"  spectral silent-chirp test       {sp['threshold']:.2f} x noise power per bin "
+              f"({sp['threshold_db']:.1f} dB) over {sp['bins_tested']} bins", file=stream)
     cu = d["cusum_silent_power"]
     print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
           f"{cu['arl0_cycles']:.3g} cycles", file=stream)
     for k in d["leaks"]:
+        if not k["judged"] and k["lam"] > 0:
+            print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks up to "
+                  f"{k['fraction']:.2g} of a slot of its echo into a silent slot after an active one "
+                  f"({k['fidelity']} fidelity), up to {k['peak_steps']:.3g} ADC steps in a sample: its rate is not "
+                  "stated where the ADC's step is coarse against the noise", file=stream)
+            continue
         if k["lam"] == 0:
             print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks nothing into the silent "
                   "slots at either fidelity", file=stream)
             continue
         over = ", ".join(f"{a:.3g}-{b:.3g} m" for a, b in k["ranges_over"] or ())
-        print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks {k['fraction']:.2g} of a "
-              f"slot of its echo into a silent slot after an active one ({k['fidelity']} fidelity, worst phase): PF "
+        print(f"  target {k['target'] + 1} ({k['range_m']:g} m, {k['rcs_m2']:g} m^2) leaks up to {k['fraction']:.2g} "
+              f"of a slot of its echo into a silent slot after an active one ({k['fidelity']} fidelity): PF "
               f"{k['pf']:.3g} at eta = {k['eta']:.4f}; within {k['limit']:.2g} below {k['rcs_limit_m2']:.3g} m^2 at "
               f"its range" + (f"; at its RCS it exceeds at {over}" if over else ""), file=stream)
         if k["pf"] > k["limit"]:
@@ -189,7 +205,8 @@ def _print(d: dict, stream=None) -> None:
         grid = ", ".join(f"{r:g}" for r in g["rarms"])
         print(f"weakest ghost caught in 9 cycles of 10 or more ({g['range_m']:g} m; RARMS {grid}; {g['trials']} "
               f"cycles each at {s['fidelity']} fidelity; C at eta, the opt-in tests at PF 1e-6): "
-              + ", ".join(f"{k} {'none' if v is None else f'{v:g}'}" for k, v in w.items()), file=stream)
+              + ", ".join(f"{k} {'none' if v is None else f'{v:g}'}" for k, v in w.items())
+              + ("" if len(w) > 1 else " (the opt-in tests are not defined here)"), file=stream)
     print(f"misses of C per attacked cycle (random: closed form; smart: {d['smart_trials']} cycles per RARMS at "
           f"{s['fidelity']} fidelity, seed {d['seed']}, 95 % interval)", file=stream)
     print(f"  {'RARMS':>6}  {'random @ eta':>12}  {'smart @ eta':>22}  {'random @ 1.5':>12}  {'smart @ 1.5':>22}",

@@ -1,11 +1,13 @@
 """`carav scenes [NAME | FILE ...]`: what a scene implies, side by side, as a markdown table.
 
-Chirps and samples, sweep, slope, sampling rate, cycle rate, the targets, the SNR of the first target per sample
-once its echo has arrived (radar equation) and the echoes' SNR averaged over a slot (what `carav design` and the
-detector's closed form use), range resolution, maximum range, the ranges where the beat and waveform fidelities
-differ by design (the IF filter's transition band), unambiguous velocity, the beat with Doppler (and where it folds
-to when the ADC cannot represent it), the ADC, and the scene's warnings, among them any echo that leaks enough into
-the silent slots to raise C(eta)'s false-alarm rate at the eta designed for 1e-6 (carav_stream/firmware/leak.py).
+Chirps and samples, sweep, slope, the sampling window (and, for a scene that does not give t_adc_start_s, that its
+start is the default one: once the IF filter has settled after the ramp's reset), sampling rate, cycle rate, the
+targets, the SNR of the first target per sample once its echo has arrived (radar equation) and the echoes' SNR
+averaged over a slot (what `carav design` and the detector's closed form use), range resolution, maximum range, the
+ranges where the beat and waveform fidelities differ by design (the IF filter's transition band), unambiguous
+velocity, the beat with Doppler (and where it folds to when the ADC cannot represent it), the ADC, and the scene's
+warnings, among them any echo that leaks enough into the silent slots to raise C(eta)'s false-alarm rate at the eta
+designed for 1e-6 (carav_stream/firmware/leak.py).
 With no argument: every preset.
 
 `carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml] [--noise-codes X]`: the scene of a TI mmWave CLI profile
@@ -24,7 +26,7 @@ from carav_stream.console.errors import CommandError, Exit
 from carav_stream.firmware.design import PF_WARN, scene_law
 from carav_stream.firmware.leak import leak_warnings
 from carav_stream.radar.physics import fidelity_dependent_ranges_m
-from carav_stream.radar.scene import SceneError, fold_beat_hz
+from carav_stream.radar.scene import IF_SETTLE_SAMPLES, SceneError, fold_beat_hz
 from carav_stream.radar.scene_loader import load_scene, preset_names, scene_from_dict
 
 __all__ = ["configure", "run", "scene_table"]
@@ -65,7 +67,9 @@ def _column(scene) -> dict[str, str]:
         "description": scene.description or "-",
         "chirps x samples": f"{scene.n_chirps} x {scene.n_samples} ({'I/Q' if scene.iq else 'I only'})",
         "sweep / chirp period": f"{_mhz(scene.bandwidth_hz)} in {_us(scene.t_sweep_s)} / {_us(scene.t_chirp_s)}",
-        "sampling window": f"{_us(scene.n_samples / scene.fs_hz)} from {_us(scene.t_adc_start_s)}",
+        "sampling window": f"{_us(scene.n_samples / scene.fs_hz)} from {_us(scene.t_adc_start_s)}" + (
+            f" (the default: {IF_SETTLE_SAMPLES} samples in, once the IF filter has settled after the ramp's reset; "
+            "t_adc_start_s = 0 samples from the reset)" if scene.adc_start_default else ""),
         "slope": f"{scene.slope_hz_per_s / 1e12:.4g} MHz/us",
         "fs": _mhz(scene.fs_hz),
         "cycle": f"{scene.t_cycle_s * 1e3:.4g} ms ({scene.cycles_per_s:.5g} cycles/s)",

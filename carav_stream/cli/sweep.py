@@ -17,7 +17,7 @@ import numpy as np
 
 from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
-from carav_stream.console.options import count, float_list, number, output_file
+from carav_stream.console.options import count, even_count, float_list, number, output_file
 from carav_stream.console.progress import ProgressBar
 from carav_stream.detect.detector import PAPER_ETA
 from carav_stream.firmware.design import scene_law, threshold_warning
@@ -29,7 +29,7 @@ from carav_stream.montecarlo.study import execute, results
 from carav_stream.montecarlo.study_file import Group, Study
 from carav_stream.radar.synth import FIDELITIES
 
-__all__ = ["configure", "run", "build_source", "sweep_spec"]
+__all__ = ["configure", "run", "build_source", "design_hint", "sweep_spec"]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -38,8 +38,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--scene", default=None, help="scene TOML file")
     parser.add_argument("--model", choices=("radar", "paper"), default="radar",
                         help="radar: the full signal chain (default); paper: the paper's R = n + rho x + a model")
-    parser.add_argument("--nr", type=int, default=None, help="override the number of chirps per cycle N_r")
-    parser.add_argument("--ns", type=int, default=None, help="override the samples per chirp N_s")
+    parser.add_argument("--nr", type=even_count(2), default=None, help="override the number of chirps per cycle N_r")
+    parser.add_argument("--ns", type=count(1), default=None, help="override the samples per chirp N_s")
     parser.add_argument("--iq", action="store_true", help="complex I/Q samples instead of I only")
     parser.add_argument("--snr-db", type=float, default=None,
                         help="per-sample echo SNR of the first target, dB (default: the scene's own, e.g. +2.2 dB "
@@ -109,6 +109,17 @@ def sweep_spec(args: argparse.Namespace) -> dict:
     return {"model": args.model, "preset": args.preset, "scene": args.scene, "nr": args.nr, "ns": args.ns,
             "iq": args.iq, "snr_db": args.snr_db, "ideal_adc": args.ideal_adc, "activation": args.activation,
             "fidelity": args.fidelity, "attack_params": params}
+
+
+def design_hint(args: argparse.Namespace) -> str:
+    """The `carav design` command for the scene the sweep's options describe (the paper model: its noise-only ADC
+    and its 0 dB echo unless --snr-db says otherwise)."""
+    paper = args.model == "paper"
+    snr_db = args.snr_db if args.snr_db is not None or not paper else 0.0
+    hint = "carav design " + (f"--scene {args.scene}" if args.scene else f"--preset {args.preset or 'table1'}")
+    hint += "".join(f" --{k} {v:g}" for k, v in (("nr", args.nr), ("ns", args.ns), ("snr-db", snr_db))
+                    if v is not None)
+    return hint + (" --iq" if args.iq else "") + (" --ideal-adc" if args.ideal_adc or paper else "")
 
 
 def _ci(ci) -> str:
@@ -203,9 +214,7 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, TypeError) as exc:     # the scene or an attacker's parameters
         raise CommandError(str(exc), Exit.INVALID) from None
 
-    hint = "carav design " + (f"--scene {args.scene}" if args.scene else f"--preset {args.preset or 'table1'}")
-    hint += "".join(f" --{k} {v}" for k, v in (("nr", args.nr), ("ns", args.ns)) if v is not None)
-    hint += " --iq" if args.iq else ""
+    hint = design_hint(args)
     warning = threshold_warning(scene_law(source.scene), PAPER_ETA, source.sigma_n, who="the paper's", design_hint=hint)
     if warning:
         print(f"carav sweep: warning: {warning}", file=sys.stderr)

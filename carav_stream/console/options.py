@@ -37,6 +37,19 @@ def count(low: int = 0) -> Callable[[str], int]:
     return parse
 
 
+def even_count(low: int = 0) -> Callable[[str], int]:
+    """An even integer >= low (chirps per cycle: half of them are active)."""
+    whole = count(low)
+
+    def parse(text: str) -> int:
+        value = whole(text)
+        if value % 2:
+            raise Error(f"must be an even number (half the chirps are active), got {value}")
+        return value
+    parse.__name__ = "even count"
+    return parse
+
+
 def number(low: float | None = None, strict: bool = False) -> Callable[[str], float]:
     """A finite float, >= low (> low if strict)."""
     def parse(text: str) -> float:

@@ -37,7 +37,7 @@ from scipy import optimize, stats
 from carav_stream.detect.detector import _check_frames, check_rho
 from carav_stream.detect.rdmap import rd_power
 
-__all__ = ["spectral_silent_test", "spectral_threshold", "SpectralResult", "integrated_silent_test",
+__all__ = ["exact_bins", "spectral_silent_test", "spectral_threshold", "SpectralResult", "integrated_silent_test",
            "integrated_threshold", "coherent_silent_test", "spill_test", "SpillResult",
            "calibrate_threshold", "cusum_silent_power", "cusum_threshold", "silent_power_z"]
 
@@ -54,10 +54,26 @@ class SpectralResult:
     n_bins_tested: int
 
 
+def exact_bins(n_samples: int, iq: bool) -> int:
+    """Range bins per chirp whose power is exactly Exp(1) under white Gaussian noise: all N_s for I/Q, bins
+    1..(N_s - 1) // 2 of the real FFT for I only (DC and Nyquist are chi2(1)): none for an I-only chirp of 1 or 2."""
+    return n_samples if iq else (n_samples - 1) // 2
+
+
+def _need_bins(x: np.ndarray, test: str) -> None:
+    """Refuse frames whose chirps have no bin with an exact law (an I-only chirp of 1 or 2 samples)."""
+    n_s = x.shape[-1]
+    if exact_bins(n_s, np.iscomplexobj(x)) == 0:
+        raise ValueError(f"the {test} test needs a range bin with an exact law, and N_s = {n_s} I only has none "
+                         "(DC and Nyquist are chi2(1)): it takes N_s >= 3, or I/Q samples")
+
+
 def spectral_threshold(pf: float, n_bins_tested: int) -> float:
-    """t with P(max of n i.i.d. Exp(1) >= t) = pf, exactly: t = -log(1 - (1 - pf)^(1/n))."""
+    """t with P(max of n i.i.d. Exp(1) >= t) = pf, exactly: t = -log(1 - (1 - pf)^(1/n)), n >= 1."""
     if not 0 < pf < 1:
         raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
+    if n_bins_tested < 1:
+        raise ValueError(f"n_bins_tested: must be >= 1, got {n_bins_tested}")
     return float(-np.log(-np.expm1(np.log1p(-pf) / n_bins_tested)))
 
 
@@ -84,6 +100,7 @@ def spectral_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> Sp
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
     if not sigma_n > 0:
         raise ValueError(f"sigma_n: must be > 0 for the spectral test, got {sigma_n!r}")
+    _need_bins(x, "spectral")
     n_s = x.shape[-1]
     m = x.shape[1] // 2
     silent = x[~active].reshape(x.shape[0], m, n_s)
@@ -118,6 +135,7 @@ def integrated_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> 
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
     if not sigma_n > 0:
         raise ValueError(f"sigma_n: must be > 0 for the integrated test, got {sigma_n!r}")
+    _need_bins(x, "integrated")
     n_s, m = x.shape[-1], x.shape[1] // 2
     silent = x[~active].reshape(x.shape[0], m, n_s)
     power = np.sum(_bin_powers(silent), axis=1) / (n_s * sigma_n ** 2)          # (cycles, bins)
@@ -140,6 +158,7 @@ def coherent_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> Sp
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
     if not 0 < pf < 1:
         raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
+    _need_bins(x, "coherent")
     power = rd_power(x, ~active, sigma_n).reshape(x.shape[0], -1)
     idx = np.argmax(power, axis=1)
     stat = power[np.arange(x.shape[0]), idx]

@@ -16,6 +16,8 @@ D1 part (APPROXIMATE, numerical integration): with S the mean RMS of the other M
   per-chirp probability is integrated by Gauss-Hermite quadrature, and the M chirps are treated as independent
   (1 - (1-p)^M). Silent and active chirps are independent, so the two parts combine exactly:
     P(Q < eta) = P(D0 part quiet) * P(D1 part quiet).
+  With M = 1 (N_r = 2) the one active chirp is its own mean: D1 = 0 on every cycle, so the D1 part is quiet for
+  every eta > 0 and alarms for eta <= 0 (as Q >= eta always does), EXACTLY; Q is then D0 of the one silent chirp.
 PF(eta) = 1 - P(Q < eta) with t = 1; PM(eta) = P(Q < eta) under the attack.
 """
 from __future__ import annotations
@@ -60,7 +62,10 @@ def rms_moments(nu: int, nonc: float, t: float = 1.0) -> tuple[float, float]:
 
 
 def _d1_quiet(eta: np.ndarray, nu: int, m: int, snr: float, t: float, n_nodes: int = 48) -> np.ndarray:
-    """Approximate P(all M active chirps have D1 < eta) (normal leave-one-out mean, independent chirps)."""
+    """Approximate P(all M active chirps have D1 < eta) (normal leave-one-out mean, independent chirps); exact for
+    M = 1, where D1 = 0."""
+    if m == 1:
+        return (eta > 0).astype(np.float64)
     nonc = nu * snr / t
     mu, var = rms_moments(nu, nonc, t)
     sd = np.sqrt(var / (m - 1))
@@ -90,6 +95,13 @@ def _d1_quiet(eta: np.ndarray, nu: int, m: int, snr: float, t: float, n_nodes: i
     return out.reshape(eta.shape)
 
 
+def _half(n_chirps: int) -> int:
+    """M = N_r / 2, for an even N_r >= 2 (the detector needs a silent and an active chirp)."""
+    if n_chirps < 2 or n_chirps % 2:
+        raise ValueError(f"n_chirps: must be an even number >= 2 (half the chirps are active), got {n_chirps}")
+    return n_chirps // 2
+
+
 def pf_pm_closed_form(eta, *, n_chirps: int, dof: int, snr: float = 1.0, rarms: float = 0.0) -> dict:
     """P(alarm) (PF when rarms = 0) and P(no alarm) (PM when rarms > 0, `random` attack) over an eta grid.
 
@@ -101,7 +113,7 @@ def pf_pm_closed_form(eta, *, n_chirps: int, dof: int, snr: float = 1.0, rarms: 
               computed through logs so that probabilities down to 1e-300 are resolved.
     """
     eta = np.asarray(eta, dtype=np.float64)
-    m = n_chirps // 2
+    m = _half(n_chirps)
     t = 1.0 + rarms ** 2
     # log F^M with F = cdf; 1 - F^M = -expm1(M log F) keeps tiny PF accurate (log F = log1p(-sf))
     sf0 = stats.chi2.sf(dof * eta ** 2 / t, dof)
@@ -122,7 +134,7 @@ def cfar_eta_closed_form(target_pf: float, *, n_chirps: int, dof: int) -> float:
     """
     if not 0 < target_pf < 1:
         raise ValueError(f"target_pf: must be in (0, 1), got {target_pf!r}")
-    m = n_chirps // 2
+    m = _half(n_chirps)
     per_chirp_sf = -np.expm1(np.log1p(-target_pf) / m)
     return float(np.sqrt(stats.chi2.isf(per_chirp_sf, dof) / dof))
 

@@ -12,6 +12,10 @@ For an FMCW cycle (fast time n, active chirps m in the set A, |A| = M) the 2-D m
 origins are centred: the beat frequency sees N samples at SNR * M, the slow-time frequency sees the |A|
 chirp times at SNR * N. Range from the beat after coupling correction, R = c/(2S) (f_b - 2v/lambda),
 inherits both variances.
+
+An echo that arrives after the window starts (its round trip beyond the ADC start: Geometry.echo_onset) is there
+for N - n0 samples only, and the samples before its onset tell nothing of it: with the target's range given, the
+bound counts the samples that hold the echo.
 """
 from __future__ import annotations
 
@@ -35,7 +39,7 @@ def tone_frequency_crlb(snr, n_samples=None, *, times=None, iq: bool = True):
         t = np.asarray(times, dtype=float)
         spread = np.sum((t - t.mean(axis=-1, keepdims=True)) ** 2, axis=-1)
     else:
-        n = float(n_samples)
+        n = np.asarray(n_samples, dtype=float)
         spread = n * (n * n - 1.0) / 12.0
     with np.errstate(divide="ignore"):
         bound = 1.0 / (2.0 * snr * (2.0 * np.pi) ** 2 * spread)
@@ -52,13 +56,17 @@ def slow_time_spread(rho) -> np.ndarray:
     return (rho * (m - mean[..., None]) ** 2).sum(axis=-1)
 
 
-def fmcw_crlb(geometry: Geometry, snr_sample_db, rho, *, couple: bool = True) -> dict[str, np.ndarray]:
+def fmcw_crlb(geometry: Geometry, snr_sample_db, rho, *, couple: bool = True,
+              range_m=None) -> dict[str, np.ndarray]:
     """Range and velocity CRLB standard deviations for one target in one FMCW cycle.
 
     geometry       waveform
-    snr_sample_db  per-sample SNR [dB] before any integration (signal power / noise power per ADC sample)
+    snr_sample_db  per-sample SNR [dB] before any integration (signal power / noise power per ADC sample, while
+                   the echo is there)
     rho            bool (..., n_chirps): active chirps of the cycle(s)
     couple         add the velocity variance carried into range by the coupling correction
+    range_m        the target's range [m], broadcast with the others: the bound then counts the samples from its
+                   echo's onset on (Geometry.echo_onset); None: every sample holds the echo (a tone over the window)
     Returns dict of float arrays broadcast over snr_sample_db and rho.shape[:-1]: beat_hz, range_m (std),
     slow_cycles (std, cycles/chirp), velocity_mps (std) and snr_integrated_db (SNR after coherent integration
     over the active chirps, the SNR the fast-time estimators work at).
@@ -66,7 +74,7 @@ def fmcw_crlb(geometry: Geometry, snr_sample_db, rho, *, couple: bool = True) ->
     rho = np.asarray(rho, dtype=bool)
     snr = 10.0 ** (np.asarray(snr_sample_db, dtype=float) / 10.0)
     n_act = rho.sum(axis=-1).astype(float)
-    n = geometry.n_samples
+    n = geometry.n_samples if range_m is None else geometry.n_samples - geometry.echo_onset(range_m)
     var_f = tone_frequency_crlb(snr * n_act, n, iq=geometry.iq)
     spread = slow_time_spread(rho)
     with np.errstate(divide="ignore"):

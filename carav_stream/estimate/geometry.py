@@ -12,6 +12,11 @@ speed -v as a positive number (1.0830 m/s for the table1 car, i.e. v = -1.0830 m
 
 Range-Doppler coupling: a beat-only range 2 S R / c is off by (c / 2S)(2 v / lambda); ``range_from_beat``
 removes it when given the velocity.
+
+Echo onset: a chirp's echo reaches the receiver after its round trip tau = 2 R / c and is in the window from fast
+time tau on; before it the receiver hears the previous chirp's echo, which beats at S (tau - T_c), outside the IF
+band for every range the radar measures (carav_stream/radar/physics.py, beat_replica). A window that starts t_adc
+into the ramp holds the echo from sample ceil((tau - t_adc) fs) on (``echo_onset``).
 """
 from __future__ import annotations
 
@@ -34,10 +39,13 @@ class Geometry:
     iq              True: complex (I/Q) samples; False: real (I-only) samples
     t_adc_start_s   fast time of the first sample after the ramp's start (TI's adcStartTime) [s]
 
-    The chirp-to-chirp phase progression is read at the first sample. There the echo's phase 2 pi (fc tau +
-    S t' tau) advances by 2 pi alpha T_c (fc + S t'), alpha = 2 v / c, so a window that starts t_adc into the
-    ramp scales the Doppler by 1 + S t_adc / fc (1.1e-3 on AWR1642 with a 7 us start): the velocity conversions
-    below take it out.
+    The chirp-to-chirp phase progression depends on the fast time it is read at. At t' the echo's phase 2 pi (fc tau +
+    S t' tau - S tau^2 / 2) advances by 2 pi alpha T_c (fc + S (t' - tau)), alpha = 2 v / c (the beat walks with the
+    range), so read at sample n of a window that starts t_adc into the ramp the Doppler is scaled by
+    1 + S (t_adc + n / fs - tau) / fc (``doppler_scale_at``): 1.1e-3 on AWR1642 at its first sample (a 7 us start),
+    3.2e-3 at its window's centre. The velocity conversions below take it out, at the first sample and tau = 0 unless
+    told: a sum over the samples n0..N-1 (an FFT, a DTFT at the beat) reads the progression at their centre
+    (n0 + N - 1) / 2.
     """
 
     fs_hz: float
@@ -102,6 +110,33 @@ class Geometry:
         """1 + S t_adc / fc: the chirp-to-chirp phase progression at the first sample over 2 v T_c / lambda."""
         return 1.0 + self.slope_hz_per_s * self.t_adc_start_s / self.fc_hz
 
+    def doppler_scale_at(self, sample=0.0, delay_s=0.0):
+        """1 + S (t_adc + n / fs - tau) / fc: the chirp-to-chirp phase progression at sample n of the window of an
+        echo delayed by tau (floats, broadcast) over 2 v T_c / lambda."""
+        late = np.asarray(sample, dtype=float) / self.fs_hz - np.asarray(delay_s, dtype=float)
+        return self.doppler_scale + self.slope_hz_per_s * late / self.fc_hz
+
+    def echo_onset(self, range_m):
+        """First sample of the window [0, n_samples] at or after the round trip 2 R / c of a target at range_m [m]
+        (0 when the echo is there before the window starts), int64 of range_m's shape."""
+        late = (2.0 * np.asarray(range_m, dtype=float) / C_MPS - self.t_adc_start_s) * self.fs_hz
+        return np.clip(np.ceil(np.round(late, 6)), 0, self.n_samples).astype(np.int64)  # round: 27.0000001 is 27
+
+    def range_seen(self, range_m, velocity_mps, rho):
+        """Range [m] (n_cycles, K) that the beat of an echo measures, for targets at range_m (K,) or (n_cycles, K) at
+        the cycle's start moving at velocity_mps (same shape), rho bool (n_cycles, n_chirps) the active chirps.
+
+        Chirp m's beat is S tau(t) at t = m T_c + 2 t', t' the fast time of its samples' middle (the delay grows
+        within the chirp too: d/dt' of S t' tau(m T_c + t') is S tau + S t' alpha), so a beat over the active chirps
+        and the samples from the echo's onset on measures the range at the mean active chirp start plus twice the
+        fast time of those samples' middle."""
+        rho = np.asarray(rho, dtype=bool)
+        r = np.asarray(range_m, dtype=float)
+        r = r if r.ndim == 2 else np.broadcast_to(r, (rho.shape[0], r.size))
+        m_mean = (rho * np.arange(rho.shape[1])).sum(axis=1) / np.maximum(rho.sum(axis=1), 1)
+        middle = self.t_adc_start_s + (self.echo_onset(r) + self.n_samples - 1) / (2.0 * self.fs_hz)
+        return r + np.asarray(velocity_mps, dtype=float) * (m_mean[:, None] * self.t_chirp_s + 2.0 * middle)
+
     def beat_from_range(self, range_m, velocity_mps=0.0):
         """Beat frequency [Hz] of a target at range_m [m] with radial velocity velocity_mps [m/s]."""
         return (np.asarray(range_m, dtype=float) / self.range_per_hz_m
@@ -112,11 +147,15 @@ class Geometry:
         return self.range_per_hz_m * (np.asarray(beat_hz, dtype=float)
                                       - 2.0 * np.asarray(velocity_mps, dtype=float) / self.wavelength_m)
 
-    def velocity_from_slow_freq(self, nu_cycles_per_chirp):
-        """Radial velocity [m/s] from the chirp-to-chirp phase progression nu [cycles/chirp]."""
-        return (np.asarray(nu_cycles_per_chirp, dtype=float) * self.wavelength_m
-                / (2.0 * self.t_chirp_s * self.doppler_scale))
+    def velocity_from_slow_freq(self, nu_cycles_per_chirp, sample=None, delay_s=0.0):
+        """Radial velocity [m/s] from the chirp-to-chirp phase progression nu [cycles/chirp] of an echo delayed by
+        delay_s read at `sample` of the window (None: the first sample, no delay; doppler_scale_at)."""
+        scale = self.doppler_scale if sample is None else self.doppler_scale_at(sample, delay_s)
+        return np.asarray(nu_cycles_per_chirp, dtype=float) * self.wavelength_m / (2.0 * self.t_chirp_s * scale)
 
-    def slow_freq_from_velocity(self, velocity_mps):
-        """Chirp-to-chirp phase progression nu = 2 v T_c / lambda (1 + S t_adc / fc) [cycles/chirp] (not wrapped)."""
-        return np.asarray(velocity_mps, dtype=float) * 2.0 * self.t_chirp_s * self.doppler_scale / self.wavelength_m
+    def slow_freq_from_velocity(self, velocity_mps, sample=None, delay_s=0.0):
+        """Chirp-to-chirp phase progression nu = 2 v T_c / lambda (1 + S (t_adc + n / fs - tau) / fc) [cycles/chirp]
+        (not wrapped) at sample n = `sample` of the window, of an echo delayed by tau = delay_s (None: the first
+        sample, no delay)."""
+        scale = self.doppler_scale if sample is None else self.doppler_scale_at(sample, delay_s)
+        return np.asarray(velocity_mps, dtype=float) * 2.0 * self.t_chirp_s * scale / self.wavelength_m

@@ -95,6 +95,7 @@ def refine_walking(x, index, mask, n_chirps: int, f0, nu0, geometry: Geometry, m
             + w[:, :, None, None] * m[:, None, None, :]) * n_fft) % n_fft                # (C, K, G, A)
     lo = np.floor(pos).astype(np.int64)
     frac = pos - lo
+    lo %= n_fft        # a tiny negative position's float modulo rounds up to n_fft itself, which is bin 0
     cyc = np.arange(n_cycles)[:, None, None, None]
     row = np.arange(x.shape[1])[None, None, None, :]
     val = spec[cyc, row, lo] * (1 - frac) + spec[cyc, row, (lo + 1) % n_fft] * frac

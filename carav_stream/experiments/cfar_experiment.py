@@ -10,8 +10,10 @@ its command line in carav_stream/cli/experiment/cfar.py).
    threshold it exceeds in its own cell, beside the textbook curve for CA-CFAR on exponential cells,
    Pd = (1 + alpha / (n (1 + SNR)))^-n, with SNR the cell's mean signal-to-noise ratio on the Hann-windowed map.
 3. The list refined (carav_stream/firmware/target_list.py, pfa 1e-6 per cell, ml). table1 and awr1642 beat signals, one
-   target at 10, 20 and 30 dB after integration over the active chirps (CRLB from estimate/crlb.py): range and
-   velocity RMSE over the bound, and the targets listed per cycle. Then two targets 12 range bins apart, one
+   target at 10, 20 and 30 dB after integration over the active chirps, its echo from its round trip on and its
+   range walking over the cycle (estimate/tones.py; CRLB of the samples holding the echo from estimate/crlb.py, the
+   truth the range at the active chirps' mean time): range and velocity RMSE over the bound, and the targets listed
+   per cycle. Then two targets 12 range bins apart, one
    20 dB louder (the weak one at 20 dB): the share of cycles in which the weak one is listed, CA against OS.
    Then the resolution limit: two equal targets (20 dB each) 0.5 to 3 range bins apart at the same velocity: the
    share of cycles listing both, and listing the pair as one target.
@@ -32,7 +34,7 @@ import scipy.signal
 from carav_stream.detect.rdmap import rd_power
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.geometry import Geometry
-from carav_stream.estimate.tones import synth_beat
+from carav_stream.estimate.tones import centroid_ranges, synth_beat
 from carav_stream.experiments.reporting import load_preset
 from carav_stream.firmware import cfar
 from carav_stream.firmware.target_list import associate, gates, target_list
@@ -127,11 +129,12 @@ def _refined_list(rng, c: int) -> dict:
                 g.range_resolution_m
             truth_v = np.full((c, 1), (v0 + vmax) % (2 * vmax) - vmax)
             snr_s = snr_db - 10 * np.log10(m // 2)
-            x = synth_beat(g, rho, truth_r, truth_v, snr_sample_db=snr_s, rng=rng)
+            # echoes from their round trips on, their ranges walking: the estimators' model of a radar's echo
+            x = synth_beat(g, rho, truth_r, truth_v, snr_sample_db=snr_s, rng=rng, migrate=True, gate=True)
             sigma = 10 ** (-snr_s / 20) / (1.0 if g.iq else np.sqrt(2.0))
             tl = target_list(x, rho, g, sigma)
-            bound = fmcw_crlb(g, snr_s, rho)
-            err_r = tl.range_m[:, 0] - truth_r[:, 0]
+            bound = fmcw_crlb(g, snr_s, rho, range_m=truth_r[:, 0])
+            err_r = tl.range_m[:, 0] - centroid_ranges(g, rho, truth_r, truth_v)[:, 0]
             err_v = (tl.velocity_mps[:, 0] - truth_v[:, 0] + vmax) % (2 * vmax) - vmax
             rmse_r = np.sqrt(np.nanmean(err_r ** 2) / np.mean(bound["range_m"] ** 2))
             rmse_v = np.sqrt(np.nanmean(err_v ** 2) / np.mean(bound["velocity_mps"] ** 2))

@@ -19,8 +19,8 @@ the noise power at 5 m (5 % at 7 m). Against sigma_n alone the integrated and co
 hundred at 5 m, and the CUSUM, which sums the excess over cycles, within a few cycles. C's designed eta counts it.
 
 with 95 % Clopper-Pearson intervals. PF 1e-6 lies within the interval of k alarms in n cycles only for k = 0 (for
-n up to 2.5e5). Beside them, the leak's closed form (carav_stream/firmware/leak.py): the false-alarm rate per cycle
-of C at the designed eta that the echo's worst-phase leak into the silent slots implies (at the fidelity where it
+n up to 2.5e5). Beside them, the leak's exact rate (carav_stream/firmware/leak.py): the false-alarm rate per cycle
+of C at the designed eta that the echo's leak into the silent slots implies (at the fidelity where it
 is larger, the same for both rows of a scene), and whether `carav validate`, `design` and `scenes` warn.
 """
 from __future__ import annotations

@@ -11,6 +11,12 @@ component, `carav_stream.radar.adc.output_noise_rms`; exact in the limit sigma_n
 satisfy by orders of magnitude; the table1 car at 5 m, whose echo lifts the full scale, gives lsb = 1.5 sigma_n),
 a constant echo (the beat-fidelity template, as `carav_stream.montecarlo.radar_source` uses for its closed form).
 D0's law is exact (chi-square), D1's the closed form's quadrature (`carav_stream.detect.stats.pf_pm_closed_form`).
+Where the ADC's step exceeds 1.5 x the noise of a component (sigma_c / lsb < QUANTISED_BELOW; the table1 car at 3 m:
+lsb = 4.1 sigma_n), most silent samples quantise to 0 and the silent chirps' RMS falls below sigma_n instead of rising
+with lsb^2 / 12: D0's law is then the quantised noise's own, exactly (`carav_stream.detect.quantised`; from
+sigma_c = 0.65 lsb up, the uniform model's eta for 1e-6 on table1 is within 0.1 % of it, 0.6 % at 0.5 lsb), and D1's
+keeps the uniform model (the echo, many steps high, dithers its quantisation). Being discrete, that law moves in
+steps of the chirp's energy in codes: a threshold is where PF jumps past the target.
 ADC clipping and fluctuating targets are not in the law: see the nuisance table of docs/REPRODUCTION.md for what
 they do.
 """
@@ -22,14 +28,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
+from carav_stream.detect.quantised import quantised_energy_logsf
 from carav_stream.detect.stats import pf_pm_closed_form
 from carav_stream.montecarlo.paper_model import PaperScene
 from carav_stream.montecarlo.radar_source import RadarSource
-from carav_stream.radar.adc import output_noise_rms
+from carav_stream.radar.adc import adc_step, output_noise_rms
 
 __all__ = ["SceneLaw", "scene_law", "pf_per_cycle", "pm_random", "rms_threshold", "threshold_warning", "PF_WARN"]
 
 PF_WARN = 1e-6        # a detector threshold above this false-alarm rate per cycle is worth a warning
+QUANTISED_BELOW = 0.65  # sigma_c / lsb below which D0's law is the quantised noise's (detect/quantised.py)
 
 
 @dataclass(frozen=True)
@@ -39,6 +47,7 @@ class SceneLaw:
     n_chirps  N_r;  dof  nu, real samples per chirp;  snr  echo power / noise power at the ADC output
     sigma_n   the scene's analogue noise RMS per sample (what the detector is calibrated with by default)
     sigma_eff noise RMS at the ADC output: sqrt(sigma_n^2 + lsb^2 / 12) (= sigma_n for an ideal ADC)
+    lsb       the ADC's step (0: an ideal ADC);  iq  I/Q samples (nu = 2 N_s components of sigma_n / sqrt(2))
     """
 
     name: str
@@ -47,6 +56,14 @@ class SceneLaw:
     snr: float
     sigma_n: float
     sigma_eff: float
+    lsb: float = 0.0
+    iq: bool = False
+
+    def steps(self, rarms: float = 0.0) -> float:
+        """sigma_c / lsb: a silent component's noise (under the `random` attack of RARMS) in ADC steps (inf: ideal)."""
+        if not self.lsb:
+            return math.inf
+        return self.sigma_n * math.sqrt((1.0 + rarms ** 2) / (2.0 if self.iq else 1.0)) / self.lsb
 
 
 def scene_law(scene) -> SceneLaw:
@@ -57,14 +74,30 @@ def scene_law(scene) -> SceneLaw:
     pm = RadarSource(scene).paper_equivalent()      # the echo template and nu, as the closed form sees them
     sigma_eff = output_noise_rms(scene)
     snr = pm.echo_snr * (scene.sigma_n / sigma_eff) ** 2
-    return SceneLaw(scene.name, scene.n_chirps, pm.dof, float(snr), float(scene.sigma_n), sigma_eff)
+    return SceneLaw(scene.name, scene.n_chirps, pm.dof, float(snr), float(scene.sigma_n), sigma_eff,
+                    float(adc_step(scene) or 0.0), bool(scene.iq))
 
 
 def _gauss(law: SceneLaw, eta, sigma_det: float | None, rarms: float = 0.0) -> dict:
-    """The closed form in units of the ADC's output noise: D0 = ||R|| / sigma_det = (sigma_eff / sigma_det) chi."""
+    """The closed form in units of the ADC's output noise: D0 = ||R|| / sigma_det = (sigma_eff / sigma_det) chi; D0's
+    part from the quantised noise's law where the ADC's step exceeds the noise."""
+    eta = np.asarray(eta, dtype=np.float64)
     scale = (sigma_det or law.sigma_n) / law.sigma_eff
-    return pf_pm_closed_form(np.asarray(eta, dtype=np.float64) * scale, n_chirps=law.n_chirps, dof=law.dof,
-                             snr=law.snr, rarms=rarms * law.sigma_n / law.sigma_eff)
+    out = pf_pm_closed_form(eta * scale, n_chirps=law.n_chirps, dof=law.dof, snr=law.snr,
+                            rarms=rarms * law.sigma_n / law.sigma_eff)
+    r = law.steps(rarms)
+    if r >= QUANTISED_BELOW:
+        return out
+    # D0 >= eta  <=>  the chirp's energy in codes S >= s* = N_s eta^2 sigma_det^2 / lsb^2
+    n_s = law.dof // 2 if law.iq else law.dof
+    log_sf = np.minimum(quantised_energy_logsf(n_s * (eta * (sigma_det or law.sigma_n) / law.lsb) ** 2, law.dof, r),
+                        0.0)
+    with np.errstate(divide="ignore"):
+        log_cdf = np.where(log_sf < -0.7, np.log1p(-np.exp(log_sf)), np.log(-np.expm1(np.minimum(log_sf, -1e-300))))
+        m = law.n_chirps // 2
+        log_quiet = m * log_cdf + np.log(np.maximum(out["quiet_d1"], 1e-300))
+    return {**out, "quiet_d0": np.exp(m * log_cdf), "p_alarm_d0": -np.expm1(m * log_cdf),
+            "p_quiet": np.exp(log_quiet), "p_alarm": -np.expm1(log_quiet)}
 
 
 def pf_per_cycle(law: SceneLaw, eta, sigma_det: float | None = None) -> np.ndarray:
@@ -78,7 +111,8 @@ def pm_random(law: SceneLaw, eta, rarms: float, sigma_det: float | None = None) 
 
 
 def rms_threshold(law: SceneLaw, pf: float, sigma_det: float | None = None) -> float:
-    """eta with PF(eta) = pf per cycle (D0 and D1), by root search on log PF (PF falls monotonically in eta)."""
+    """eta with PF(eta) = pf per cycle (D0 and D1), by root search on log PF (PF falls monotonically in eta); where PF
+    jumps past pf (the quantised law), the first eta at which it is below."""
     if not 0 < pf < 1:
         raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
 
@@ -90,7 +124,9 @@ def rms_threshold(law: SceneLaw, pf: float, sigma_det: float | None = None) -> f
         lo, hi = hi, hi * 2
         if hi > 1e6:
             raise ValueError(f"no threshold reaches PF {pf:g} per cycle for scene {law.name}")
-    return float(optimize.brentq(f, lo, hi, xtol=1e-10, rtol=1e-12))
+    eta = float(optimize.brentq(f, lo, hi, xtol=1e-10, rtol=1e-12))
+    # the quantised law moves in steps: the root is a jump, and the threshold the first eta past it
+    return eta if f(eta) <= 0 else min(hi, eta * (1 + 4e-12) + 2e-10)
 
 
 def threshold_warning(law: SceneLaw, eta: float, sigma_det: float | None = None, *, who: str = "C(eta)",

@@ -41,7 +41,12 @@ def _coherent(frames, rho, sigma_n):
 def _spill(frames, rho, sigma_n, scene):
     if scene is None:
         raise ValueError("detector 'spill' needs the scene (its window starts after the longest visible round trip)")
-    return opt_in.spill_test(frames, rho, sigma_n, spill_window_start(scene), pf=DESIGN_PF).stat
+    first, n_s = spill_window_start(scene), np.shape(frames)[-1]
+    if first > n_s - 4:
+        raise ValueError(f"the spill test's window starts at sample {first} (after the longest round trip the "
+                         f"receiver passes, and the IF filter's settling), and N_s = {n_s} leaves fewer than the 4 "
+                         f"samples it needs: it takes N_s >= {first + 4}")
+    return opt_in.spill_test(frames, rho, sigma_n, first, pf=DESIGN_PF).stat
 
 
 OPT_IN = {"spectral": _spectral, "integrated": _integrated, "coherent": _coherent, "spill": _spill}

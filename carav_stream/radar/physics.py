@@ -41,7 +41,7 @@ from functools import lru_cache
 import numpy as np
 
 from carav_stream.core.units import C_MPS
-from carav_stream.radar.scene import Scene, Target
+from carav_stream.radar.scene import IF_SETTLE_SAMPLES, Scene, Target
 
 TWO_PI = 2.0 * np.pi
 IQ_CENTRE = 0.4               # centre of the I/Q IF band, in units of fs
@@ -132,9 +132,10 @@ def fidelity_dependent_ranges_m(scene: Scene) -> tuple[tuple[float, float], ...]
 
 def spill_window_start(scene: Scene) -> int:
     """First ADC sample of a slot that no echo the receiver passes reaches: after the longest visible round trip,
-    plus the waveform FIR's half length (16 samples) and one, so that no filtered edge reaches it either (the spill
-    test's window, detect.opt_in.spill_test); 0 when the ADC starts later than that."""
-    return max(0, int(np.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz)) + 17)
+    plus the waveform FIR's half length (IF_SETTLE_SAMPLES) and one, so that no filtered edge reaches it either (the
+    spill test's window, detect.opt_in.spill_test); 0 when the ADC starts later than that."""
+    late = int(np.ceil((max_visible_delay_s(scene) - scene.t_adc_start_s) * scene.fs_hz))
+    return max(0, late + IF_SETTLE_SAMPLES + 1)
 
 
 def replica_beats_hz(scene: Scene, tau0_s: float, alpha: float) -> tuple[float, float]:
@@ -204,7 +205,7 @@ def sweep_phase(scene: Scene, u_s: np.ndarray) -> np.ndarray:
 def waveform_grid(scene: Scene) -> WaveformGrid:
     r = scene.waveform_oversample
     fs_sim = r * scene.fs_hz
-    n_taps = 32 * r + 1          # Hamming: transition about +-0.05 fs around each edge
+    n_taps = 2 * IF_SETTLE_SAMPLES * r + 1     # Hamming: transition about +-0.05 fs around each edge
     # I-only: real low-pass, -6 dB at fs/2. I/Q: complex band-pass [-0.1 fs, 0.9 fs] (-6 dB edges): one
     # fs wide, so nothing it passes aliases, and positive beats up to 0.9 fs stay unambiguous (as the
     # complex 1x IF mode of TI's AWR parts, whose IF bandwidth is 0.9 fs).

@@ -17,6 +17,14 @@ Conventions
       the noise power, so the per-sample SNR is the same in both modes.
     * Noise level, first match wins: ``sigma_n`` (explicit), ``snr_db`` (per-sample SNR of the first
       target), else the radar equation: k T fs F G_rx (noise bandwidth = sample rate).
+    * The ADC starts ``t_adc_start_s`` after the chirp's start, where the ramp resets. A scene that does not say
+      when starts IF_SETTLE_SAMPLES / fs in (``adc_start_default``): at the reset the reference jumps by the
+      whole bandwidth and the previous chirp's echo, in band until then, leaves the band at once; the IF filter
+      spreads that cut over its impulse response, IF_SETTLE_SAMPLES samples either side, so samples taken before
+      it has settled carry a share of that echo into every silent slot after an active one (docs/DETECTION.md,
+      "Near echoes in the silent slots"). The table1 preset starts there too; real radars wait for the synthesiser
+      and the IF filter to settle (TI's adcStartTime, 7 us in the awr1642 preset). 0 samples from the reset, as
+      MATLAB's example does, when a scene says so.
 """
 from __future__ import annotations
 
@@ -25,6 +33,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from carav_stream.core.units import C_MPS
+
+IF_SETTLE_SAMPLES = 16     # the IF filter's half length in ADC samples (the waveform fidelity's FIR: 32 samples long)
 
 
 class SceneError(ValueError):
@@ -87,6 +97,7 @@ class Scene:
     warnings: tuple[str, ...] = ()
     description: str = ""
     source: str = field(default="", compare=False)
+    adc_start_default: bool = field(default=False, compare=False)    # t_adc_start_s was not given: the settled one
 
     @property
     def slope_hz_per_s(self) -> float:

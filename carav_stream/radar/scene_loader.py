@@ -19,7 +19,7 @@ from typing import Any
 from carav_stream.core.params import Param, suggest
 from carav_stream.core.units import K_BOLTZMANN, KMH
 from carav_stream.radar.attackers import AttackerError, make_attacker
-from carav_stream.radar.scene import AttackerSpec, Scene, SceneError, Target, target_warnings
+from carav_stream.radar.scene import IF_SETTLE_SAMPLES, AttackerSpec, Scene, SceneError, Target, target_warnings
 
 __all__ = ["PRESET_DIR", "SCENE_PARAMS", "TARGET_PARAMS", "apply_overrides", "load_scene", "preset_names",
            "scene_from_dict"]
@@ -39,7 +39,9 @@ SCENE_PARAMS = (
           strict=True, optional=True),
     Param("t_cycle_s", float, None, "measurement cycle T_m (default n_chirps * t_chirp_s)", unit="s", low=0.0,
           strict=True, optional=True),
-    Param("t_adc_start_s", float, 0.0, "ADC start after the chirp start", unit="s", low=0.0),
+    Param("t_adc_start_s", float, None, f"ADC start after the chirp start (default {IF_SETTLE_SAMPLES} / fs_hz: once "
+          "the IF filter has settled after the ramp's reset; 0 samples from the reset)", unit="s", low=0.0,
+          optional=True),
     Param("fs_hz", float, doc="ADC sample rate", unit="Hz", low=0.0, strict=True),
     Param("n_chirps", int, doc="chirps per cycle N_r, even (half are active)", low=2),
     Param("n_samples", int, None, "samples per chirp N_s (default round((t_sweep_s - t_adc_start_s) fs_hz))",
@@ -189,6 +191,9 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         raise SceneError(p.items)
 
     t_chirp = v.get("t_chirp_s") or v["t_sweep_s"]
+    default_start = v.get("t_adc_start_s") is None
+    if default_start:
+        v["t_adc_start_s"] = IF_SETTLE_SAMPLES / v["fs_hz"]
     n_samples = v.get("n_samples") or round((v["t_sweep_s"] - v["t_adc_start_s"]) * v["fs_hz"])
     t_cycle = v.get("t_cycle_s") or n_chirps * t_chirp
     if t_chirp < v["t_sweep_s"]:
@@ -199,7 +204,10 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         p.fail("n_samples", f"the sweep after t_adc_start_s holds no sample at fs_hz ({n_samples})")
     t_window = v["t_adc_start_s"] + n_samples / v["fs_hz"]
     if t_window > t_chirp + 1.0 / v["fs_hz"]:
-        p.fail("n_samples", f"{n_samples} samples at {v['fs_hz']:.6g} Hz from t_adc_start_s end at "
+        start = (f"t_adc_start_s = {v['t_adc_start_s']:.6g} s (not given: the default, {IF_SETTLE_SAMPLES} samples "
+                 "in, once the IF filter has settled after the ramp's reset; t_adc_start_s = 0 samples from the "
+                 "reset)" if default_start else "t_adc_start_s")
+        p.fail("n_samples", f"{n_samples} samples at {v['fs_hz']:.6g} Hz from {start} end at "
                             f"{t_window:.6g} s, after the chirp period {t_chirp:.6g} s")
     if v.get("snr_db") is not None and not targets:
         p.fail("snr_db", "sets the noise from the first target's SNR, but the scene has no targets")
@@ -213,7 +221,7 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         tx_power_w=v["tx_power_w"], tx_gain_db=v["tx_gain_db"], rx_gain_db=v["rx_gain_db"],
         noise_figure_db=v["noise_figure_db"], temperature_k=v["temperature_k"], sigma_n=1.0,
         radar_speed_mps=v["radar_speed_mps"], targets=targets, waveform_oversample=v["waveform_oversample"],
-        if_filter=v["if_filter"], description=v["description"], source=source)
+        if_filter=v["if_filter"], description=v["description"], source=source, adc_start_default=default_start)
     sigma_n = _sigma_n(base, v)
     if not (math.isfinite(sigma_n) and sigma_n > 0):   # snr_db = +-1e300 passes the type check, say
         p.fail("snr_db" if v.get("snr_db") is not None else "sigma_n",

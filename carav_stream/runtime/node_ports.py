@@ -164,7 +164,7 @@ class NodePorts:
         for port in ctl.ended_ports:                     # an upstream node died for good: its input ends here
             self.pairing.eos.setdefault(port, None)
         out.cut |= ctl.cut_edges
-        out.reconnect |= ctl.reconnect_edges & out.edge_of.keys()
+        out.restart(ctl.reconnect_edges)
         ctl.reconnect_edges.clear()
         self.pairing.recovering = ctl.recovering
         if out.reconnect:

@@ -4,7 +4,9 @@ A frame sent on an output port goes to every edge of that port in order; a full 
 (heartbeats and control are served meanwhile through `idle`), so nothing is dropped. An edge whose consumer died
 for good is cut: what cannot be delivered on it is counted as undeliverable. When a consumer is restarted, the
 edge connects afresh at once (what the old connection held is lost with it, and counted) and first sends a
-header-only resume marker {resume: true, seq: X}: nothing before X comes on that stream.
+header-only resume marker {resume: true, seq: X}: nothing before X comes on that stream. The connections queue
+only towards a consumer they reached (transport.connect_output): what the old one held towards the dead
+incarnation is dropped when it breaks, never delivered to the new one after the marker.
 
 A tap edge (its consumer's port is a tap, block.In.tap) never blocks: a frame its queue has no room for, or
 sent while its consumer is being restarted, is skipped for it and counted as skipped on that edge, never as lost
@@ -39,6 +41,7 @@ class Outputs:
             port: [(e.edge, connect(e.connect)) for e in port_edges] for port, port_edges in edges.items()}
         self.edge_of = {edge: (port, i) for port, es in self.sockets.items() for i, (edge, _) in enumerate(es)}
         self.reconnect: set[str] = set()          # edges whose consumer was restarted, not yet resumed
+        self.resuming: dict[str, int] = {}        # per edge connected afresh: resume messages queued on it so far
         self.cut: set[str] = set()                # edges whose consumer died for good
         self.sent_seq: dict[str, int] = {}        # per edge: seq of the last frame ZeroMQ took
         self.c_sent = collections.Counter()       # per edge
@@ -111,20 +114,32 @@ class Outputs:
         finally:
             self.blocked_on = None
 
+    def restart(self, edges: set[str]) -> None:
+        """The consumers of `edges` were restarted: each connects afresh on the next `resume_all`, even one
+        still resuming towards an earlier incarnation."""
+        for edge in edges & self.edge_of.keys():
+            self.reconnect.add(edge)
+            self.resuming.pop(edge, None)
+
     def resume_all(self, marker: Callable[[str, str], list[list[Any]]]) -> None:
         """Connect afresh to every restarted consumer and send it `marker(port, edge)` first (the resume marker,
         and the end of stream if this node had finished). Done at once, even while this node is blocked
-        elsewhere, because that consumer may be what it is blocked on."""
+        elsewhere, because that consumer may be what it is blocked on. A fresh connection takes messages once it
+        reached the consumer: until then the next call goes on where this one stopped, on the same connection."""
         for edge in [*self.reconnect]:
             port, i = self.edge_of[edge]
-            self.sockets[port][i][1].close(linger=0)
-            sock = self._connect(self.endpoints[edge])
-            self.sockets[port][i] = (edge, sock)
+            if edge not in self.resuming:
+                self.sockets[port][i][1].close(linger=0)
+                self.sockets[port][i] = (edge, self._connect(self.endpoints[edge]))
+                self.resuming[edge] = 0
+            sock = self.sockets[port][i][1]
             try:
-                for msg in marker(port, edge):   # a fresh connection has room: ZeroMQ queues them at once
+                for msg in marker(port, edge)[self.resuming[edge]:]:
                     self._send(sock, msg)
-            except zmq.Again:                    # it had not: the next call connects afresh and tries again
+                    self.resuming[edge] += 1
+            except zmq.Again:
                 continue
+            del self.resuming[edge]
             self.reconnect.discard(edge)
 
     def resume_seq(self, edge: str, next_seq: int) -> int:

@@ -57,6 +57,9 @@ def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Any = None,
     sock.sndhwm = hwm
     sock.sndtimeo = int(TICK_S * 1000)
     sock.linger = linger_ms          # a clean exit waits for queued frames to leave
+    # queue only towards a consumer reached: a connection to one that died drops what it held when it breaks,
+    # so a restarted consumer bound at the same address never gets frames meant for its dead incarnation
+    sock.immediate = True
     if curve is not None and endpoint.startswith("tcp://"):
         curve.connect_as_client(sock, name)
     sock.connect(endpoint)

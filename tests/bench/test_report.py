@@ -168,3 +168,21 @@ def test_each_nodes_busy_time_renders_per_sample(tmp_path):
             "ns/sample (busy us/cycle over 69120 samples a cycle) | report | - |") in summary
     assert "| channel (550 = 7.96 ns/sample) |" in page
     assert "| table1 | beat | 32 | pipeline | shm | 69120 | channel 550 (7.96), adc 150 (2.17) |" in page
+
+
+def test_the_estimators_page_shows_both_frames_and_stars_only_the_front(tmp_path):
+    def rec(m, source, fidelity, t, ratio):
+        return {"estimator": m, "preset": "table1", "source": source, "fidelity": fidelity, "rho": "random",
+                "snr_db": 20.0, "time_per_cycle_s": t, "time_ratio_to_fft_peak": t / 1e-4, "range_rmse_m": ratio,
+                "range_ratio": ratio, "velocity_ratio": 1.0, "n_cycles": 1000, "n_missing": 0}
+    recs = [rec("fft_peak", "tones", None, 1e-4, 100.0), rec("ml", "tones", None, 2e-4, 0.98),
+            rec("os_cfar", "tones", None, 6e-3, 0.979), rec("fft_peak", "chain", "beat", 1e-4, 100.0),
+            rec("ml", "chain", "beat", 2e-4, 1.0), rec("music", "chain", "beat", 7e-4, 1.2)]
+    doc = {"command": "python3 dev.py bench estimators", "records": recs, "pareto_snr": 20.0, "default": "ml",
+           "reason": "r", "machine": transport_doc(1.0)["machine"]}
+    lines = report.estimators_table(doc)
+    assert "| table1 | chain, beat | ml | random | 20 | 1 | 1 | 200 | 2.00 | 0 |" in lines
+    front = [line for line in lines if line.startswith("| table1 |") and line.count("|") == 7]
+    assert "| table1 | tones | * | ml | 200 | 0.98 |" in front
+    assert "| table1 | tones |  | os_cfar | 6000 | 0.979 |" in front          # ml's error, 30 times the time
+    assert "| table1 | chain, beat |  | music | 700 | 1.2 |" in front

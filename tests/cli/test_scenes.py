@@ -73,9 +73,21 @@ def test_scenes_names_where_the_fidelities_differ_and_the_leak_of_a_near_car(cap
     near.write_text(preset.replace("range_m = 43.0", "range_m = 7.0"))
     assert carav(["scenes", str(near)]) == Exit.OK
     assert _column(capsys.readouterr().out, "near")["warnings"] == "none"
-    near.write_text(preset.replace("range_m = 43.0", "range_m = 7.0").replace("t_adc_start_s =", "# t_adc_start_s =")
+    near.write_text(preset.replace("range_m = 43.0", "range_m = 7.0")
+                    .replace("t_adc_start_s = 1.0666666666666667e-07", "t_adc_start_s = 0.0")
                     .replace("n_samples = 1080", "n_samples = 1100"))
     assert carav(["scenes", str(near)]) == Exit.OK
     out = capsys.readouterr().out
     assert _column(out, "near")["warnings"] == "1"
     assert "targets[0] (7 m, 100 m^2)" in out and "m^2 at 7 m; at 100 m^2 it exceeds at 0.25-" in out
+
+
+def test_scenes_says_a_scenes_adc_start_is_the_default_and_why(capsys, tmp_path):
+    path = tmp_path / "matlab.toml"
+    path.write_text('fc_hz = 77e9\nbandwidth_hz = 150e6\nt_sweep_s = 7.33e-6\nfs_hz = 150e6\nn_chirps = 64\n')
+    assert carav(["scenes", str(path), "table1"]) == Exit.OK
+    out = capsys.readouterr().out
+    assert _column(out, "matlab")["sampling window"] == (
+        "7.227 us from 0.1067 us (the default: 16 samples in, once the IF filter has settled after the ramp's reset; "
+        "t_adc_start_s = 0 samples from the reset)")
+    assert _column(out, "table1")["sampling window"] == "7.2 us from 0.1067 us"          # said by the preset

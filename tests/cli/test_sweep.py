@@ -85,8 +85,8 @@ def test_sweep_at_waveform_fidelity_sees_a_near_echo_leak_into_silent_slots_that
     settled = tmp_path / "settled.toml"
     settled.write_text(near)
     scene = tmp_path / "near.toml"
-    scene.write_text(near.replace("t_adc_start_s =", "# t_adc_start_s =").replace("n_samples = 1080",
-                                                                                  "n_samples = 1100"))
+    scene.write_text(near.replace("t_adc_start_s = 1.0666666666666667e-07", "t_adc_start_s = 0.0")
+                     .replace("n_samples = 1080", "n_samples = 1100"))
     assert _run(["--scene", str(settled), "--attack", "random", "--rarms", "3", "--trials", "40", "--eta",
                  "1.5:2:0.5", "--seed", "3", "--quiet", "--fidelity", "waveform", "--json",
                  str(tmp_path / "settled.json")]) == 0

@@ -45,3 +45,16 @@ def test_monte_carlo_ml_frequency_variance_approaches_bound():
         est.append(res.x)
     ratio = np.mean((np.array(est) - f0) ** 2) / tone_frequency_crlb(snr, n)
     assert 0.75 < ratio < 1.3
+
+
+def test_a_late_echo_is_bounded_by_the_samples_that_hold_it():
+    from carav_stream.estimate.geometry import Geometry
+    from carav_stream.radar.scene_loader import load_scene
+    g = Geometry.from_scene(load_scene("table1"))                  # the car's echo from sample 28 of 1080 on
+    rho = np.ones((1, 64), bool)
+    late = fmcw_crlb(g, 2.2, rho, range_m=43.0, couple=False)["beat_hz"]
+    held = np.sqrt(tone_frequency_crlb(10 ** 0.22 * 64, 1080 - 28, iq=False)) * g.fs_hz
+    assert late == pytest.approx(held, rel=1e-12)
+    assert late == pytest.approx(fmcw_crlb(g, 2.2, rho, couple=False)["beat_hz"] * (1080 / 1052) ** 1.5, rel=1e-3)
+    # an echo there before the window starts fills it
+    assert fmcw_crlb(g, 2.2, rho, range_m=5.0)["range_m"] == pytest.approx(fmcw_crlb(g, 2.2, rho)["range_m"])

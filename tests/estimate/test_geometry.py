@@ -1,4 +1,5 @@
 """Geometry: duck-typed construction, conversions against the FMCW closed forms, error messages."""
+import dataclasses
 import types
 
 import numpy as np
@@ -65,3 +66,27 @@ def test_geometry_matches_radar_scene_when_available():
     assert g.range_resolution_m == pytest.approx(sc.range_resolution_m)
     assert g.beat_from_range(sc.targets[0].range_m, sc.range_rate_mps(sc.targets[0])) == \
         pytest.approx(sc.beat_hz(sc.targets[0]), rel=1e-9)
+
+
+def test_the_echo_onset_is_the_first_sample_after_the_round_trip():
+    from carav_stream.radar.scene_loader import load_scene
+    base = load_scene("table1")
+    car = base.targets[0].range_m                      # 43 m: a round trip of 43.03 samples at 150 MHz
+    for start, onset in ((0, 44), (16, 28), (50, 0)):
+        g = dataclasses.replace(Geometry.from_scene(base), t_adc_start_s=start / base.fs_hz)
+        assert g.echo_onset(car) == onset
+    assert Geometry.from_scene(base).echo_onset(1e9) == base.n_samples     # never past the window
+
+
+def test_the_doppler_scale_is_where_it_is_read_and_conversions_invert():
+    g = Geometry(fs_hz=10e6, slope_hz_per_s=12.5e12, fc_hz=77e9, t_chirp_s=160e-6, n_samples=256,
+                 t_adc_start_s=7e-6)
+    assert g.doppler_scale_at(0.0) == g.doppler_scale
+    # read at the window's middle, 12.75 us later, and for an echo 0.133 us late: 1 + S (7 + 12.75 - 0.133) us / fc
+    assert g.doppler_scale_at(127.5, 0.133e-6) == pytest.approx(1 + 12.5e12 * 19.617e-6 / 77e9, rel=1e-12)
+    nu = g.slow_freq_from_velocity(-1.94, sample=127.5, delay_s=0.133e-6)
+    assert g.velocity_from_slow_freq(nu, sample=127.5, delay_s=0.133e-6) == pytest.approx(-1.94, rel=1e-12)
+    # read as if at the first sample, no delay: 2.0e-3 too fast
+    assert g.velocity_from_slow_freq(nu) == pytest.approx(-1.94 * g.doppler_scale_at(127.5, 0.133e-6)
+                                                          / g.doppler_scale, rel=1e-12)
+    assert g.doppler_scale_at(127.5, 0.133e-6) / g.doppler_scale == pytest.approx(1.0020, abs=1e-4)

@@ -9,7 +9,7 @@ from carav_stream.estimate import Geometry, estimate
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.estimators import _Chirps, _normalise
 from carav_stream.estimate.joint import fast_time_moments, refine_tone
-from carav_stream.estimate.tones import random_rho, synth_beat
+from carav_stream.estimate.tones import centroid_ranges, random_rho, synth_beat
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.scene_loader import load_scene
 
@@ -62,12 +62,14 @@ def _ratio(g, n_chirps, ranges, vels, snr_db, seed, amplitudes=1.0, n=300):
     r = np.full((n, 1), ranges[0]) if np.ndim(ranges) == 1 else ranges
     v = np.full((n, 1), vels[0]) if np.ndim(vels) == 1 else vels
     r = r + rng.uniform(-0.5, 0.5, r.shape) * g.range_resolution_m * np.array([1.0] + [0.0] * (r.shape[1] - 1))
-    x = synth_beat(g, rho, r, v, amplitudes=amplitudes, snr_sample_db=snr_s, rng=rng)
+    # echoes as the radar hears them: from their round trips on, their ranges walking; the bound of those samples
+    x = synth_beat(g, rho, r, v, amplitudes=amplitudes, snr_sample_db=snr_s, rng=rng, migrate=True, gate=True)
     e = estimate(x, rho, g, method="ml")
-    b = fmcw_crlb(g, snr_s, rho)
+    b = fmcw_crlb(g, snr_s, rho, range_m=r[:, 0])
     vmax = g.max_velocity_mps
     dv = (e.velocity_mps[:, 0] - v[:, 0] + vmax) % (2 * vmax) - vmax
-    return (np.sqrt(np.mean((e.range_m[:, 0] - r[:, 0]) ** 2) / np.mean(b["range_m"] ** 2)),
+    dr = e.range_m[:, 0] - centroid_ranges(g, rho, r, v)[:, 0]
+    return (np.sqrt(np.mean(dr ** 2) / np.mean(b["range_m"] ** 2)),
             np.sqrt(np.mean(dv ** 2) / np.mean(b["velocity_mps"] ** 2)))
 
 

@@ -130,3 +130,15 @@ def test_a_cycle_is_refined_the_same_alone_and_in_a_batch_of_cycles_with_more_ac
     assert both.range_m[0, 0] == pytest.approx(alone.range_m[0, 0], abs=1e-9)
     assert both.velocity_mps[0, 0] == pytest.approx(alone.velocity_mps[0, 0], abs=1e-9)
     assert abs(both.velocity_mps[0, 0] - scene.range_rate_mps(scene.targets[0])) < 0.1
+
+
+def test_a_walk_that_starts_a_hair_below_bin_zero_reads_bin_zero():
+    # real samples whose walk puts a chirp's position a rounding error below 0: its float modulo is the FFT length
+    # itself, one past the last bin (seed 49: a target at 3.5 m, -10.5 m/s on a 64-sample chirp)
+    from carav_stream.estimate.tones import random_rho, synth_beat
+    g = Geometry(fs_hz=20e6, slope_hz_per_s=4e12, fc_hz=77e9, t_chirp_s=50e-6, n_samples=64, iq=False)
+    rng = np.random.default_rng(49)
+    rho = random_rho(rng, 2, 32)
+    x = synth_beat(g, rho, [rng.uniform(2, 30)], [rng.uniform(-20, 20)], snr_sample_db=10, rng=rng)
+    e = estimate(x, rho, g, max_speed_mps=60.0)
+    assert np.all(np.isfinite(e.range_m)) and np.all(np.abs(e.range_m - 3.475) < g.range_resolution_m)

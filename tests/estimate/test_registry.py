@@ -39,6 +39,7 @@ def test_a_new_method_file_is_registered_in_its_order_and_helpers_are_not(tmp_pa
 
         class M(Method):
             order = {order}
+            range_words = velocity_words = "a test's"
     """
     folder = _package(tmp_path, monkeypatch, "methods_new_file", {
         "_helpers": "X = 1\n", "alpha": method.format(order=2), "beta": method.format(order=1),
@@ -54,9 +55,11 @@ def test_a_method_file_without_exactly_one_method_class_is_refused_naming_the_fi
 
         class A(Method):
             order = 1
+            range_words = velocity_words = "a test's"
 
         class B(Method):
             order = 2
+            range_words = velocity_words = "a test's"
     """})
     with pytest.raises(ImportError, match=r"twice\.py.*one Method subclass.*\['A', 'B'\]"):
         discover(folder, "methods_two_classes")
@@ -71,3 +74,15 @@ def test_a_method_without_an_order_is_refused_naming_its_class(tmp_path, monkeyp
     """})
     with pytest.raises(ImportError, match=r"loose\.py: Loose sets no integer `order`"):
         discover(folder, "methods_no_order")
+
+
+def test_a_method_that_does_not_say_how_it_reads_range_and_velocity_is_refused(tmp_path, monkeypatch):
+    folder = _package(tmp_path, monkeypatch, "methods_no_words", {"mute": """
+        from carav_stream.estimate.estimators import Method
+
+        class Mute(Method):
+            order = 1
+            range_words = "the grid"
+    """})
+    with pytest.raises(ImportError, match=r"mute\.py: Mute sets no velocity_words"):
+        discover(folder, "methods_no_words")

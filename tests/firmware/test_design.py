@@ -12,7 +12,7 @@ from scipy import stats
 from carav_stream.cli import main as carav
 from carav_stream.console.errors import Exit
 from carav_stream.detect.stats import clopper_pearson
-from carav_stream.firmware.design import pf_per_cycle, rms_threshold, scene_law, threshold_warning
+from carav_stream.firmware.design import SceneLaw, pf_per_cycle, rms_threshold, scene_law, threshold_warning
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
 from carav_stream.radar.scene_loader import load_scene
@@ -122,3 +122,50 @@ def test_design_checks_the_scenes_own_benign_cycles_and_warns_when_a_near_echo_s
     assert wave["scene"]["fidelity"] == "waveform" and wave["benign"]["design"]["alarms"] >= 10
     assert wave["benign"]["above_design"] and "WARNING: the scene's own echo raises false alarms" in text
     assert wave["rms_detector"]["eta"] == beat["rms_detector"]["eta"]          # the closed form is the same
+
+
+def _near_car(range_m: float, **over):
+    """The table1 car moved close: its echo lifts the 12-bit ADC's full scale until a step exceeds the noise."""
+    return load_scene("table1", {"targets[0].range_m": range_m, **over})
+
+
+@pytest.mark.parametrize("range_m, over", [(3.0, {}), (4.0, {}), (3.0, {"iq": True})])
+def test_where_the_adc_step_exceeds_the_noise_the_design_is_what_the_chain_measures(range_m, over):
+    # the table1 car at 3 m: lsb = 4.1 sigma_n, most silent samples quantise to 0 and the silent RMS falls below
+    # sigma_n; the chain's false alarms at thresholds between two of the law's steps are the design's
+    scene = _near_car(range_m, **over)
+    law = scene_law(scene)
+    assert law.steps() < 0.65
+    lsb = scene.adc_full_scale / 2 ** (scene.adc_bits - 1)
+    s = scene.n_samples * (rms_threshold(law, 0.1) * scene.sigma_n / lsb) ** 2
+    etas = [lsb / scene.sigma_n * np.sqrt((np.floor(s) + d + 0.5) / scene.n_samples) for d in (-2, 0, 2)]
+    n = 600
+    q = simulate_q(RadarSource(scene), "none", 0.0, n, np.random.SeedSequence(9), method="samples").q
+    for eta in etas:
+        pf = float(pf_per_cycle(law, eta))
+        assert 0.01 < pf < 0.9
+        assert stats.binomtest(int(np.sum(q >= eta)), n, pf).pvalue > 1e-3, (eta, pf)
+
+
+def test_the_paper_eta_is_quiet_for_the_car_at_3_m_and_the_design_eta_holds_its_pf():
+    law = scene_law(_near_car(3.0))
+    assert pf_per_cycle(law, 1.5) < 1e-30                   # not 1: the noise quantises below sigma_n
+    eta = rms_threshold(law, 1e-6)
+    assert 1.1 < eta < 1.2 and pf_per_cycle(law, eta) <= 1e-6
+
+
+def _laws(steps: float) -> tuple[SceneLaw, SceneLaw]:
+    """table1's law with an ADC step of sigma_n / steps: as the design takes it, and with the uniform model only."""
+    base = scene_law(load_scene("table1"))
+    lsb = base.sigma_n / steps
+    sigma_eff = float(np.sqrt(base.sigma_n ** 2 + lsb ** 2 / 12))
+    law = SceneLaw(base.name, base.n_chirps, base.dof, base.snr, base.sigma_n, sigma_eff, lsb, False)
+    return law, SceneLaw(base.name, base.n_chirps, base.dof, base.snr, base.sigma_n, sigma_eff)
+
+
+def test_the_quantised_law_meets_the_uniform_one_where_it_takes_over():
+    # just above and below sigma_c = 0.65 lsb (design.QUANTISED_BELOW) the two laws' thresholds agree within 0.1 %;
+    # at 0.5 lsb the uniform model's is 0.6 % off
+    assert rms_threshold(_laws(0.6499)[0], 1e-6) == pytest.approx(rms_threshold(_laws(0.6501)[0], 1e-6), rel=1e-3)
+    quantised, uniform = _laws(0.5)
+    assert rms_threshold(uniform, 1e-6) / rms_threshold(quantised, 1e-6) - 1 == pytest.approx(0.006, abs=0.002)

@@ -84,7 +84,7 @@ def test_a_loud_target_outside_the_transition_band_agrees(preset, iq, fraction):
     # +20 dB per sample, at fractions of the maximum range a tenth of it clear of the band. Measured on table1 (I
     # only): 0.04 at 0.5, 0.10 at 0.8, 0.14 at 0.85 and 0.13 at 1.1: its spill beats at -(1 - tau / T_c) fs, close to
     # the band whenever its echo is, and the waveform renders the splatter of the spill's gated ends, which the
-    # beat fidelity's ideal filter removes. The leak's closed form takes the larger of the two (firmware/leak.py).
+    # beat fidelity's ideal filter removes. The leak's exact rate takes the larger of the two (firmware/leak.py).
     s = _at(preset, fraction, iq, snr_db=20.0)
     assert not _inside(s) and _difference(s) < TOLERANCE
 

@@ -185,3 +185,28 @@ def test_any_bad_target_value_gives_a_located_scene_error_or_a_scene(key, value)
         scene_from_dict({**BASE, "targets": [{"range_m": 43.0, key: value}]}, "b.toml")
     except SceneError as exc:
         assert any(p.startswith("b.toml: targets[0].") for p in exc.problems)
+
+
+# Table I written as MATLAB's example writes it: no ADC start, no sample count
+MATLAB = {"fc_hz": 77e9, "bandwidth_hz": 150e6, "t_sweep_s": 7.33e-6, "fs_hz": 150e6, "n_chirps": 64,
+          "radar_speed_kmh": 100.0, "targets": [{"range_m": 7.0, "velocity_kmh": 96.0, "rcs_m2": 100.0}]}
+
+
+def test_a_scene_that_does_not_say_when_its_adc_starts_starts_once_the_if_filter_has_settled():
+    s = scene_from_dict(MATLAB, "matlab.toml")
+    assert s.t_adc_start_s == pytest.approx(16 / 150e6) and s.adc_start_default
+    assert s.n_samples == round((7.33e-6 - 16 / 150e6) * 150e6) == 1084            # what is left of the ramp
+    assert s.t_adc_start_s == load_scene("table1").t_adc_start_s                       # the preset's own reasoning
+
+
+def test_a_scene_that_says_zero_samples_from_the_ramps_reset():
+    s = scene_from_dict({**MATLAB, "t_adc_start_s": 0.0}, "reset.toml")
+    assert s.t_adc_start_s == 0.0 and not s.adc_start_default and s.n_samples == 1100
+
+
+def test_a_sample_count_the_default_start_cannot_hold_is_refused_naming_the_default():
+    with pytest.raises(SceneError) as exc:
+        scene_from_dict({**MATLAB, "n_samples": 1100}, "matlab.toml")
+    (problem,) = exc.value.problems
+    assert problem.startswith("matlab.toml: n_samples: 1100 samples at 1.5e+08 Hz from t_adc_start_s = 1.06667e-07 s "
+                              "(not given: the default, 16 samples in") and "t_adc_start_s = 0 samples from" in problem

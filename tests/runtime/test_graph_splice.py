@@ -116,3 +116,20 @@ def test_the_test_kit_splices_a_block_into_the_chain_and_the_graph_runs_with_it(
     tee = summary["per_node"]["tee"]
     assert sum(tee["in"].values()) == sum(tee["out"].values()) == sum(summary["per_node"]["adc"]["out"].values())
     assert check_fail_closed(carav.workdir)[1] == 64
+
+
+def test_an_attacker_left_unconnected_is_warned_about(tmp_path):
+    path = tmp_path / "g.toml"
+    path.write_text(f'include = "{DEMO}"\nremove_connections = ["attacker.attack -> adc.attack"]\n')
+    g = load_graph(path)
+    assert g.warnings == ["blocks.attacker (attacker): none of its outputs (attack) is connected: it runs, and "
+                          "nothing takes what it computes"]
+    assert load_graph(DEMO).warnings == []
+
+
+def test_an_input_connected_twice_points_at_remove_connections(tmp_path):
+    path = tmp_path / "g.toml"
+    path.write_text(f'include = "{DEMO}"\nconnections = ["channel.rx -> adc.rx"]\n')
+    with pytest.raises(GraphError) as err:
+        load_graph(path)
+    assert any("adc.rx is connected twice" in p and "remove_connections" in p for p in err.value.problems)

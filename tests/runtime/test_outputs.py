@@ -95,20 +95,47 @@ def test_a_restarted_consumer_gets_a_fresh_connection_that_first_says_where_the_
     assert socks[2].sent == [["resume", 1], ["h1"]] and out.reconnect == set()
 
 
-def test_a_fresh_connection_without_room_for_the_marker_is_tried_again_later():
+def test_a_fresh_connection_without_room_yet_is_kept_and_the_next_call_sends_only_what_is_left():
     out, socks = outputs()
     first_fresh = {"B": True}
 
-    def connect(endpoint):                                  # the first fresh connection to B has no room
-        socks.append(Sock(endpoint, 1 if first_fresh.pop(endpoint, False) else 0))
+    def connect(endpoint):            # the fresh connection to B takes one message, then has no room for a while
+        socks.append(Sock(endpoint))
+        if first_fresh.pop(endpoint, False):
+            socks[-1].refuse_after = 1
+        return socks[-1]
+
+    def send(sock, parts, flags=0):
+        if getattr(sock, "refuse_after", None) == len(sock.sent):
+            del sock.refuse_after
+            raise zmq.Again()
+        sock.sent.append(parts)
+
+    out._connect, out._send = connect, send
+    out.reconnect.add("p.out -> b.inp")
+    marker = lambda port, edge: [["resume", 0], ["eos", 0]]   # noqa: E731
+    out.resume_all(marker)
+    assert out.reconnect == {"p.out -> b.inp"} and socks[2].sent == [["resume", 0]]
+    out.resume_all(marker)
+    assert out.reconnect == set() and not socks[2].closed and len(socks) == 3
+    assert socks[2].sent == [["resume", 0], ["eos", 0]]         # each message once, on the one fresh connection
+
+
+def test_a_consumer_restarted_again_while_its_marker_waits_gets_another_fresh_connection():
+    out, socks = outputs()
+    fresh = iter([10 ** 6, 0])        # the first fresh connection never has room (its consumer died again)
+
+    def connect(endpoint):
+        socks.append(Sock(endpoint, next(fresh)))
         return socks[-1]
 
     out._connect = connect
-    out.reconnect.add("p.out -> b.inp")
+    out.restart({"p.out -> b.inp", "x.out -> elsewhere"})      # an edge this node does not have is ignored
     out.resume_all(lambda port, edge: [["resume", 0]])
     assert out.reconnect == {"p.out -> b.inp"} and socks[2].sent == []
+    out.restart({"p.out -> b.inp"})
     out.resume_all(lambda port, edge: [["resume", 0]])
-    assert out.reconnect == set() and socks[2].closed and socks[3].sent == [["resume", 0]]
+    assert socks[2].closed and socks[3].sent == [["resume", 0]] and out.reconnect == set()
 
 
 def test_end_of_stream_reaches_every_edge_with_the_count_sent_on_it():
@@ -156,3 +183,40 @@ def test_over_zeromq_a_blocked_send_waits_inside_zeromq_tick_by_tick_and_sends_n
     assert received == [big] * filled
     assert not pull.poll(300)                              # ... and the cut one was never half sent
     out.close(crashed=True)
+
+
+def test_over_zeromq_frames_queued_towards_a_consumer_that_died_never_reach_its_restarted_incarnation(tmp_path):
+    """The restarted incarnation binds the same address; the old connection reconnects to it by itself before its
+    producer hears of the restart. What it held for the dead one must be gone, not delivered ahead of (or after)
+    the resume marker."""
+    ctx = zmq.Context()
+    try:
+        endpoint = transport.ipc_endpoint(tmp_path, "edge")
+        pull = transport.bind_input(ctx, endpoint, hwm=1)
+        push = transport.connect_output(ctx, endpoint, hwm=4, linger_ms=0)
+        transport.send_message(push, [b"old", b"0"])
+        assert pull.poll(5000)
+        sent = 1
+        big = b"x" * (1 << 20)                      # more than a Unix socket buffer holds
+        for _ in range(64):                         # fill every queue of the connection towards it
+            try:
+                transport.send_message(push, [b"old", big], zmq.NOBLOCK)
+                sent += 1
+            except zmq.Again:
+                break
+        assert sent > 2
+        pull.close(linger=0)                        # the consumer dies with frames queued towards it
+        pull = transport.bind_input(ctx, endpoint, hwm=1)      # its restarted incarnation, same address
+        deadline = time.monotonic() + 10
+        while not pull.poll(50):                    # the old connection reaches it again by itself; a frame sent
+            assert time.monotonic() < deadline, "the old connection never reached the new incarnation"
+            try:                                    # before the break was noticed is dropped with the rest
+                transport.send_message(push, [b"new", b"0"], zmq.NOBLOCK)
+            except zmq.Again:
+                pass
+        received = []
+        while pull.poll(300):
+            received.append(bytes(transport.recv_message(pull)[0]))
+        assert received and set(received) == {b"new"}, received
+    finally:
+        ctx.destroy(linger=0)

@@ -148,10 +148,12 @@ def integrate_fast(x, chirps: Chirps, nu):
     return np.matmul(c, x)[:, 0, :] + 1j * np.matmul(s, x)[:, 0, :].astype(np.float64)
 
 
-def demod_slow(x, chirps: Chirps, f):
-    """Per-chirp DTFT at beat f [cycles/sample]: z[c, m] = sum_n x[c,m,n] exp(-j 2 pi f_c n), complex128 (C, M)
-    (zero at silent chirps), from the compacted x (C, A, N)."""
+def demod_slow(x, chirps: Chirps, f, gate=None):
+    """Per-chirp DTFT at beat f [cycles/sample]: z[c, m] = sum_n g[c, n] x[c,m,n] exp(-j 2 pi f_c n), complex128
+    (C, M) (zero at silent chirps), from the compacted x (C, A, N); the weights g (C, N) are `gate`, or 1."""
     e = spectral.phasor(f, x.shape[-1])
+    if gate is not None:
+        e = e * gate
     if np.iscomplexobj(x):
         z = np.matmul(x, e.astype(np.complex64)[:, :, None])[:, :, 0].astype(np.complex128)
     else:

@@ -13,15 +13,20 @@ class Method:
     """An estimation method. Subclasses set what differs from the interpolated start without refinement:
 
     order        place in METHODS, the order of every list and table that names all the methods
+    range_words, velocity_words   how it reads the range (beat) and the velocity, in words (`carav estimators`
+                 prints them as the table docs/ESTIMATION.md quotes)
     start_pad    Doppler zero padding of the interpolated start (_grid.start); None: no start, the cell is kept
     padding      (range, Doppler) zero-padding factors of the map's FFTs
     locate       sub-bin (f, nu, |RD|) at the strongest cells
-    refine       None, or refine(x, chirps, f, nu, *, n_newton, music_length, iq) -> (f, nu, amp), each (C, K):
-                 f [cycles/sample], nu [cycles/chirp], amp the positive-frequency tone amplitude per sample
-                 (normalised units), from the compacted active chirps x (C, A, N) and the cells' (f, nu) (C, K)
+    refine       None, or refine(x, chirps, f, nu, *, n_newton, music_length, iq, onset) -> (f, nu, amp), each
+                 (C, K): f [cycles/sample], nu [cycles/chirp], amp the positive-frequency tone amplitude per sample
+                 of the echo (normalised units), from the compacted active chirps x (C, A, N), the cells' (f, nu)
+                 (C, K) and the samples (C, K) where the targets' echoes start (_onset; None: at the window's start)
     """
 
     order: int
+    range_words: str
+    velocity_words: str
     start_pad: int | None = 8
     refine = None
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from carav_stream.estimate import spectral
-from carav_stream.estimate.estimators import _grid
+from carav_stream.estimate.estimators import _grid, _onset
 from carav_stream.estimate.estimators._common import Chirps, Estimates, check_inputs, demod_slow, normalise
 from carav_stream.estimate.estimators._method import Method
 from carav_stream.estimate.estimators._registry import DEFAULT_METHOD, method_named
@@ -26,7 +26,7 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
     n_targets     targets per cycle, or None to estimate it per cycle with `criterion` ('mdl' | 'aic'),
                   capped at max_targets (output width = largest estimate, at least 1)
     zeropad       fast-time zero-padding factor of fft_zeropad
-    music_length  MUSIC subvector length L (default min(N // 4, 32))
+    music_length  MUSIC subvector length L (default N // 4 for music, min(N // 4, 32) for root_music)
     n_newton      Newton steps per refinement (ml, and the Doppler stage of music / root_music)
     couple        remove the range-Doppler coupling from range_m (beat_hz is always the raw beat)
     max_speed_mps > 0: range migration compensated: the fft_peak cells of the strongest maxima, each refined along
@@ -39,7 +39,8 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
         cells = estimate(frames, rho, geometry, method="fft_peak", n_targets=n_targets, max_targets=max_targets,
                          criterion=criterion, couple=False, lsb=lsb)
         return refine_at(frames, rho, geometry, cells.beat_hz / geometry.fs_hz,
-                         geometry.slow_freq_from_velocity(cells.velocity_mps), couple=couple,
+                         geometry.slow_freq_from_velocity(cells.velocity_mps, sample=(geometry.n_samples - 1) / 2.0),
+                         couple=couple,
                          max_speed_mps=max_speed_mps, lsb=lsb)
     chosen = method_named(method)
     frames, rho = check_inputs(frames, rho, geometry, lsb)
@@ -59,17 +60,17 @@ def estimate(frames, rho, geometry: Geometry, *, method: str = DEFAULT_METHOD, n
         order = np.where(valid, width, 0)
     options = {"n_newton": n_newton, "music_length": music_length, "iq": iq}
     if width == 1:
-        f, nu, amp = _one_target(x, chirps, chosen, zeropad, options)
+        f, nu, amp = _one_target(x, chirps, chosen, zeropad, geometry, options)
     else:
-        f, nu, amp = _one_by_one(x, chirps, chosen, width, zeropad, options)
+        f, nu, amp = _one_by_one(x, chirps, chosen, width, zeropad, geometry, options)
     found = np.arange(width)[None, :] < order[:, None]
-    return _estimates(f, nu, amp, found, scale, chirps, geometry, method, couple)
+    return _estimates(f, nu, amp, found, scale, chirps, geometry, chosen, couple)
 
 
-def _one_target(x, chirps: Chirps, method: Method, zeropad: int, options: dict):
+def _one_target(x, chirps: Chirps, method: Method, zeropad: int, geometry: Geometry, options: dict):
     """Strongest target of every cycle from the compacted x (C, A, N): (f, nu, amp) each (C, 1); f
     [cycles/sample], nu [cycles/chirp], amp the positive-frequency tone amplitude per sample (normalised units).
-    `options`: the keywords of Method.refine."""
+    `options`: the keywords of Method.refine but the onset, which the start's beat gives (_onset)."""
     n_samp = x.shape[-1]
     range_pad, doppler_pad = method.padding(zeropad)
     nr = n_samp * range_pad
@@ -80,15 +81,15 @@ def _one_target(x, chirps: Chirps, method: Method, zeropad: int, options: dict):
     f, nu, peak = method.locate(spec, chirps, l0, k0, n_samp, nr, md)
     amp = peak / (n_samp * np.maximum(chirps.count, 1))[:, None]
     if method.refine is not None:
-        f, nu, amp = method.refine(x, chirps, f, nu, **options)
+        f, nu, amp = method.refine(x, chirps, f, nu, onset=_onset.onsets(f, nu, geometry), **options)
     return f, nu, amp
 
 
-def _one_by_one(x, chirps: Chirps, method: Method, width: int, zeropad: int, options: dict):
+def _one_by_one(x, chirps: Chirps, method: Method, width: int, zeropad: int, geometry: Geometry, options: dict):
     """(f, nu, amp), each (C, width), of the `width` strongest targets: RELAX-style sequential search, the
-    strongest target first, removed from the data before the next search (its range and Doppler sidelobes -- high
-    for a sparse active set -- would otherwise win), then the method's joint refinement of all targets with the
-    others cancelled."""
+    strongest target first, removed from the data before the next search (its echo from its onset on: its range
+    and Doppler sidelobes -- high for a sparse active set -- would otherwise win), then the method's joint
+    refinement of all targets with the others cancelled."""
     n_cycles, n_samp = x.shape[0], x.shape[-1]
     n_chirps, iq = chirps.n_chirps, options["iq"]
     f = np.zeros((n_cycles, width))
@@ -97,23 +98,32 @@ def _one_by_one(x, chirps: Chirps, method: Method, width: int, zeropad: int, opt
     resid = x.copy()
     n_act = np.maximum(chirps.count, 1)
     for k in range(width):
-        fk, nuk, _ = _one_target(resid, chirps, method, zeropad, options)
+        fk, nuk, _ = _one_target(resid, chirps, method, zeropad, geometry, options)
         f[:, k], nu[:, k] = fk[:, 0], nuk[:, 0]
+        onset = _onset.onsets(f[:, k], nu[:, k], geometry)
         slow = spectral.phasor(nu[:, k], n_chirps) * chirps.rho
-        alpha = (demod_slow(resid, chirps, f[:, k]) * slow).sum(axis=1) / (n_samp * n_act)  # e^{+j..}
-        amp[:, k] = np.abs(alpha)
+        read = _onset.gates(onset.read, n_samp)
+        alpha = (demod_slow(resid, chirps, f[:, k], read) * slow).sum(axis=1) / ((n_samp - onset.read) * n_act)
+        amp[:, k] = np.abs(alpha)                                                                 # alpha e^{+j..}
         tone = (alpha[:, None] * chirps.gather(slow.conj()))[:, :, None] * \
-            spectral.phasor(f[:, k], n_samp, +1.0)[:, None, :]
+            (spectral.phasor(f[:, k], n_samp, +1.0) * _onset.gates(onset.echo, n_samp))[:, None, :]
         resid = resid - (tone if iq else 2.0 * tone.real).astype(resid.dtype)  # real: a e^{..} + conj
     if method.refine is not None:
-        f, nu, amp = method.refine(x, chirps, f, nu, **options)
+        f, nu, amp = method.refine(x, chirps, f, nu, onset=_onset.onsets(f, nu, geometry), **options)
     return f, nu, amp
 
 
-def _estimates(f, nu, amp, found, scale, chirps: Chirps, geometry: Geometry, method: str, couple: bool) -> Estimates:
-    """Normalised (f, nu, amp) (C, K) -> Estimates in physical units; NaN where `found` is False."""
+def _estimates(f, nu, amp, found, scale, chirps: Chirps, geometry: Geometry, method: Method,
+               couple: bool) -> Estimates:
+    """Normalised (f, nu, amp) (C, K) -> Estimates in physical units; NaN where `found` is False. nu is read at the
+    centre of the samples its sums ran over (Geometry.doppler_scale_at, the delay from the beat): from the echo's
+    onset on where the method refines, the whole window where it reads the map."""
     nu = (nu + 0.5) % 1.0 - 0.5
-    return _in_units(f, geometry.velocity_from_slow_freq(nu), amp, found, scale, chirps, geometry, method, couple)
+    n_samp = geometry.n_samples
+    first = _onset.onsets(f, nu, geometry).read if method.refine is not None else 0
+    velocity = geometry.velocity_from_slow_freq(nu, sample=(first + n_samp - 1) / 2.0,
+                                                delay_s=(f % 1.0) * geometry.fs_hz / geometry.slope_hz_per_s)
+    return _in_units(f, velocity, amp, found, scale, chirps, geometry, method.name, couple)
 
 
 def _in_units(f, velocity, amp, found, scale, chirps: Chirps, geometry: Geometry, method: str,
@@ -168,13 +178,13 @@ def refine_at(frames, rho, geometry: Geometry, f0, nu0, *, method: str = DEFAULT
         if chosen.start_pad is not None:
             fs, nus = _grid.interpolate(x, sub, fs, nus, geometry.iq, chosen.start_pad)
         if chosen.refine is not None:
-            fs, nus, amps = chosen.refine(x, sub, fs, nus, **options)
+            fs, nus, amps = chosen.refine(x, sub, fs, nus, onset=_onset.onsets(fs, nus, geometry), **options)
         else:
             amps = np.stack([np.abs((demod_slow(x, sub, fs[:, j]) * spectral.phasor(nus[:, j], sub.n_chirps)
                                      * sub.rho).sum(axis=1)) / (x.shape[-1] * np.maximum(sub.count, 1))
                              for j in range(k)], axis=1)
         f[rows, :k], nu[rows, :k], amp[rows, :k] = fs, nus, amps
-    return _estimates(f, nu, amp, present & valid[:, None], scale, chirps, geometry, method, couple)
+    return _estimates(f, nu, amp, present & valid[:, None], scale, chirps, geometry, chosen, couple)
 
 
 def _refine_walking(frames, rho, geometry: Geometry, f0, nu0, max_speed_mps: float, couple: bool,

@@ -28,6 +28,10 @@ def discover(folder: Path, package: str) -> dict[str, Method]:
         if not isinstance(getattr(classes[0], "order", None), int):
             raise ImportError(f"{module.__file__}: {classes[0].__name__} sets no integer `order` (its place in "
                               "METHODS)")
+        words = [w for w in ("range_words", "velocity_words") if not isinstance(getattr(classes[0], w, None), str)]
+        if words:
+            raise ImportError(f"{module.__file__}: {classes[0].__name__} sets no {' and no '.join(words)} (how it "
+                              "reads range and velocity, for `carav estimators`)")
         found.append(classes[0](info.name))
     found.sort(key=lambda m: (m.order, m.name))
     return {m.name: m for m in found}

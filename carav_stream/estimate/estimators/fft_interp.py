@@ -10,3 +10,5 @@ from carav_stream.estimate.estimators._method import Method
 
 class FftInterp(Method):
     order = 2
+    range_words = "Candan's bias-corrected 3-bin estimator on the FFT row"
+    velocity_words = "8x padded FFT of the peak's slow-time column, parabolic"

@@ -13,6 +13,8 @@ from carav_stream.estimate.estimators._method import Method
 
 class FftPeak(Method):
     order = 0
+    range_words = 'grid cell'
+    velocity_words = 'grid cell'
     start_pad = None
 
     def locate(self, spec, chirps, l0, k0, n_samp: int, nr: int, md: int):

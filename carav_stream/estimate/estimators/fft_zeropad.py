@@ -18,6 +18,8 @@ DOPPLER_PAD = 4
 
 class FftZeropad(Method):
     order = 1
+    range_words = '8x zero-padded range FFT, parabolic vertex of the magnitude'
+    velocity_words = '4x padded Doppler, parabolic'
 
     def padding(self, zeropad: int) -> tuple[int, int]:
         return zeropad, DOPPLER_PAD

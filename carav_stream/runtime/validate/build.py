@@ -51,6 +51,7 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     edges = ports.edges(data.get("connections", []), nodes, classes, where, problems)
     ports.check_inputs(nodes, classes, edges, where, problems)
     ports.check_cycles(nodes, edges, where, problems)
+    warnings += ports.unused_outputs(nodes, classes, edges)
     security = secure.table(data.get("security", {}), where, problems)
     secure.check_tcp(security, nodes, edges, hosts, where, problems, warnings)
     if problems:

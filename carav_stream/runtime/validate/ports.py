@@ -59,7 +59,9 @@ def check_inputs(nodes: dict[str, Node], classes: dict[str, type[Block]], edges:
     for e in edges:
         key = (e.dst, e.dst_port)
         if key in seen:
-            problems.append(f"{where}: input {e.dst}.{e.dst_port} is connected twice: '{seen[key]}' and '{e}'")
+            problems.append(f"{where}: input {e.dst}.{e.dst_port} is connected twice: '{seen[key]}' and '{e}' (a "
+                            "graph that includes another replaces an included connection by listing it in "
+                            "remove_connections)")
         seen[key] = e
     for name, cls in classes.items():
         for p in cls.inputs:
@@ -75,3 +77,12 @@ def check_cycles(nodes: dict[str, Node], edges: list[Edge], where: str, problems
         TopologicalSorter(predecessors).prepare()
     except CycleError as exc:
         problems.append(f"{where}: connections form a cycle: {' -> '.join(exc.args[1])}")
+
+
+def unused_outputs(nodes: dict[str, Node], classes: dict[str, type[Block]], edges: list[Edge]) -> list[str]:
+    """A warning for each node that has outputs and none of them connected: it runs, and nothing takes what it
+    computes (an attacker left unconnected leaves the graph without an attack, which is easy to miss)."""
+    used = {e.src for e in edges}
+    return [f"blocks.{name} ({nodes[name].type}): none of its outputs ({', '.join(p.name for p in cls.outputs)}) is "
+            "connected: it runs, and nothing takes what it computes"
+            for name, cls in classes.items() if cls.outputs and name not in used]
