@@ -11,6 +11,7 @@
     carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml]   the scene of a TI mmWave CLI profile
     carav capture inspect FILE --scene S [--lanes N] [--encoding E] [--json OUT]   what a DCA1000 capture holds
     carav status | carav stop [RUN] | carav swap NODE BLOCK [--set key=value ...] [--graph RUN]
+    carav keys DIR             CURVE keys for a graph's tcp edges between machines, and its [security] table
     carav sweep ...            PF/PM Monte Carlo and threshold design
     carav study STUDY.toml [--workers N | --scheduler tcp://HOST:PORT] [--out DIR] [--plot]   sweeps on Dask
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
@@ -48,6 +49,7 @@ COMMANDS = {
     "status": ("carav_stream.cli.status", "running graphs with per-node counters and rates"),
     "stop": ("carav_stream.cli.stop", "stop a running graph in order (sources first, drain, sinks last)"),
     "swap": ("carav_stream.cli.swap", "replace a running node's block while frames keep flowing"),
+    "keys": ("carav_stream.cli.keys", "CURVE keys for a graph's tcp edges, and the [security] table naming them"),
     "sweep": ("carav_stream.cli.sweep", "PF/PM Monte Carlo over eta and RARMS, with threshold design"),
     "reproduce": ("carav_stream.cli.reproduce", "the paper's figures and claims beside ours, as markdown"),
     "study": ("carav_stream.cli.study", "a declarative grid of sweeps on Dask distributed: CSV, JSON, figures"),

@@ -11,6 +11,7 @@ from carav_stream.cli.view import view_graph
 from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
+from carav_stream.runtime.curve_keys import split_run_problem
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.rundir import RunRootError
@@ -84,6 +85,9 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     """Run a loaded graph with the options of `carav run` (host, progress, json) and report it."""
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
+    split = split_run_problem(graph, args.host)
+    if split is not None:
+        return fail(f"{graph.path.name}: {split}", Exit.INVALID)
     for w in graph.warnings:
         print(f"carav {command}: warning: {w}", file=sys.stderr)
     try:
@@ -171,7 +175,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "refused_by_estimator", "unreadable_cycles", "figures_cover"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
-                "estimated_counts", "skipped_by_taps", "transport", "shared_memory"}
+                "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security"}
 
 
 def _radar_lines(s: dict[str, Any]) -> list[str]:
@@ -234,6 +238,8 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"  frames skipped for a busy observer (a tap, not lost): {n} on {edge}")
     if s.get("transport") == "shm":
         print(f"  {_shared_memory_words(s['shared_memory'])}")
+    for line in security_lines(s.get("security") or {}):
+        print(f"  {line}")
     for line in _radar_lines(s):
         print(line)
     for k, v in s.items():
@@ -251,6 +257,25 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"  {refused_swap_words(sw)}")
     for f in s["failures"]:
         print(f"  FAILURE: {f}")
+
+
+def security_lines(sec: dict[str, Any]) -> list[str]:
+    """How the run's tcp edges were protected and who was refused, when there is anything to say."""
+    lines = []
+    if sec.get("tcp") == "curve":
+        whose = "keys made for this run" if sec.get("keys") == "run" else "the graph's keys"
+        lines.append(f"tcp edges: ZeroMQ CURVE with {whose}")
+    lines += [f"WARNING: {w}" for w in sec.get("warnings", [])]
+    refused = sec.get("refused_connections") or {}
+    if refused:
+        lines.append(f"tcp connections refused at the CURVE handshake: {sum(refused.values())} ("
+                     + ", ".join(f"{port} {n}" for port, n in refused.items()) + ")")
+    control = sec.get("refused_control") or {}
+    if control:
+        lines.append(f"control messages refused: {sum(control.values())} ("
+                     + "; ".join(f"{n} {reason}" for reason, n in list(control.items())[:3])
+                     + ("; ..." if len(control) > 3 else "") + ")")
+    return lines
 
 
 def _shared_memory_words(ports: dict[str, dict[str, int]]) -> str:

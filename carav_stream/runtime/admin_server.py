@@ -147,7 +147,7 @@ class AdminServer:
         return {"run": self.report.run_id, "graph": str(self.graph.path), "pid": os.getpid(), "elapsed_s": elapsed,
                 "cycles": self.report.cycles_done(),
                 "nodes": {n: {"pid": st.proc.pid if st.proc else None,
-                              "alive": bool(st.proc and st.proc.poll() is None),
+                              "alive": st.proc is not None and st.exit_code() is None,
                               "restarts": st.restarts, "counters": st.counters,
                               # over every incarnation: each counts only what it did itself (NodeState.total)
                               "processed": st.total("processed"), "cycles_total": st.total("cycles"),

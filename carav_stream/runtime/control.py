@@ -12,7 +12,8 @@ from carav_stream.runtime.protocol import Control
 
 class ControlState:
     def __init__(self, *, go: bool, recovering: bool = False, seq_lease: int = 0,
-                 input_bounds: dict[str, int] | None = None, producers: dict[str, list[int]] | None = None) -> None:
+                 input_bounds: dict[str, int] | None = None,
+                 producers: dict[str, list[list[int]]] | None = None) -> None:
         self.go = go                                  # sources wait for it; other nodes start at once
         self.told_go = False                          # Control.GO came (every node must get it, in time)
         self.stopping = False                         # sources: stop generating
@@ -24,9 +25,9 @@ class ControlState:
         self.reconnect_edges: set[str] = set()        # outputs whose consumer was restarted
         self.seq_lease = seq_lease                    # sources: seqs below this may be generated
         self.input_bounds = dict(input_bounds or {})  # input port -> highest seq its producer can send (grows)
-        # input port -> pids of the processes that fed it, the current producer last (a dead one's frames may
-        # still be queued)
-        self.producers = {port: list(pids) for port, pids in (producers or {}).items()}
+        # input port -> {pid: start time} of the processes that fed it, the current producer last (an ended one's
+        # frames may still be queued; senders.py: why its pid cannot change hands while the run lasts)
+        self.producers = {port: {pid: start for pid, start in pairs} for port, pairs in (producers or {}).items()}
 
     def apply(self, msg: dict[str, Any]) -> None:
         """Take one control message into the state; unknown kinds are ignored (a newer supervisor's)."""
@@ -53,11 +54,10 @@ class ControlState:
             for port, bound in _ints(msg, "inputs").items():
                 self.input_bounds[port] = max(self.input_bounds.get(port, bound), bound)
         elif kind == Control.PEERS:
-            for port, pid in _ints(msg, "inputs").items():
-                pids = self.producers.setdefault(port, [])
-                if pid in pids:
-                    pids.remove(pid)
-                pids.append(pid)
+            for port, (pid, start) in _pairs(msg, "inputs").items():
+                pids = self.producers.setdefault(port, {})
+                pids.pop(pid, None)
+                pids[pid] = start
 
     def take_swap(self) -> dict[str, Any] | None:
         msg, self.pending_swap = self.pending_swap, None
@@ -67,6 +67,14 @@ class ControlState:
 def _names(msg: dict[str, Any], key: str) -> list[str]:
     value = msg.get(key, [])
     return [v for v in value if isinstance(v, str)] if isinstance(value, list) else []
+
+
+def _pairs(msg: dict[str, Any], key: str) -> dict[str, tuple[int, int]]:
+    value = msg.get(key, {})
+    if not isinstance(value, dict):
+        return {}
+    return {k: (v[0], v[1]) for k, v in value.items()
+            if isinstance(k, str) and isinstance(v, list) and len(v) == 2 and all(type(x) is int for x in v)}
 
 
 def _ints(msg: dict[str, Any], key: str) -> dict[str, int]:

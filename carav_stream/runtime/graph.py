@@ -71,7 +71,7 @@ class Graph:
     edges: list[Edge]
     run: dict[str, Any]
     hosts: dict[str, Host]
-    security: dict[str, Path]
+    security: dict[str, Any]       # [security]: CURVE key files (Paths) and `tcp` (validate/security.py)
     block_paths: list[Path]
     registry: Registry
     params: dict[str, Any] = field(default_factory=dict)   # graph-wide parameters

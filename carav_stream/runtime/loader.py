@@ -17,7 +17,8 @@
                ZeroMQ messages, in shared memory, ...: runtime/planes/)
     [restart]  policy = "never" | "on-failure", max_restarts
     [hosts.b]  address = "127.0.0.1", bind = "127.0.0.1", port_base = 47000
-    [security] curve_server_cert, curve_client_cert, curve_authorized   (ZeroMQ CURVE on tcp edges)
+    [security] curve_server_cert, curve_client_cert, curve_authorized, tcp = "plain"   (tcp edges: ZeroMQ CURVE
+               with the graph's keys, or keys made for the run, or in the clear: validate/security.py)
 
 Composition: a graph that includes another states only what differs. Its top-level values replace the included
 ones; its `[run]`, `[restart]`, `[hosts]` and `[security]` tables are merged key by key; its `connections` are
@@ -47,6 +48,7 @@ from typing import Any
 
 from carav_stream.runtime.graph import Graph, GraphError, Source
 from carav_stream.runtime.validate import build_graph
+from carav_stream.runtime.validate.security import KEY_FILES
 
 MERGED_TABLES = ("run", "restart", "hosts", "security")   # tables an including graph merges key by key
 MAX_INCLUDE_DEPTH = 8
@@ -97,14 +99,15 @@ def read_graph_file(path: Path, problems: list[str], seen: tuple[Path, ...] = ()
 
 
 def _absolute_names(data: dict[str, Any], folder: Path) -> None:
-    """`block_paths` and `[security]` files written in a graph file are relative to its folder: made absolute
+    """`block_paths` and `[security]` key files written in a graph file are relative to its folder: made absolute
     before composition, so that an including graph in another folder keeps them."""
     paths = data.get("block_paths")
     if isinstance(paths, list):
         data["block_paths"] = [str(folder / p) if isinstance(p, str) else p for p in paths]
     sec = data.get("security")
     if isinstance(sec, dict):
-        data["security"] = {k: str(folder / v) if isinstance(v, str) else v for k, v in sec.items()}
+        data["security"] = {k: str(folder / v) if isinstance(v, str) and k in KEY_FILES else v
+                            for k, v in sec.items()}
 
 
 def _written_where(data: dict[str, Any], folder: Path) -> dict[str, Path]:

@@ -32,7 +32,7 @@ import zmq
 from carav_stream import node_start
 from carav_stream.runtime.block import BlockError
 from carav_stream.runtime.node_driver import BlockDriver, new_block
-from carav_stream.runtime.node_link import ControlLink
+from carav_stream.runtime.node_link import ControlLink, connection_id
 from carav_stream.runtime.node_ports import NodePorts
 from carav_stream.runtime.protocol import NodeSpec, Report, pack
 from carav_stream.runtime.registry import Registry
@@ -56,12 +56,13 @@ class NodeRunner:
     def apply_control(self) -> None:
         """What the served control messages say, done on the ports at once (node_link.py: re-entrancy)."""
         self.ports.apply_control(self.driver.resume_messages)
+        self.ports.watch_handshakes()
 
     def counters(self) -> dict[str, Any]:
         d, p = self.driver, self.ports
         out = p.outputs
         return {"in": dict(p.c_in), "out": dict(p.c_out), "sent": dict(out.c_sent),
-                "rejected": dict(p.c_rejected), "unpaired": dict(d.c_unpaired),
+                "rejected": dict(p.c_rejected), "refused": dict(p.c_refused), "unpaired": dict(d.c_unpaired),
                 "undeliverable": dict(out.c_undeliverable), "skipped": dict(out.c_skipped),
                 "processed": d.processed, "consumed": d.consumed, "cycles": d.cycles, "busy_s": d.busy_s,
                 "cpu_s": time.process_time(),           # the whole node process, ZeroMQ I/O thread included
@@ -96,6 +97,7 @@ class NodeRunner:
         else:
             d.run_filter()
         d.finish()
+        self.ports.watch_handshakes()       # what its tcp inputs refused to the end, in its final counters
         eos, c_in = self.ports.pairing.eos, self.ports.c_in
         lost = {p: n - c_in[p] for p, n in eos.items() if n is not None and n != c_in[p]}
         link.tell(Report.DONE, counters=self.counters(), history=d.history, lost=lost,
@@ -121,7 +123,7 @@ def _report_crash(spec: NodeSpec, runner: NodeRunner | None, exc: BaseException)
     if runner is None:
         ctx = zmq.Context()
         ctl = ctx.socket(zmq.DEALER)
-        ctl.identity = spec.name.encode()
+        ctl.identity = connection_id()
         ctl.connect(spec.control)
         ctl.send(msg)
         ctl.close(linger=2000)

@@ -17,10 +17,17 @@ the lease, not from counters that a SIGKILL leaves stale): no consumer ever sees
 
 Start: a node that is not told to go (Control.GO) within its spec's start_timeout_s exits (status 1): its
 supervisor is gone or cannot run the graph, and nobody else could stop it.
+
+Senders: the socket's identity is random (no other process can know it, let alone take it first); the node
+says hello at once, and the supervisor takes that connection as the node's once the kernel's pid of it is the
+node's (senders.py), never for the name a message gives. The node takes control messages only from its
+supervisor's process (spec.supervisor_pid), by the same pid: a message from any other is refused and named in
+the node's log.
 """
 from __future__ import annotations
 
 import os
+import secrets
 import sys
 import time
 from collections.abc import Callable
@@ -31,9 +38,15 @@ import zmq
 from carav_stream.runtime import transport
 from carav_stream.runtime.control import ControlState
 from carav_stream.runtime.protocol import LEASE_FRAMES, NodeSpec, Report, pack, unpack
+from carav_stream.runtime.senders import sender_pid
 
 HEARTBEAT_S = 0.5
 CONTROL_S = 0.01         # while frames flow, the control socket is looked at no more often than this
+
+
+def connection_id() -> bytes:
+    """A random identity for a control connection (ZeroMQ reserves those starting with a zero byte)."""
+    return b"n" + secrets.token_bytes(15)
 
 
 class ControlLink:
@@ -43,9 +56,11 @@ class ControlLink:
                  on_control: Callable[[], None]) -> None:
         self.name = spec.name
         self.sock = ctx.socket(zmq.DEALER)
-        self.sock.identity = self.name.encode()
+        self.sock.identity = connection_id()
         self.sock.linger = 2000
         self.sock.connect(spec.control)
+        self.supervisor_pid = spec.supervisor_pid
+        self.n_refused = 0
         self.ctl = ControlState(go=not source, recovering=spec.recovering, seq_lease=spec.seq_lease,
                                 input_bounds=spec.input_bounds, producers=spec.producers)
         self.counters, self.on_control = counters, on_control
@@ -54,6 +69,7 @@ class ControlLink:
         self.lease_asked = 0
         self.next_hb = 0.0
         self.next_control = 0.0
+        self.tell(Report.HELLO)
 
     def tell(self, kind: Report, **fields: Any) -> None:
         self.sock.send(pack(kind, node=self.name, pid=os.getpid(), **fields))
@@ -73,13 +89,28 @@ class ControlLink:
             self.tell(Report.HEARTBEAT, counters=self.counters())
             self.next_hb = now + HEARTBEAT_S
         while self.sock.get(zmq.EVENTS) & zmq.POLLIN:
-            self.ctl.apply(unpack(self.sock.recv()))
+            self.take(self.sock.recv(copy=False))
         if self.go_by is not None and not self.ctl.told_go and now > self.go_by:
             # no supervisor to report to or to be stopped by: leave at once, saying why in the node's log
             print(f"{self.name}: not told to go within {self.start_timeout_s:.0f} s of starting; its "
                   "supervisor is gone or cannot start the graph; exiting", file=sys.stderr, flush=True)
             os._exit(1)
         self.on_control()
+
+    def take(self, part: zmq.Frame) -> None:
+        """Apply one control message, if it comes from the supervisor's process."""
+        sender = sender_pid(part)
+        if self.supervisor_pid and sender != self.supervisor_pid:
+            self.n_refused += 1
+            print(f"{self.name}: control message #{self.n_refused} refused: sent by process {sender}, not by the "
+                  f"supervisor (process {self.supervisor_pid})", file=sys.stderr, flush=True)
+            return
+        try:
+            msg = unpack(part.bytes)
+        except ValueError as exc:
+            print(f"{self.name}: control message refused: {exc}", file=sys.stderr, flush=True)
+            return
+        self.ctl.apply(msg)
 
     def wait(self, seconds: float) -> None:
         """Wait up to `seconds` for a control message, then serve the link."""

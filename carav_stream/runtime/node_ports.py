@@ -4,8 +4,8 @@ the data plane's writers). Which plane carries the arrays is the spec's (runtime
 no resources to carries them inline, in the ZeroMQ message.
 
 A bad message is rejected with its reason, counted on its port and reported (the first MAX_REPORTED_REJECTS),
-and the node keeps running. On a local (ipc) input a message is taken only from the pid of that input's producer
-(the kernel's SO_PEERCRED, read from ZeroMQ's Peer-Address).
+and the node keeps running. On a local (ipc) input a message is taken only from an incarnation of that input's
+producer (the kernel's SO_PEERCRED, read from ZeroMQ's Peer-Address, with the start time of that pid: senders.py).
 """
 from __future__ import annotations
 
@@ -16,28 +16,17 @@ from typing import Any
 import zmq
 
 from carav_stream.runtime import planes, transport
+from carav_stream.runtime.block import BlockError
+from carav_stream.runtime.curve import Curve, key_files
 from carav_stream.runtime.frames import PLANE_REF, Frame, FrameError, decode, encode_with_header, header_packer
 from carav_stream.runtime.node_link import ControlLink
 from carav_stream.runtime.outputs import Outputs
 from carav_stream.runtime.pairing import Pairing
 from carav_stream.runtime.protocol import NodeSpec, Report
+from carav_stream.runtime.senders import sender_pid
 
 MAX_REPORTED_REJECTS = 20
 RECEIVE_BURST = 64       # messages taken from one input before looking at the others
-
-
-def _sender(part: Any) -> int | None:
-    """The pid of the process that sent a message received over ipc: ZeroMQ's Peer-Address of a Unix socket
-    ends in ":uid:gid:pid", taken by the kernel (SO_PEERCRED) when that process connected. None over tcp or for
-    a part that is not a received zmq.Frame."""
-    try:
-        address = part.get("Peer-Address")
-    except (AttributeError, zmq.ZMQError):
-        return None
-    fields = address.rsplit(":", 3)
-    if len(fields) != 4 or not fields[3].isdigit():
-        return None
-    return int(fields[3])
 
 
 class NodePorts:
@@ -51,12 +40,12 @@ class NodePorts:
         taps = {e.edge for edges in spec.outputs.values() for e in edges if e.tap}
         self.writers = {port: plane.writer(res, taps) for port, res in spec.plane_out.items()}
         header_only = plane is not None and plane.header_only
-        sec = spec.security
-        self.curve = transport.Curve(sec["curve_server_cert"], sec["curve_client_cert"],
-                                     sec["curve_authorized"]) if sec else None
+        keys = key_files(spec.security)
+        self.curve = Curve(keys) if keys else None
         self.inputs = {p: transport.bind_input(ctx, spec.inputs[p], spec.queue_frames, self.curve,
-                                               header_only=header_only and p in spec.plane_in)
+                                               header_only=header_only and p in spec.plane_in, name=p)
                        for p in in_ports}
+        self.edge_at = {e.connect: e.edge for edges in spec.outputs.values() for e in edges}
         self.ipc_inputs = {p for p in in_ports if spec.inputs[p].startswith("ipc://")}
         self.header_only_endpoints = {e.connect for port in spec.plane_out for e in spec.outputs.get(port, ())
                                       if header_only}
@@ -69,11 +58,27 @@ class NodePorts:
         self.c_in = collections.Counter()
         self.c_out = collections.Counter()
         self.c_rejected = collections.Counter()
+        self.c_refused = collections.Counter()      # per tcp input: connections refused at the CURVE handshake
         self.n_reports = 0
 
     def connect(self, endpoint: str) -> zmq.Socket:
         return transport.connect_output(self.ctx, endpoint, self.spec.queue_frames, self.curve,
-                                        int(self.spec.drain_timeout_s * 1000), endpoint in self.header_only_endpoints)
+                                        int(self.spec.drain_timeout_s * 1000), endpoint in self.header_only_endpoints,
+                                        name=self.edge_at[endpoint])
+
+    def watch_handshakes(self) -> None:
+        """Count and report the tcp connections the node's inputs refused since the last call (curve.py); raise
+        BlockError(retry=False), naming the edge and the key, when an output edge's consumer refused this node's
+        CURVE handshake."""
+        if self.curve is None:
+            return
+        for port, reason in self.curve.watch.poll():
+            self.c_refused[port] += 1
+            if self.n_reports < MAX_REPORTED_REJECTS:
+                self.n_reports += 1
+                self.link.tell(Report.REJECT, port=port, reason=reason, count=self.c_refused[port], what="connection")
+        if self.curve.watch.failure is not None:
+            raise BlockError(self.curve.watch.failure, retry=False)
 
     # -- inputs --------------------------------------------------------------------------------------------
     def reject(self, port: str, reason: str) -> None:
@@ -106,7 +111,7 @@ class NodePorts:
         except FrameError as exc:
             self.reject(port, str(exc))
             return None
-        sender = _sender(parts[0]) if port in self.ipc_inputs else None
+        sender = sender_pid(parts[0]) if port in self.ipc_inputs else None
         reason = self.pairing.check(port, frame, sender)
         if reason is not None:
             # a producer's pid or lease the supervisor sent may still be queued on the control socket: take it

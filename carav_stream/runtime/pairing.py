@@ -13,8 +13,10 @@ Every header field the pairing acts on is checked against what the node already 
 (`check`, then `accept`): a refused message leaves the stream as it was.
 
 - sender: on a local edge the kernel names the process that connected (ZeroMQ's `Peer-Address` over ipc ends
-  in its pid); a message from any process but the port's producer, whose pid the supervisor tells the node
-  (`producers`), is refused, so no other process on the host can speak for a producer.
+  in its pid); a message from any process but an incarnation of the port's producer, whose pid and start time the
+  supervisor tells the node (`producers`: it starts producers before their consumers), is refused, and so is a
+  message from such a pid held by a process that started at another time (senders.py: why a pid the supervisor
+  names cannot change hands while the run lasts), so no other process on the host can speak for a producer.
 - seq: every seq in a graph comes from a source, which generates a seq only below the lease its supervisor
   granted; a frame inherits the seq of its inputs, and a node adds at most 1 to the last seq it handled (the
   frames its block returns at the end, the resume marker). So no seq on a port can exceed the largest lease of
@@ -36,6 +38,7 @@ from collections.abc import Callable
 from typing import Any
 
 from carav_stream.runtime.frames import Frame
+from carav_stream.runtime.senders import start_ticks
 
 RECOVERY_STALL_S = 2.0   # after a crash: how long a full input buffer waits for a partner before giving up
 
@@ -61,13 +64,16 @@ def frame_cycles_problem(header: dict[str, Any]) -> str | None:
 class Pairing:
     """The input side of a node: per-port buffers, end-of-stream marks and the last seq seen per port.
 
-    `bounds` (port -> highest seq its producer can send) and `producers` (port -> the pids of its producer's
-    incarnations, the current one last: frames a dead one sent may still be queued) are the node's dicts, kept
-    up to date by its control messages; a port missing from either is not checked on it."""
+    `bounds` (port -> highest seq its producer can send) and `producers` (port -> {pid: start time} of its
+    producer's incarnations, the current one last: frames an ended one sent may still be queued) are the node's
+    dicts, kept up to date by its control messages. A port without a bound is not checked against one; a message
+    with a sender (a local edge) on a port without producers is refused.
+    `start_of(pid)` reads a process's start time (senders.start_ticks), once per pid that matches."""
 
     def __init__(self, ports: list[str], limit: int, *, recovering: bool = False,
                  stall_s: float = RECOVERY_STALL_S, clock: Callable[[], float] = time.monotonic,
-                 bounds: dict[str, int] | None = None, producers: dict[str, list[int]] | None = None) -> None:
+                 bounds: dict[str, int] | None = None, producers: dict[str, dict[int, int]] | None = None,
+                 start_of: Callable[[int], int | None] = start_ticks) -> None:
         self.ports = list(ports)
         self.limit = limit                         # frames buffered per input while pairing
         self.recovering = recovering
@@ -79,6 +85,8 @@ class Pairing:
         self.handled = -1                          # last seq handed to the block (a later partner is late)
         self.bounds = {} if bounds is None else bounds
         self.producers = {} if producers is None else producers
+        self.start_of = start_of
+        self.verified: dict[int, int] = {}             # pid -> the start time read and found to agree
         self.received: dict[tuple[str, int], int] = {}   # (port, sender pid) -> data frames taken
 
     def admit(self, port: str, frame: Frame, sender: int | None = None) -> tuple[bool, str | None]:
@@ -93,10 +101,28 @@ class Pairing:
     def check(self, port: str, frame: Frame, sender: int | None = None) -> str | None:
         """Why the message from `port` must be refused, or None; changes nothing. Who sent it is judged first
         (a message from another process is refused whatever it says), then its fields against the stream."""
-        producers = self.producers.get(port)
-        if sender is not None and producers is not None and sender not in producers:
-            return f"sent by process {sender}, not by this input's producer (process {producers[-1]})"
+        if sender is not None:
+            producers = self.producers.get(port)
+            if producers is None:
+                return f"sent by process {sender} before this input's producer was named"
+            reason = self.check_sender(sender, producers)
+            if reason is not None:
+                return reason
         return self.check_stream(port, frame, sender)
+
+    def check_sender(self, sender: int, producers: dict[int, int]) -> str | None:
+        """Why process `sender` is no incarnation of the producer whose incarnations are `producers`, or None."""
+        start = producers.get(sender)
+        if start is None:
+            current = next(reversed(producers), None)
+            return f"sent by process {sender}, not by this input's producer (process {current})"
+        if self.verified.get(sender) != start:
+            now = self.start_of(sender)
+            if now != start:
+                return (f"sent by process {sender}, which started at tick {now}, not by the incarnation of this "
+                        f"input's producer that had that pid (started at tick {start})")
+            self.verified[sender] = start
+        return None
 
     def check_stream(self, port: str, frame: Frame, sender: int | None) -> str | None:
         """Why the message's header cannot belong to the stream on `port` as far as it got, or None."""

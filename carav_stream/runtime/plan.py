@@ -31,10 +31,11 @@ def local_nodes(graph: Graph, host: str | None) -> list[str]:
     return [n for n, node in graph.nodes.items() if node.host == host]
 
 
-def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None,
-               plane: Plane) -> dict[str, NodeSpec]:
+def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None, plane: Plane,
+               keys: dict[str, str] | None = None) -> dict[str, NodeSpec]:
     """The spec of every local node, in the graph's order, with what the run's `plane` gave its ports (the caller
-    closes the plane when the run ends); ValueError for an edge across hosts to a host without port_base."""
+    closes the plane when the run ends) and the CURVE key files of its tcp edges (`keys`: curve_keys.plan_keys);
+    ValueError for an edge across hosts to a host without port_base."""
     g = graph
     endpoints: dict[tuple[str, str], tuple[str, str]] = {}   # input -> (bind, connect)
     cross_ports: dict[str, int] = {}
@@ -70,7 +71,7 @@ def plan_specs(graph: Graph, host: str | None, run_dir: Path, cycles: int | None
             max_cycles=int(cycles or 0) if not g.edges_into(name) else 0,
             seq_lease=0 if g.edges_into(name) else LEASE_FRAMES,
             block_paths=tuple(str(p) for p in g.registry.paths[1:]),
-            security={k: str(v) for k, v in g.security.items()})
+            security=dict(keys or {}))
     return specs
 
 

@@ -31,17 +31,20 @@ class Control(StrEnum):
     RECOVER = "recover"        # an upstream node was restarted: partners of buffered frames may be lost
     LEASE = "lease"            # sources: you may generate every seq below `upto`; consumers: `inputs`
                                # {port: highest seq its producer can send}
-    PEERS = "peers"            # consumers: `inputs` {port: pid of the process that feeds it}
+    PEERS = "peers"            # consumers: `inputs` {port: [pid, start time] of the process that feeds it}
 
 
 class Report(StrEnum):
-    """Node to supervisor; every report carries the node's name and pid."""
+    """Node to supervisor; every report carries the node's name and pid. The supervisor takes a report only from
+    a process of the node it names (the kernel's pid of the connection: senders.py)."""
 
+    HELLO = "hello"            # the control connection is up (sent at once: where the supervisor's messages go)
     READY = "ready"            # sockets open, block started (block, version)
     HEARTBEAT = "hb"           # alive, with counters
     DONE = "done"              # drained and finished (counters, history, lost, upstream_gone)
     ERROR = "error"            # the block or the node failed (error, traceback, counters)
-    REJECT = "reject"          # a message refused on an input (port, reason, count)
+    REJECT = "reject"          # a message refused on an input (port, reason, count), or with what="connection"
+                               # a tcp connection refused at its CURVE handshake
     SWAPPED = "swapped"        # a swap took effect (id, block, version, generation, next_seq)
     SWAP_FAILED = "swap_failed"   # a swap could not be made; the old block runs on (id, error)
     LEASE = "lease"            # sources: asks to generate seqs below `upto` (answered by Control.LEASE)
@@ -113,8 +116,9 @@ class NodeSpec:
     start_cycles: int = 0                              # sources: cycles earlier incarnations generated (budget)
     start_timeout_s: float = 0.0                       # exit if not told to go within this (0: wait for ever)
     input_bounds: dict[str, int] = field(default_factory=dict)   # input port -> highest seq its producer can send
-    producers: dict[str, list[int]] = field(default_factory=dict)   # input port -> pids of its producer (local
-                                                                    # edges), the current incarnation last
+    # input port -> [pid, start time] of each incarnation of its producer (local edges), the current one last
+    producers: dict[str, list[list[int]]] = field(default_factory=dict)
+    supervisor_pid: int = 0                            # control messages are taken only from it (0: from any)
     recovering: bool = False                           # restarted, or fed by a restarted node
     plane: str = "zmq"                                 # the run's data plane (runtime/planes/)
     plane_out: dict[str, Any] = field(default_factory=dict)   # output port -> what its plane writer opens

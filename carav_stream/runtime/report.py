@@ -58,10 +58,11 @@ class RunReport:
         return out
 
     def summary(self, *, failures: list[str], swaps: list[dict[str, Any]], stopped_by: str | None,
-                refused_swaps: list[dict[str, Any]] = ()) -> dict[str, Any]:
+                refused_swaps: list[dict[str, Any]] = (), security: dict[str, Any] | None = None) -> dict[str, Any]:
         """The run's summary: counts per node and for the whole run, frames lost (by edge), restarts, failures,
-        swaps applied and refused, why it stopped, wall time and throughput from go to the end; blocks' "run"
-        figures merged in."""
+        swaps applied and refused, why it stopped, wall time and throughput from go to the end, who was refused
+        (`security`: the supervisor's part, completed here with the tcp connections each input refused); blocks'
+        "run" figures merged in."""
         wall = max(self.t_end - self.t_go, 1e-9) if self.t_go else 0.0
         per_node: dict[str, Any] = {}
         for n, st in self.nodes.items():
@@ -108,6 +109,8 @@ class RunReport:
             "failures": failures, "swaps": swaps, "refused_swaps": list(refused_swaps), "stopped_by": stopped_by,
             "wall_s": wall, "throughput_cycles_per_s": cycles / wall if wall else 0.0, "per_node": per_node,
             "transport": self.graph.run["transport"], "shared_memory": self.shared_memory(),
+            "security": {**(security or {}), "refused_connections": {
+                f"{n}.{port}": k for n, p in per_node.items() for port, k in p["refused"].items() if k}},
         }
         # Blocks may contribute run-level figures: a summary() key "run" is merged into the top level.
         for st in self.nodes.values():

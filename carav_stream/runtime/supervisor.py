@@ -3,8 +3,10 @@ in order.
 
 Each run has a folder of its own (rundir.py), holding the ipc endpoints, the node specs, each node's log and
 `run.json` (how `carav status|stop|swap` find the run). It is removed when the run ends, whatever the way it ends.
-The supervisor plans the nodes (plan.py), answers admin requests through admin_server.AdminServer, keeps what it
-knows of each node in node_state.NodeState and reports the run through report.RunReport.
+The supervisor plans the nodes (plan.py) and the keys of their tcp edges (curve_keys.py), hears and tells them
+through control_router.ControlRouter (a node's word only from its own processes), answers admin requests through
+admin_server.AdminServer, keeps what it knows of each node in node_state.NodeState (none of its processes reaped
+before the run ends) and reports the run through report.RunReport.
 
 Stop order: sources are told to stop, end of stream flows down the graph behind the last frames, and each
 node exits once it has drained; the sinks end last. A second Ctrl-C (or the drain deadline) kills what is left.
@@ -28,12 +30,15 @@ from carav_stream import node_start
 from carav_stream.core.allocator import MALLOC_ENV
 from carav_stream.runtime import planes, transport
 from carav_stream.runtime.admin_server import AdminServer
+from carav_stream.runtime.control_router import ControlRouter
+from carav_stream.runtime.curve_keys import plan_keys
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
 from carav_stream.runtime.node_state import NodeState
 from carav_stream.runtime.plan import input_bounds, input_sources, plan_specs
-from carav_stream.runtime.protocol import LEASE_FRAMES, Control, Report, pack, unpack
+from carav_stream.runtime.protocol import LEASE_FRAMES, Control, Report, pack
 from carav_stream.runtime.report import RunReport
 from carav_stream.runtime.rundir import RUN_ID_ENV, remove_stale_runs, run_root
+from carav_stream.runtime.senders import start_ticks
 
 # The environment of node processes (settings in the user's environment win):
 # - glibc malloc keeps freed buffers for reuse rather than handing them back to the OS after every frame
@@ -63,6 +68,8 @@ class Supervisor:
         self.stop_deadline = 0.0
         self.pending_go: set[str] = set()
         self.plane: planes.Plane | None = None      # the run's data plane (run.transport), made by plan()
+        self.security: dict[str, Any] = {}          # how the run's tcp edges are protected (plan)
+        self.control: ControlRouter | None = None   # the control socket's end (run)
         self.report = RunReport(graph, self.nodes, run_id=self.run_id, host=host, cycles=self.cycles)
         self.admin = AdminServer(graph, self.nodes, self.report, send=self.send, request_stop=self.request_stop,
                                  log=self.log)
@@ -70,12 +77,13 @@ class Supervisor:
     # -- planning ------------------------------------------------------------------------------------------
     def plan(self) -> None:
         self.plane = planes.get(self.graph.run["transport"])(self.graph.run, self.run_dir)
-        specs = plan_specs(self.graph, self.host, self.run_dir, self.cycles, self.plane)
+        keys, self.security = plan_keys(self.graph, self.host, self.run_dir / "keys")
+        specs = plan_specs(self.graph, self.host, self.run_dir, self.cycles, self.plane, keys)
         for name, spec in specs.items():
             self.nodes[name] = NodeState(name, spec)
         self.input_sources = input_sources(self.graph, self.nodes)
         for st in self.nodes.values():
-            st.spec = st.spec.with_(input_bounds=self.input_bounds(st.name))
+            st.spec = st.spec.with_(input_bounds=self.input_bounds(st.name), supervisor_pid=os.getpid())
 
     def input_bounds(self, name: str) -> dict[str, int]:
         """The highest seq each input of node `name` can carry now (plan.input_bounds)."""
@@ -90,9 +98,10 @@ class Supervisor:
                 self.send(dst, Control.LEASE, inputs=st.spec.input_bounds)
 
     def tell_peers(self, name: str) -> None:
-        """Tell node `name` the pid of the process feeding each of its local inputs, and their seq bounds."""
+        """Tell node `name` the pid and start time of the process feeding each of its local inputs, and their seq
+        bounds."""
         st = self.nodes[name]
-        pids = {e.dst_port: self.nodes[e.src].proc.pid for e in self.graph.edges_into(name)
+        pids = {e.dst_port: self.nodes[e.src].peer() for e in self.graph.edges_into(name)
                 if e.src in self.nodes and self.nodes[e.src].proc is not None}
         if pids:
             self.send(name, Control.PEERS, inputs=pids)
@@ -109,18 +118,21 @@ class Supervisor:
                                    env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id,
                                         node_start.SUPERVISOR_PID_ENV: str(os.getpid())})
         logf.close()
+        st.procs.append(st.proc)            # kept, not reaped, until the run ends: its pid stays its own
+        st.start_ticks = start_ticks(st.proc.pid)
+        self.control.started(st.name, st.proc.pid)
         for e in self.graph.edges_from(st.name):   # its consumers accept frames from this process from now on
             if e.dst in self.nodes:
                 dst = self.nodes[e.dst]
-                pids = [*dst.spec.producers.get(e.dst_port, ()), st.proc.pid]
+                pids = [*dst.spec.producers.get(e.dst_port, ()), st.peer()]
                 dst.spec = dst.spec.with_(producers={**dst.spec.producers, e.dst_port: pids})
                 if dst.proc is not None:
-                    self.send(e.dst, Control.PEERS, inputs={e.dst_port: st.proc.pid})
+                    self.send(e.dst, Control.PEERS, inputs={e.dst_port: st.peer()})
         st.ready = st.done = st.failed = False
         st.last_seen = time.monotonic()
 
     def send(self, name: str, kind: Control, **fields: Any) -> None:
-        self.router.send_multipart([name.encode(), pack(kind, **fields)])
+        self.control.send(name, pack(kind, **fields))
 
     def log_tail(self, name: str, n: int = 25) -> str:
         try:
@@ -131,24 +143,12 @@ class Supervisor:
 
     # -- messages ------------------------------------------------------------------------------------------
     def drain_router(self) -> None:
-        while True:
-            try:
-                ident, body = self.router.recv_multipart(flags=zmq.NOBLOCK)
-            except zmq.Again:
-                return
-            try:
-                msg = unpack(body)
-            except ValueError as exc:
-                self.log(f"carav: a message on the control socket from {ident!r} was refused: {exc}")
-                continue
-            self.on_node_message(ident.decode(errors="replace"), msg)
+        """Act on every queued message of a node's current process (control_router.py refuses the others)."""
+        for name, msg in self.control.receive():
+            self.on_node_message(name, msg)
 
     def on_node_message(self, name: str, msg: dict[str, Any]) -> None:
-        st = self.nodes.get(name)
-        if st is None:
-            return
-        if st.proc is not None and msg.get("pid") not in (None, st.proc.pid):
-            return        # a message from a dead incarnation
+        st = self.nodes[name]
         st.last_seen = time.monotonic()
         kind = msg.get("type")
         if "counters" in msg:
@@ -164,7 +164,8 @@ class Supervisor:
             st.error = msg.get("traceback") or msg.get("error")
             st.retry = msg.get("retry") is not False
         elif kind == Report.REJECT:
-            text = f"node {name!r} input {msg['port']!r}: rejected frame #{msg['count']}: {msg['reason']}"
+            what = "refused connection" if msg.get("what") == "connection" else "rejected frame"
+            text = f"node {name!r} input {msg['port']!r}: {what} #{msg['count']}: {msg['reason']}"
             st.rejects.append(text)
             self.log(f"carav: {text}")
         elif kind == Report.LEASE and isinstance(msg.get("upto"), int):
@@ -181,7 +182,7 @@ class Supervisor:
         for st in self.nodes.values():
             if st.proc is None or st.done or st.failed:
                 continue
-            code = st.proc.poll()
+            code = st.exit_code()        # an ended process is not reaped: its pid stays its own
             hung = code is None and st.ready and now - st.last_seen > self.graph.run["heartbeat_timeout_s"]
             if code is None and not hung:
                 continue
@@ -193,8 +194,7 @@ class Supervisor:
                     st.done = True
                 continue
             if hung:
-                st.proc.kill()
-                st.proc.wait()
+                st.kill()
                 reason = f"no heartbeat for {self.graph.run['heartbeat_timeout_s']:.0f} s (hung); killed"
             else:
                 reason = f"exited with {'signal ' + signal.Signals(-code).name if code < 0 else 'status ' + str(code)}"
@@ -274,8 +274,7 @@ class Supervisor:
 
     def kill_all(self) -> None:
         for st in self.nodes.values():
-            if st.proc and st.proc.poll() is None:
-                st.proc.kill()
+            st.kill(wait=False)         # also from a signal handler: reaped when the run ends
 
     # -- main ----------------------------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
@@ -288,14 +287,16 @@ class Supervisor:
             self.router = self.ctx.socket(zmq.ROUTER)
             self.router.linger = 0
             self.router.bind(transport.ipc_endpoint(self.run_dir, "control"))
+            self.control = ControlRouter(self.router, self.log)
             self.admin.bind(self.ctx, transport.ipc_endpoint(self.run_dir, "admin"))
             self.plan()
             (self.run_dir / "run.json").write_text(json.dumps({
                 "run": self.run_id, "pid": os.getpid(), "graph": str(self.graph.path.resolve()),
                 "host": self.host or LOCAL_HOST, "started": time.time(),
                 "admin": transport.ipc_endpoint(self.run_dir, "admin")}))
-            for st in self.nodes.values():
-                self.spawn(st)
+            for name in self.graph.topological_order():   # producers first: each consumer's spec names them
+                if name in self.nodes:
+                    self.spawn(self.nodes[name])
             self.loop()
         finally:
             deadline = time.monotonic() + 10
@@ -307,8 +308,7 @@ class Supervisor:
                         pass
             self.kill_all()
             for st in self.nodes.values():
-                if st.proc:
-                    st.proc.wait()
+                st.reap_all()
             self.ctx.destroy(linger=0)
             if self.plane is not None:
                 self.plane.close()
@@ -319,8 +319,10 @@ class Supervisor:
         return self.summary()
 
     def summary(self) -> dict[str, Any]:
+        refused = dict(self.control.refused) if self.control is not None else {}
         return self.report.summary(failures=self.failures, swaps=self.admin.swaps, stopped_by=self.stop_requested,
-                                   refused_swaps=self.admin.refused_swaps)
+                                   refused_swaps=self.admin.refused_swaps,
+                                   security={**self.security, "refused_control": refused})
 
     def loop(self) -> None:
         poller = zmq.Poller()

@@ -5,10 +5,8 @@ crosses hosts), so a producer with several edges on one output port sends each f
 High-water marks bound every queue and sends block when a queue is full: a slow consumer slows its
 producers and nothing is dropped. Nodes block inside ZeroMQ (no Python polling loop per frame): every data
 socket has a send and receive timeout of TICK_S, after which the node serves heartbeats and control and waits
-again. On tcp edges ZeroMQ's CURVE mechanism authenticates and encrypts: the
-binding side is the CURVE server (its ZAP handler admits only the public keys in `curve_authorized`), the
-connecting side a client that also checks the server's key, so a peer without the right keys gets nothing in
-and nothing out.
+again. On tcp edges ZeroMQ's CURVE mechanism authenticates and encrypts (curve.py): the binding side is the
+CURVE server, the connecting side a client that also checks the server's key.
 """
 from __future__ import annotations
 
@@ -27,46 +25,15 @@ _send = zmq.backend.Socket.send
 _SNDMORE = int(zmq.SNDMORE)
 
 
-class Curve:
-    """CURVE keys for one process, loaded from the graph's certificate files (zmq.auth format)."""
-
-    def __init__(self, server_cert: str, client_cert: str, authorized: str) -> None:
-        import zmq.auth
-        self.server_public, self.server_secret = zmq.auth.load_certificate(server_cert)
-        self.client_public, self.client_secret = zmq.auth.load_certificate(client_cert)
-        if not self.server_secret or not self.client_secret:
-            raise ValueError(f"CURVE certificates {server_cert} and {client_cert} must be secret-key files")
-        self.authorized = authorized
-        self._auth = None
-
-    def serve(self, ctx: zmq.Context, sock: zmq.Socket) -> None:
-        if self._auth is None:
-            from zmq.auth.thread import ThreadAuthenticator
-            self._auth = ThreadAuthenticator(ctx)
-            self._auth.start()
-            self._auth.configure_curve(domain="*", location=self.authorized)
-        sock.curve_secretkey = self.server_secret
-        sock.curve_publickey = self.server_public
-        sock.curve_server = True
-
-    def connect_as_client(self, sock: zmq.Socket) -> None:
-        sock.curve_secretkey = self.client_secret
-        sock.curve_publickey = self.client_public
-        sock.curve_serverkey = self.server_public
-
-    def close(self) -> None:
-        if self._auth is not None:
-            self._auth.stop()
-            self._auth = None
-
-
 # Socket buffers of the kernel for edges whose messages are headers alone (arrays in shared memory): the default
 # (about 200 kB) would queue hundreds of such messages beyond the high-water marks, each holding a slot.
 HEADER_ONLY_BUFFER_BYTES = 8192
 
 
-def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None,
-               header_only: bool = False) -> zmq.Socket:
+def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Any = None, header_only: bool = False,
+               name: str = "") -> zmq.Socket:
+    """The PULL socket of input `name` bound at `endpoint`; a CURVE server (curve.Curve.serve) on tcp when `curve`
+    is given."""
     sock = ctx.socket(zmq.PULL)
     if header_only:
         sock.rcvbuf = HEADER_ONLY_BUFFER_BYTES
@@ -75,13 +42,15 @@ def bind_input(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = 
     sock.rcvtimeo = int(TICK_S * 1000)
     sock.linger = 0
     if curve is not None and endpoint.startswith("tcp://"):
-        curve.serve(ctx, sock)
+        curve.serve(ctx, sock, name)
     sock.bind(endpoint)
     return sock
 
 
-def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | None = None,
-                   linger_ms: int = 30_000, header_only: bool = False) -> zmq.Socket:
+def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Any = None, linger_ms: int = 30_000,
+                   header_only: bool = False, name: str = "") -> zmq.Socket:
+    """The PUSH socket of output edge `name` connected to `endpoint`; a CURVE client (curve.Curve.connect_as_client)
+    on tcp when `curve` is given."""
     sock = ctx.socket(zmq.PUSH)
     if header_only:
         sock.sndbuf = HEADER_ONLY_BUFFER_BYTES
@@ -92,7 +61,7 @@ def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Curve | Non
     # so a restarted consumer bound at the same address never gets frames meant for its dead incarnation
     sock.immediate = True
     if curve is not None and endpoint.startswith("tcp://"):
-        curve.connect_as_client(sock)
+        curve.connect_as_client(sock, name)
     sock.connect(endpoint)
     return sock
 

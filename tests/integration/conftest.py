@@ -4,14 +4,16 @@ Every wait waits on progress (carav_stream.testing.waiting), every process group
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 import pytest
+import zmq.auth
 
 from carav_stream.console.errors import Exit
 from carav_stream.testing.graphs import GraphRun, Graphs, read_jsonl, wait_for
 
-__all__ = ["PACED", "ROOT", "TOYS", "carav", "exit_code_after_a_kill", "read_jsonl", "wait_until"]
+__all__ = ["PACED", "ROOT", "TOYS", "carav", "exit_code_after_a_kill", "keys", "read_jsonl", "wait_until"]
 
 ROOT = Path(__file__).resolve().parents[2]
 TOYS = ROOT / "tests" / "toy_blocks"
@@ -35,6 +37,22 @@ def carav(tmp_path, request):
                            env={"PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))})
     yield graphs
     graphs.close()
+
+
+@pytest.fixture
+def keys(tmp_path):
+    """CURVE certificates in tmp_path: certs/{server,client}.key[_secret], authorized/client.key."""
+    certs = tmp_path / "certs"
+    certs.mkdir()
+    server_public, server_secret = zmq.auth.create_certificates(certs, "server")
+    client_public, client_secret = zmq.auth.create_certificates(certs, "client")
+    (tmp_path / "authorized").mkdir()
+    shutil.copy(client_public, tmp_path / "authorized" / "client.key")
+    rogue = tmp_path / "rogue"
+    rogue.mkdir()
+    rogue_public, rogue_secret = zmq.auth.create_certificates(rogue, "rogue")
+    return {"server": zmq.auth.load_certificate(server_secret), "client": zmq.auth.load_certificate(client_secret),
+            "rogue": zmq.auth.load_certificate(rogue_secret)}
 
 
 def exit_code_after_a_kill(summary: dict, killed: str) -> int:

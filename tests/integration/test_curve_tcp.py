@@ -1,22 +1,22 @@
 """Graphs placed on two hosts over tcp on loopback, and ZeroMQ CURVE on those edges, with real `carav run`s.
 
 Host placement: src (host a) -> t (host b) -> log (host a), so both tcp edges cross hosts; run once by one
-supervisor (no --host) and once as two separate `carav run --host a` / `--host b` processes.
+supervisor (no --host: CURVE with keys made for the run) and once as two separate `carav run --host a` /
+`--host b` processes (with the graph's keys: a graph run in parts without them is refused).
 CURVE: with the graph's keys frames flow; a rogue peer without the right keys gets nothing in (a PUSH
-connecting to a protected input) and nothing out (a PULL bound where a producer connects, with a wrong
-server key). Each rogue check has a control with the right key that shows the check can see a leak.
+connecting to a protected input: the input refuses and counts it) and nothing out (a PULL bound where a producer
+connects, with a wrong server key: the producer fails, naming the edge and the key). Each rogue check has a
+control with the right key that shows the check can see a leak.
 """
 from __future__ import annotations
 
 import json
-import shutil
 import socket
 import time
 from pathlib import Path
 
 import pytest
 import zmq
-import zmq.auth
 from zmq.utils.monitor import recv_monitor_message
 
 from carav_stream.runtime.frames import Frame, encode
@@ -80,26 +80,13 @@ def two_ports() -> tuple[int, int]:
     return a, b
 
 
-@pytest.fixture
-def keys(tmp_path):
-    """CURVE certificates in tmp_path: certs/{server,client}.key[_secret], authorized/client.key."""
-    certs = tmp_path / "certs"
-    certs.mkdir()
-    server_public, server_secret = zmq.auth.create_certificates(certs, "server")
-    client_public, client_secret = zmq.auth.create_certificates(certs, "client")
-    (tmp_path / "authorized").mkdir()
-    shutil.copy(client_public, tmp_path / "authorized" / "client.key")
-    rogue = tmp_path / "rogue"
-    rogue.mkdir()
-    rogue_public, rogue_secret = zmq.auth.create_certificates(rogue, "rogue")
-    return {"server": zmq.auth.load_certificate(server_secret), "client": zmq.auth.load_certificate(client_secret),
-            "rogue": zmq.auth.load_certificate(rogue_secret)}
-
-
-def write_graph(tmp_path: Path, *, cycles: int, ports: tuple[int, int], curve: bool, delay_s: float = 0.0) -> Path:
+def write_graph(tmp_path: Path, *, cycles: int, ports: tuple[int, int], curve: bool | str,
+                delay_s: float = 0.0) -> Path:
+    """The graph; curve: True (the keys of the `keys` fixture), False (no [security]) or a [security] table."""
     path = tmp_path / "g.toml"
+    security = SECURITY if curve is True else curve or ""
     path.write_text(GRAPH.format(toys=json.dumps(str(TOYS)), cycles=cycles, port_a=ports[0], port_b=ports[1],
-                                 delay_s=delay_s, security=SECURITY if curve else ""))
+                                 delay_s=delay_s, security=security))
     return path
 
 
@@ -136,11 +123,14 @@ def test_two_host_graph_in_one_supervisor_delivers_every_frame_in_order_over_tcp
     s = run.summary()
     assert s["lost"] == 0 and s["rejected"] == 0
     assert s["per_node"]["t"]["in"] == {"inp": n} and s["per_node"]["log"]["in"] == {"inp": n}
+    assert {k: s["security"][k] for k in ("tcp", "keys", "warnings")} == {"tcp": "curve", "keys": "run",
+                                                                         "warnings": []}
+    assert "tcp edges: ZeroMQ CURVE with keys made for this run" in run.stdout()
 
 
-def test_two_host_graph_as_two_carav_processes_delivers_every_frame_in_order(tmp_path, carav):
+def test_two_host_graph_as_two_carav_processes_delivers_every_frame_in_order(tmp_path, carav, keys):
     n = 400
-    graph = write_graph(tmp_path, cycles=n, ports=two_ports(), curve=False)
+    graph = write_graph(tmp_path, cycles=n, ports=two_ports(), curve=True)
     host_b = carav.run(graph, "--host", "b")
     host_a = carav.run(graph, "--host", "a")
     assert host_a.wait() == 0, host_a.stderr()
@@ -201,6 +191,12 @@ def test_rogue_push_gets_nothing_into_a_curve_protected_input(tmp_path, carav, k
             assert events & FAILED and zmq.EVENT_HANDSHAKE_SUCCEEDED not in events, events
             assert t_seen == n and s["per_node"]["t"]["rejected"] == {}
             assert sink_seqs(tmp_path) == list(range(n))
+            # each attempt refused and counted on t's input, with its reason
+            assert s["security"]["refused_connections"]["t.inp"] >= 1, s["security"]
+            why = ("the peer does not use CURVE" if who == "plain" else
+                   f"its CURVE key {keys['rogue'][0].decode()} is not in curve_authorized")
+            assert "node 't' input 'inp': refused connection #1: refused a tcp connection" in run.stderr()
+            assert why in run.stderr(), run.stderr()
     finally:
         ctx.destroy(linger=0)
 
@@ -240,12 +236,19 @@ def test_rogue_pull_bound_where_a_producer_connects_receives_nothing(tmp_path, c
         while who != "right_server_key" and time.monotonic() < listen_until:
             watch()
         received = received[0]
-        assert run.proc.poll() is None, run.stderr()   # src is still blocked on its unreachable consumer
         assert zmq.EVENT_ACCEPTED in events, f"src never connected: {events}"
         if who == "right_server_key":
             assert received >= 5
+            assert run.proc.poll() is None, run.stderr()
         else:
             assert received == 0
             assert events & FAILED and zmq.EVENT_HANDSHAKE_SUCCEEDED not in events, events
+            # src failed at once, in one line naming the edge and the server key it expected (the run goes on
+            # waiting for host b's t, which never comes, until its drain deadline)
+            line = wait_until(lambda: next((l for l in run.stderr().splitlines() if "node 'src'" in l), None),
+                              "src's failure", run)
+            assert (f"carav: node 'src' (counter_source) failed: exited with status 1: BlockError: edge 'src.out -> "
+                    f"t.inp' (tcp://127.0.0.1:{ports[1]}): CURVE with the consumer failed") in line, line
+            assert f"server key {keys['server'][0].decode()} (curve_server_cert " in line, line
     finally:
         ctx.destroy(linger=0)

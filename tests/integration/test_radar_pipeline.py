@@ -401,9 +401,11 @@ def _free_port_base() -> int:
 
 @pytest.mark.parametrize("carav", TRANSPORTS, indirect=True)
 def test_two_hosts_over_tcp_as_two_supervisors(carav):
-    path = carav.workdir / "two.toml"     # graphs/two_hosts.toml on free ports
+    keys = carav.cli("keys", str(carav.workdir / "keys"))    # a graph run in parts needs keys of its own
+    assert keys.returncode == 0, keys.stderr
+    path = carav.workdir / "two.toml"     # graphs/two_hosts.toml on free ports, with the [security] table printed
     path.write_text(f'include = "{GRAPHS / "two_hosts.toml"}"\n[hosts.front]\nport_base = {_free_port_base()}\n'
-                    f'[hosts.back]\nport_base = {_free_port_base()}\n')
+                    f'[hosts.back]\nport_base = {_free_port_base()}\n{keys.stdout}')
     back = carav.run(path, "--host", "back", "--cycles", "200")
     front = carav.run(path, "--host", "front", "--cycles", "200")
     assert front.wait() == 0, front.stderr()

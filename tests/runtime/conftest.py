@@ -1,4 +1,5 @@
 """The in-process node harness: a real NodeRunner on real ZeroMQ sockets, driven by the test."""
+import os
 import shutil
 import tempfile
 import time
@@ -12,6 +13,7 @@ from carav_stream.runtime import transport
 from carav_stream.runtime.frames import Frame, decode, encode
 from carav_stream.runtime.node import NodeRunner
 from carav_stream.runtime.protocol import NodeSpec, OutEdge, Report, pack, unpack
+from carav_stream.runtime.senders import start_ticks
 from tests.integration.conftest import TOYS
 
 EDGE = "p.out -> sink.inp"
@@ -30,12 +32,15 @@ def harness():
     sink = transport.bind_input(ctx, ep["out"], hwm=100)
     spec = NodeSpec(name="p", type="pairer", params={}, control=ep["ctl"], block_paths=(str(TOYS),),
                     inputs={"a": ep["a"], "b": ep["b"]}, outputs={"out": (OutEdge(EDGE, ep["out"]),)},
-                    queue_frames=2, drain_timeout_s=1.0)
+                    queue_frames=2, drain_timeout_s=1.0,
+                    producers={p: [[os.getpid(), start_ticks(os.getpid())]] for p in ("a", "b")})   # the test feeds
     runners = [NodeRunner(spec)]
     runner = runners[0]
     runner.driver.block.start()
-    runner.link.tell(Report.READY)                 # the ROUTER drops messages to a peer it has not heard from yet
+    runner.link.tell(Report.READY)
     assert router.poll(5000), "the node's control connection did not come up"
+    route, hello = router.recv_multipart()         # the node says hello at once: where messages to it go
+    assert unpack(hello)["type"] == Report.HELLO
     assert unpack(router.recv_multipart()[1])["type"] == Report.READY
     feeds = {p: transport.connect_output(ctx, ep[p], hwm=100, linger_ms=0) for p in ("a", "b")}
 
@@ -77,7 +82,7 @@ def harness():
         @staticmethod
         def control(kind, **msg):
             """Send a control message to the node and have it served (waits for it to arrive)."""
-            router.send_multipart([b"p", pack(kind, **msg)])
+            router.send_multipart([route, pack(kind, **msg)])
             assert runner.link.sock.poll(DEADLINE_S * 1000), "control message did not arrive"
             runner.link.serve()
 

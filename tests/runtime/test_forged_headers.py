@@ -12,7 +12,8 @@ from carav_stream.runtime.frames import Frame, decode, encode
 from carav_stream.runtime.pairing import Pairing, frame_cycles_problem
 from carav_stream.runtime.protocol import Control
 
-PRODUCER, OTHER = 4242, 999
+PRODUCER, OTHER, RESTARTED = 4242, 999, 5000
+STARTED = {PRODUCER: 71, RESTARTED: 93, OTHER: 12}     # each process's start time (senders.start_ticks)
 
 
 def message(seq: int, arrays=None, **header) -> Frame:
@@ -22,7 +23,8 @@ def message(seq: int, arrays=None, **header) -> Frame:
 
 
 def pairing(bound: int | None = 200) -> Pairing:
-    return Pairing(["a"], 8, bounds={} if bound is None else {"a": bound}, producers={"a": [PRODUCER]})
+    return Pairing(["a"], 8, bounds={} if bound is None else {"a": bound},
+                   producers={"a": {PRODUCER: STARTED[PRODUCER]}}, start_of=STARTED.get)
 
 
 def feed(p: Pairing, *seqs: int, sender: int = PRODUCER) -> list[int]:
@@ -84,10 +86,11 @@ def test_an_end_of_stream_announcing_fewer_frames_than_came_from_its_sender_is_r
 
 def test_a_restarted_producer_counts_its_end_of_stream_from_its_own_first_frame():
     # frames of the dead incarnation (pid 4242) still queued are taken; the new one (pid 5000) sent 1 frame
-    p = Pairing(["a"], 8, producers={"a": [PRODUCER, 5000]})
+    p = Pairing(["a"], 8, producers={"a": {PRODUCER: STARTED[PRODUCER], RESTARTED: STARTED[RESTARTED]}},
+                start_of=STARTED.get)
     feed(p, 0, 1, sender=PRODUCER)
-    feed(p, 5, sender=5000)
-    ok, reason = p.admit("a", message(6, {}, eos=True, count=1), 5000)
+    feed(p, 5, sender=RESTARTED)
+    ok, reason = p.admit("a", message(6, {}, eos=True, count=1), RESTARTED)
     assert (ok, reason) == (False, None) and p.eos == {"a": 1}
 
 
@@ -146,13 +149,47 @@ def test_a_frame_carrying_the_cycles_it_states_is_taken(header, arrays):
 
 
 def test_control_messages_raise_bounds_and_add_producers_the_pairing_sees():
-    ctl = ControlState(go=True, input_bounds={"a": 100}, producers={"a": [PRODUCER]})
-    p = Pairing(["a"], 8, bounds=ctl.input_bounds, producers=ctl.producers)
-    assert p.admit("a", message(150), 5000)[0] is False
+    ctl = ControlState(go=True, input_bounds={"a": 100}, producers={"a": [[PRODUCER, STARTED[PRODUCER]]]})
+    p = Pairing(["a"], 8, bounds=ctl.input_bounds, producers=ctl.producers, start_of=STARTED.get)
+    assert p.admit("a", message(150), RESTARTED)[0] is False
     ctl.apply({"type": str(Control.LEASE), "inputs": {"a": 300}})
     ctl.apply({"type": str(Control.LEASE), "inputs": {"a": 50}})          # a bound never shrinks
-    ctl.apply({"type": str(Control.PEERS), "inputs": {"a": 5000}})
-    ctl.apply({"type": str(Control.PEERS), "inputs": {"a": "x", 3: 1}})   # malformed entries ignored
-    assert ctl.input_bounds == {"a": 300} and ctl.producers == {"a": [PRODUCER, 5000]}
-    assert p.admit("a", message(150), 5000) == (True, None)
+    ctl.apply({"type": str(Control.PEERS), "inputs": {"a": [RESTARTED, STARTED[RESTARTED]]}})
+    for bad in ({"a": "x"}, {"a": [1]}, {"a": [1, "2"]}, {"a": 5001}, {3: [1, 2]}):   # malformed: ignored
+        ctl.apply({"type": str(Control.PEERS), "inputs": bad})
+    assert ctl.input_bounds == {"a": 300}
+    assert ctl.producers == {"a": {PRODUCER: STARTED[PRODUCER], RESTARTED: STARTED[RESTARTED]}}
+    assert list(ctl.producers["a"]) == [PRODUCER, RESTARTED]          # the current producer last
+    assert p.admit("a", message(150), RESTARTED) == (True, None)
     assert p.admit("a", message(151), PRODUCER) == (True, None)         # the dead incarnation's queued frames
+
+
+def test_a_producers_pid_held_by_a_process_that_started_at_another_time_is_refused():
+    """The supervisor names each producer's pid with its start time; a process holding that pid that started at
+    another time (the pid given to someone else) is refused whatever it sends, and the stream goes on."""
+    started = dict(STARTED)
+    p = Pairing(["a"], 8, producers={"a": {PRODUCER: STARTED[PRODUCER]}}, start_of=started.get)
+    started[PRODUCER] = 5555                        # the pid now belongs to a process started later
+    before = state(p)
+    ok, reason = p.admit("a", message(0), PRODUCER)
+    assert not ok and (f"sent by process {PRODUCER}, which started at tick 5555, not by the incarnation of this "
+                       f"input's producer that had that pid (started at tick {STARTED[PRODUCER]})") in reason
+    assert state(p) == before
+    started[PRODUCER] = STARTED[PRODUCER]
+    assert feed(p, 0, 1) == [0, 1]
+
+
+def test_a_senders_start_time_is_read_once_per_pid():
+    reads = []
+    p = Pairing(["a"], 8, producers={"a": {PRODUCER: STARTED[PRODUCER]}},
+                start_of=lambda pid: reads.append(pid) or STARTED[pid])
+    assert feed(p, *range(5)) == list(range(5))
+    assert reads == [PRODUCER]
+    assert p.admit("a", message(5), OTHER)[0] is False and reads == [PRODUCER]   # not a producer: no read
+
+
+def test_a_local_message_before_its_inputs_producer_is_named_is_refused():
+    p = Pairing(["a"], 8, start_of=STARTED.get)        # the supervisor has named no producer for "a" yet
+    ok, reason = p.admit("a", message(0), OTHER)
+    assert not ok and reason == f"sent by process {OTHER} before this input's producer was named"
+    assert p.admit("a", message(0)) == (True, None)     # no sender (tcp): judged on its fields alone

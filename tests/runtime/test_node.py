@@ -84,6 +84,7 @@ def test_a_source_generates_only_within_its_lease_and_asks_for_more_ahead_of_tim
     link = node.link
     try:
         link.tell(Report.READY)
+        assert router.poll(5000) and unpack(router.recv_multipart()[1])["type"] == Report.HELLO
         assert router.poll(5000) and unpack(router.recv_multipart()[1])["type"] == Report.READY
         assert link.within_lease(LEASE_FRAMES // 2 - 1) and not router.poll(200)   # far from the end: no request
         assert link.within_lease(LEASE_FRAMES // 2)

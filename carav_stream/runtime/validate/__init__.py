@@ -4,8 +4,8 @@ Checks, by stage (build.py runs them in order): the tables and their keys, hosts
 unknown block types (and conflicting block folders); parameters (type, range, NaN and infinity, required values,
 cross-parameter checks of the block) and graph-wide parameters (one value for the whole graph, checked once: a
 scene error is reported once, not once per block) (params.py); connections (unknown nodes and ports, port kinds and
-dtypes), inputs connected twice or not at all, cycles (naming their blocks) (ports.py); CURVE key files
-(tables.py). A block swapped into a running graph is checked the same way (swap.py).
+dtypes), inputs connected twice or not at all, cycles (naming their blocks) (ports.py); [security] and the tcp
+edges it protects (security.py). A block swapped into a running graph is checked the same way (swap.py).
 
 Templates: a graph that leaves parameters for whoever runs it to give says so, `template = ["source.path"]`
 (`node.param` each, of a node of the graph and a parameter its block declares). Checked as a template

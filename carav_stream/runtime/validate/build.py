@@ -3,7 +3,7 @@
 1. the file's tables (tables.py): block folders, [blocks], [run], [restart], [hosts], the nodes, `--set`
 2. block types from the registry, file parameters resolved, top-level keys no block takes
 3. block parameters (params.py): graph-wide ones, the template, every node's
-4. connections and ports (ports.py), then [security]
+4. connections and ports (ports.py), then [security] and the tcp edges it protects (security.py)
 """
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from carav_stream.runtime.block import Block
 from carav_stream.runtime.graph import RUN_DEFAULTS, TOP_KEYS, Graph, GraphError, Node, Source, with_graph_params
 from carav_stream.runtime.registry import Registry, RegistryError
 from carav_stream.runtime.validate import params, ports, tables
+from carav_stream.runtime.validate import security as secure
 
 
 def build_graph(path: Path, source: Source, overrides: list[str], extra_block_paths: list[str | Path],
@@ -51,7 +52,8 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     ports.check_inputs(nodes, classes, edges, where, problems)
     ports.check_cycles(nodes, edges, where, problems)
     warnings += ports.unused_outputs(nodes, classes, edges)
-    security = tables.security(data.get("security", {}), where, problems)
+    security = secure.table(data.get("security", {}), where, problems)
+    secure.check_tcp(security, nodes, edges, hosts, where, problems, warnings)
     if problems:
         raise GraphError(problems)
     still_open = [f"{n}.{p}" for n, names in left_open.items() for p in sorted(names) if p not in nodes[n].params]

@@ -1,6 +1,6 @@
 """The graph file's own tables, checked before any block is looked at: [run], [restart], [hosts], the nodes of
 [blocks] (names, types, hosts, restart policies), `--set` overrides, file parameters resolved against the file
-that wrote them, and [security] (CURVE key files)."""
+that wrote them ([security]: security.py)."""
 from __future__ import annotations
 
 import ipaddress
@@ -230,22 +230,3 @@ def resolve_files(source: Source, nodes: dict[str, Node], classes: dict[str, typ
         for key in names & written.keys():
             if params.get(key) is written[key]:          # still the graph file's value, not a --set override
                 params[key] = resolve(params[key], source.folders.get(f"node:{n}:{key}"))
-
-
-def security(spec: Any, where: str, problems: list[str]) -> dict[str, Path]:
-    keys = ("curve_server_cert", "curve_client_cert", "curve_authorized")
-    if not isinstance(spec, dict):
-        problems.append(f"{where}: security: must be a table")
-        return {}
-    result: dict[str, Path] = {}
-    for k, v in spec.items():
-        if k not in keys:
-            problems.append(f"{where}: security.{k}: unknown key; expected {list(keys)}")
-        elif not isinstance(v, str) or not Path(v).exists():
-            problems.append(f"{where}: security.{k}: key file or folder {v!r} not found")
-        else:
-            result[k] = Path(v).resolve()
-    if result and set(result) != set(keys):
-        problems.append(f"{where}: security: CURVE needs all of {list(keys)}; missing "
-                        f"{sorted(set(keys) - set(result))}")
-    return result
