@@ -4,6 +4,7 @@
     carav record GRAPH --out DIR [carav run options]   the run's ADC output as SigMF (+ private activation log)
     carav replay DIR [--graph FILE] [--json FILE]       a recording through detection and ranging again
     carav validate GRAPH ...
+    carav graph GRAPH [--set ...] [--out PICTURE.svg|.png|.pdf]   the graph as a picture (or as text, without --out)
     carav blocks [TYPE]
     carav attackers [--brief]        the attacker models: what each puts on the air, hears and takes (markdown)
     carav estimators                 the estimation methods: how each reads range and velocity (markdown)
@@ -40,6 +41,7 @@ COMMANDS = {
     "record": ("carav_stream.cli.record", "run a graph and record its ADC output as SigMF, rho in a private log"),
     "replay": ("carav_stream.cli.replay", "a SigMF recording through detection, gate and ranging again"),
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
+    "graph": ("carav_stream.cli.graph", "draw a graph file: boxes, ports and labelled arrows (or its text)"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),
     "attackers": ("carav_stream.cli.attackers", "the attacker models as a markdown table: what each sends and takes"),
     "estimators": ("carav_stream.cli.estimators", "the estimation methods as a markdown table: how each reads range "
