@@ -5,9 +5,10 @@ unmeasured. The tracker is the graph's (graphs/table1_tracks.toml): R from the c
 
 Without the detector (eta too high to alarm) the repeater (RARMS 3) sits on the car, then drags its echo away: the
 picture follows the false echo at the drag's speed and loses the car (not as one track: while the two echoes share
-a range cell the measurements jump beyond the gate, and tracks break and re-form on the false echo). With CARAV every attacked cycle is refused:
-no track ever leaves the car; its track coasts through the attack and is kept when the attack is shorter than the
-coast limit, deleted when it is longer (and the car found again once the attack ends)."""
+a range cell the measurements jump beyond the gate, and tracks break and re-form on the false echo). With CARAV
+every attacked cycle is refused: no track ever leaves the car; its track coasts through the attack and is kept
+when the attack is shorter than the coast limit, deleted when it is longer (and the car found again once the
+attack ends)."""
 import numpy as np
 import pytest
 
