@@ -9,16 +9,21 @@ a range cell the measurements jump beyond the gate, and tracks break and re-form
 every attacked cycle is refused: no track ever leaves the car; its track coasts through the attack and is kept
 when the attack is shorter than the coast limit, deleted when it is longer (and the car found again once the
 attack ends)."""
+from pathlib import Path
+
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.streams import scene_of
+from carav_stream.runtime.loader import load_graph
 from carav_stream.track import TrackerConfig, run
 
 pytestmark = pytest.mark.slow
 
+ROOT = Path(__file__).resolve().parents[2]
 SCENE = scene_of("table1_following")
 CAR_M = SCENE.targets[0].range_m
 START, CAPTURE = 100, 100
@@ -94,3 +99,25 @@ def test_with_carav_the_track_coasts_through_the_refused_cycles_and_never_moves_
         assert reports[START + COAST].deleted == (0,)            # deleted after coast_cycles without an update
         assert all(rep.id.size == 0 for rep in reports[START + COAST: START + n_attacked])
         assert after.id.tolist() == [1] and after.status == ("confirmed",)   # the car found again, a new track
+
+
+def test_the_graphs_tracker_design_fits_the_clean_chain():
+    """graphs/table1_tracks.toml's R (the estimator's range and range-rate error RMS) is the clean chain's own: on
+    the car without an attack, a filter that knows the car keeps its speed (no process noise) sees a mean NIS in its
+    chi-square interval (2 n degrees of freedom over n updates). The graph's filter allows the car to brake and
+    accelerate (sigma_accel_mps2), which a car at constant speed does not: its NIS lies lower, so its windowed NIS
+    alarm fires less often than designed, never more."""
+    graph = load_graph(ROOT / "graphs" / "table1_tracks.toml")
+    block = graph.block_class("tracker")(**graph.nodes["tracker"].params)     # its defaults filled in
+    design = {k: getattr(block, k) for k in ("sigma_range_m", "sigma_velocity_mps", "nis_pfa", "nis_window")}
+    r = run_algorithm1(SCENE, 1200, seed=11)
+    z = [np.array([[r.range_m[k, 0], r.velocity_mps[k, 0]]]) for k in range(1200)]
+    n = 1199
+    low, high = chi2.ppf(0.0005, 2 * n) / n, chi2.ppf(0.9995, 2 * n) / n
+    for sigma_accel, within in ((0.0, True), (block.sigma_accel_mps2, False)):
+        reports = run(z, TrackerConfig(dt_s=SCENE.t_cycle_s, sigma_accel_mps2=sigma_accel, **design))[1]
+        assert all(rep.id.tolist() == [0] for rep in reports)
+        nis = np.concatenate([rep.nis for rep in reports[1:]])
+        assert nis.mean() < high and (nis.mean() > low) == within
+        alarms = np.concatenate([rep.nis_alarm for rep in reports[design["nis_window"]:]])
+        assert alarms.mean() <= 5 * design["nis_pfa"]
