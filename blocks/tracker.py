@@ -24,17 +24,11 @@ Ports   in  estimates   range_estimator records (per_cycle range_m, velocity_mps
                         when nis_pfa = 0)
 Graph   tracker = { type = "tracker", sigma_range_m = 0.0025, sigma_velocity_mps = 0.01 }
 """
-import math
-
 import numpy as np
 
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, cycle_indices, n_cycles, per_cycle
 from carav_stream.track import CycleReport, TrackerConfig, Tracks, step
-
-
-def _plain(values: np.ndarray) -> list:
-    return [None if math.isnan(v) else float(v) for v in values]
 
 
 class Tracker(Block):
@@ -149,19 +143,14 @@ class Tracker(Block):
             self.next_cycle = c + 1
 
     def _row(self, cycle: int, r: CycleReport, reason: str | None, active) -> dict:
-        self.counts["cycles"] += 1
-        self.counts["measured"] += r.measured
-        self.counts["born"] += len(r.born)
-        self.counts["deleted"] += len(r.deleted)
+        tracks = r.plain()
+        for key, n in (("cycles", 1), ("measured", r.measured), ("born", len(r.born)), ("deleted", len(r.deleted)),
+                       ("nis_alarms", sum(tracks["nis_alarm"] or []))):
+            self.counts[key] += n
         if reason is not None:
             self.reasons[reason] = self.reasons.get(reason, 0) + 1
-        alarm = None if r.nis_alarm is None else [bool(a) for a in r.nis_alarm]
-        self.counts["nis_alarms"] += sum(alarm or [])
         return {"cycle_index": cycle, "measured": r.measured, "reason": reason, "attack_active": active,
-                "born": list(r.born), "deleted": list(r.deleted), "track_id": [int(i) for i in r.id],
-                "status": list(r.status), "range_m": _plain(r.range_m), "velocity_mps": _plain(r.velocity_mps),
-                "var_range_m2": _plain(r.var_range_m2), "var_velocity_m2ps2": _plain(r.var_velocity_m2ps2),
-                "nis": _plain(r.nis), "nis_alarm": alarm}
+                "born": list(r.born), "deleted": list(r.deleted), **tracks}
 
     def _frame(self) -> Frame:
         rows, self.rows = self.rows, []

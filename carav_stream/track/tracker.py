@@ -136,6 +136,15 @@ class CycleReport:
     deleted: tuple[int, ...]
     measured: bool
 
+    def plain(self) -> dict[str, list | None]:
+        """The live tracks' fields as plain lists, one value per track (NaN as None), for a header or a JSON line."""
+        def floats(values: np.ndarray) -> list:
+            return [None if np.isnan(v) else float(v) for v in values]
+        return {"track_id": [int(i) for i in self.id], "status": list(self.status), "range_m": floats(self.range_m),
+                "velocity_mps": floats(self.velocity_mps), "var_range_m2": floats(self.var_range_m2),
+                "var_velocity_m2ps2": floats(self.var_velocity_m2ps2), "nis": floats(self.nis),
+                "nis_alarm": None if self.nis_alarm is None else [bool(a) for a in self.nis_alarm]}
+
 
 def step(tracks: Tracks, z: np.ndarray | None, config: TrackerConfig) -> tuple[Tracks, CycleReport]:
     """One cycle: z float (m, 2) of (range, range rate) for a measured cycle (m may be 0), None for an unmeasured
