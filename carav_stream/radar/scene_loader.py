@@ -86,7 +86,7 @@ def preset_names() -> list[str]:
 
 
 def load_scene(name_or_path: str, overrides: dict | None = None) -> Scene:
-    """Load a preset by name (``table1``, ``awr1642``, ``awr1642_literal``) or a TOML file.
+    """Load a preset by name (``table1``, ``table1_following``, ``awr1642``, ``awr1642_literal``) or a TOML file.
 
     ``overrides`` replaces top-level keys after loading (``{"n_chirps": 32, "iq": True, "snr_db": 0}``);
     ``None`` values remove a key. Raises :class:`SceneError` listing every problem.

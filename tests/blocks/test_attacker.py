@@ -1,9 +1,13 @@
-"""Attacker block: parameters checked by model, the reactive repeater gated at the receiver bit for bit."""
+"""Attacker block: parameters checked by model, the reactive repeater gated at the receiver bit for bit, the pull-off
+as the library emits it."""
 import numpy as np
 import pytest
 
 from carav_blocks.attacker import AttackerBlock
-from carav_stream.runtime import BlockError
+from carav_stream.radar.attackers import make_attacker
+from carav_stream.radar.streams import scene_of
+from carav_stream.runtime import BlockError, Frame
+from carav_stream.testing.harness import wire
 from tests.blocks.helpers import SCENE, front_end
 
 
@@ -52,3 +56,18 @@ def test_reactive_attack_gated_at_the_receiver_equals_the_library_bit_for_bit(fi
             assert attack.payload is None and not attack.arrays
     # on in cycles 5..18, but it answers nothing in the silent cycles 9, 10, 17 and 18
     assert reported == [5 <= c < 19 and c % 8 not in (1, 2) for c in range(32)]
+
+
+def test_the_pull_off_model_runs_in_the_node_as_the_library_emits_it():
+    """The block builds any model of the registry by name (a swap's `--set model=pull_off` too): frame by frame it
+    sends what the model's own emit gives for the same cycles, capture then drag."""
+    params = {"capture_cycles": 3, "pull_mps": 30.0, "pull_accel_mps2": 3e4, "rarms": 3.0}
+    block = AttackerBlock(scene=SCENE, model="pull_off", **params)
+    block.start()
+    rho = np.zeros((4, 64), bool)
+    sent = [wire(block.process(wire(Frame.of(rho[:2], cycle=c0, cycles=2), seq)), seq) for seq, c0 in ((0, 0), (1, 2))]
+    model = make_attacker("pull_off", scene_of(SCENE), **params)
+    want, active = model.emit(4, 0, None, compact=True)
+    np.testing.assert_array_equal(np.concatenate([f.payload for f in sent]), want)
+    assert [a for f in sent for a in f.header["per_cycle"]["attack_active"]] == active.tolist() == [True] * 4
+    assert model.offset(3) == (0.0, 0.0) and model.offset(4)[0] > 0

@@ -1,4 +1,5 @@
-"""A delayed replica of the victim's chirp at a per-sample RMS: what the ghost and the reactive repeater send."""
+"""A delayed replica of the victim's chirp at a per-sample RMS: what the ghost, the pull-off and the reactive repeater
+send."""
 import math
 
 from carav_stream.radar import physics
@@ -6,10 +7,12 @@ from carav_stream.radar.attackers._base import Attacker
 
 
 class ReplicaAttacker(Attacker):
-    """Shared by ghost and reactive: a delayed replica of the victim's chirp at per-sample RMS rarms."""
+    """Shared by ghost, pull_off and reactive: a delayed replica of the victim's chirp at per-sample RMS rarms."""
 
     def _replica(self, tau0_s, alpha, gate_from_s, fidelity):
-        key = (fidelity,)
+        """(main, tail) of the replica delayed tau0_s + alpha t, computed once for each delay a model sends (the
+        last one kept: a model whose delay moves from cycle to cycle, such as pull_off, recomputes it)."""
+        key = (fidelity, tau0_s, alpha, gate_from_s)
         if getattr(self, "_cache_key", None) != key:
             amp = self.rarms * self.scene.sigma_n * (1.0 if self.scene.iq else math.sqrt(2.0))
             if fidelity == "beat":

@@ -1,0 +1,163 @@
+"""Tracker: the car's picture of the road over time, tracks in range and range rate from every cycle's estimates.
+
+    x_k+1 = F x_k + G a_k,   z_k = (range_m, velocity_mps) of the clean cycle k,   a refused cycle: predict only
+
+The tracking is carav_stream/track/tracker.py's (constant-velocity Kalman filter, chi-square gate, GNN association,
+M-of-N confirmation, deletion after misses or the coast limit, the opt-in windowed NIS alarm), one cycle at a time
+over dt = the scene's cycle time. A cycle the gate refused is no measurement, never no target: the tracks coast
+through it. The estimator's records of the clean cycles and the gate's alarm records of the refused ones come on two
+streams, merged in arrival order; the tracker takes them in cycle order, a cycle waiting for every cycle before it,
+from the first cycle of the frames that came before the estimator's first (the alarms' path is the shorter). A
+cycle that has not come once a later one is max_hold_cycles ahead, or by the end of the stream, is unmeasured
+(reason "lost"); one that comes after its turn is counted (late) and left out.
+
+The simulator freezes geometry per cycle (each cycle starts from the scene's ranges): a scene target with a range
+rate stays at its range while its Doppler says it moves, which no constant-velocity track follows (validation warns);
+table1_following is Table I's radar with the car at its own speed.
+
+Ports   in  estimates   range_estimator records (per_cycle range_m, velocity_mps: one value per target)
+        in  alarms      gate alarm records (per_cycle cycle_index, reason)                      optional
+        out tracks      header only, per_cycle: cycle_index, measured, reason (None, the gate's reason or "lost"),
+                        attack_active, born and deleted (track ids), and one value per live track in track_id,
+                        status ("tentative" | "confirmed" | "coasting"), range_m, velocity_mps, var_range_m2,
+                        var_velocity_m2ps2 (the covariance's diagonal), nis (None unless updated), nis_alarm (None
+                        when nis_pfa = 0)
+Graph   tracker = { type = "tracker", sigma_range_m = 0.0025, sigma_velocity_mps = 0.01 }
+"""
+import numpy as np
+
+from carav_stream.radar.streams import SCENE, scene_of
+from carav_stream.runtime import Block, Frame, In, Out, Param, cycle_indices, n_cycles, per_cycle
+from carav_stream.track import CycleReport, TrackerConfig, Tracks, step
+
+
+class Tracker(Block):
+    inputs = (In("estimates", kind="estimates"), In("alarms", kind="alarm", required=False))
+    outputs = (Out("tracks", kind="tracks", dtypes=("none",)),)
+    merge_inputs = True
+    params = (SCENE,
+              Param("sigma_range_m", float, doc="the estimator's range error RMS (run_summary's range_error_m rmse "
+                    "on a clean run)", unit="m", low=0.0, strict=True),
+              Param("sigma_velocity_mps", float, doc="the estimator's range-rate error RMS", unit="m/s", low=0.0,
+                    strict=True),
+              Param("sigma_accel_mps2", float, 8.0, "acceleration RMS a target may have (a car's hardest braking)",
+                    unit="m/s^2", low=0.0),
+              Param("gate_probability", float, 0.9999, "probability that a target's measurement falls in its gate",
+                    low=0.0, high=1.0, strict=True),
+              Param("confirm_m", int, 3, "hits that confirm a tentative track ...", low=1),
+              Param("confirm_n", int, 5, "... among its first confirm_n measured cycles", low=1),
+              Param("delete_misses", int, 3, "consecutive misses (measured cycles without it) that delete a track",
+                    low=1),
+              Param("coast_cycles", int, 64, "cycles a track coasts without an update before it is deleted",
+                    unit="cycles", low=0),
+              Param("nis_pfa", float, 0.0, "NIS alarm's design false-alarm rate per update; 0 = no NIS alarm",
+                    low=0.0, high=1.0),
+              Param("nis_window", int, 1, "updates the NIS alarm sums", low=1),
+              Param("max_hold_cycles", int, 1024, "how far a later cycle may run ahead of a missing one",
+                    unit="cycles", low=1))
+
+    def check_params(self) -> None:
+        scene = scene_of(self.scene)
+        self.config = TrackerConfig(
+            dt_s=scene.t_cycle_s, sigma_accel_mps2=self.sigma_accel_mps2, sigma_range_m=self.sigma_range_m,
+            sigma_velocity_mps=self.sigma_velocity_mps, gate_probability=self.gate_probability,
+            confirm_m=self.confirm_m, confirm_n=self.confirm_n, delete_misses=self.delete_misses,
+            coast_cycles=self.coast_cycles, nis_pfa=self.nis_pfa, nis_window=self.nis_window)
+
+    def param_warnings(self) -> list[str]:
+        scene = scene_of(self.scene)
+        return [f"scene {scene.name}: target {i} ({t.range_m:g} m) has a range rate of "
+                f"{scene.range_rate_mps(t):+.4g} m/s, but every cycle starts from the scene's ranges: its range "
+                f"never moves while its Doppler says it does, which a constant-velocity track cannot follow (a "
+                f"range bias and NIS far above the design); a target at the radar's speed keeps its range"
+                for i, t in enumerate(scene.targets) if scene.range_rate_mps(t) != 0.0]
+
+    def start(self) -> None:
+        self.tracks = Tracks.empty(self.config)
+        self.pending: dict[int, tuple] = {}    # cycle -> (measurements or None, reason, attack_active)
+        self.next_cycle: int | None = None     # None until the estimator's first frame (or a long wait)
+        self.first_cycle: int | None = None
+        self.newest = -1                         # the latest cycle received
+        self.rows: list[dict] = []              # cycles tracked, not sent yet
+        self.last_sent, self.last_seq = -1, -1
+        self.counts = {"cycles": 0, "measured": 0, "late": 0, "born": 0, "deleted": 0, "nis_alarms": 0,
+                       "unsent_cycles": 0}
+        self.reasons: dict[str, int] = {}
+
+    def process(self, estimates: Frame | None, alarms: Frame | None = None) -> Frame | None:
+        frame = estimates if estimates is not None else alarms
+        self._take(frame, from_estimator=estimates is not None)
+        self._advance(flush=False)
+        self.last_seq = frame.seq
+        if not self.rows or frame.seq <= self.last_sent:   # an output's seq must grow: wait for a later frame
+            return None
+        self.last_sent = frame.seq
+        return self._frame()
+
+    def finish(self) -> Frame | None:
+        self._advance(flush=True)
+        if not self.rows:
+            return None
+        if self.last_seq + 1 <= self.last_sent:    # the end's seq (the last handled + 1) was sent already
+            self.counts["unsent_cycles"] += len(self.rows)
+            return None
+        return self._frame()
+
+    def _take(self, frame: Frame, from_estimator: bool) -> None:
+        if self.next_cycle is None:
+            self.first_cycle = frame.cycle if self.first_cycle is None else min(self.first_cycle, frame.cycle)
+            if from_estimator:                   # the longer path has spoken: the tracking starts
+                self.next_cycle = self.first_cycle
+        measured = from_estimator and not frame.header.get("refused")
+        per, n = per_cycle(frame), n_cycles(frame)
+        ranges, speeds = per.get("range_m") or [[]] * n, per.get("velocity_mps") or [[]] * n
+        reasons = per.get("reason") or ["attack"] * n
+        active = per.get("attack_active") or [None] * n
+        for i, c in enumerate(cycle_indices(frame)):
+            if c < (self.first_cycle if self.next_cycle is None else self.next_cycle) or c in self.pending:
+                self.counts["late"] += 1
+                continue
+            self.newest = max(self.newest, c)
+            if measured:
+                z = [(r, v) for r, v in zip(ranges[i] or [], speeds[i] or []) if r is not None and v is not None]
+                self.pending[c] = (np.array(z, dtype=float).reshape(-1, 2), None, active[i])
+            else:
+                self.pending[c] = (None, "refused_by_estimator" if frame.header.get("refused") else reasons[i],
+                                   active[i])
+
+    def _advance(self, flush: bool) -> None:
+        """Track every cycle whose turn has come, in cycle order (module docstring)."""
+        if self.next_cycle is None and self.pending and (flush or self.newest - self.first_cycle
+                                                          >= self.max_hold_cycles):
+            self.next_cycle = self.first_cycle
+        while self.pending and self.next_cycle is not None:
+            c = self.next_cycle
+            if c in self.pending:
+                z, reason, active = self.pending.pop(c)
+            elif flush or self.newest - c >= self.max_hold_cycles:
+                z, reason, active = None, "lost", None
+            else:
+                return
+            self.tracks, report = step(self.tracks, z, self.config)
+            self.rows.append(self._row(c, report, reason, active))
+            self.next_cycle = c + 1
+
+    def _row(self, cycle: int, r: CycleReport, reason: str | None, active) -> dict:
+        tracks = r.plain()
+        for key, n in (("cycles", 1), ("measured", r.measured), ("born", len(r.born)), ("deleted", len(r.deleted)),
+                       ("nis_alarms", sum(tracks["nis_alarm"] or []))):
+            self.counts[key] += n
+        if reason is not None:
+            self.reasons[reason] = self.reasons.get(reason, 0) + 1
+        return {"cycle_index": cycle, "measured": r.measured, "reason": reason, "attack_active": active,
+                "born": list(r.born), "deleted": list(r.deleted), **tracks}
+
+    def _frame(self) -> Frame:
+        rows, self.rows = self.rows, []
+        columns = {key: [row[key] for row in rows] for key in rows[0]}
+        return Frame.of(None, cycle=rows[0]["cycle_index"], cycles=len(rows), per_cycle=columns,
+                        dt_s=self.config.dt_s)
+
+    def summary(self) -> dict:
+        return {**self.counts, "unmeasured_by_reason": self.reasons, "live_tracks": len(self.tracks),
+                "confirmed_tracks": int(self.tracks.confirmed.sum())}
