@@ -224,6 +224,7 @@ class Sender:
     def __init__(self, address: str, kind: str) -> None:
         self.context = zmq.Context()
         self.socket = self.context.socket(SOCKETS[kind])
+        self.socket.setsockopt(zmq.LINGER, 0)     # a process that ends without close() is not held by its queue
         self.socket.bind(address)
         self.address = self.socket.getsockopt_string(zmq.LAST_ENDPOINT)
 
