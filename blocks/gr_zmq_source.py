@@ -19,7 +19,8 @@ their reasons in `damage`: rms_detector judges them invalid, the gate refuses th
 not sent (per_cycle cycle_index names the cycles sent, when they do not follow one another). A message that is
 not what the settings say (bad magic, wrong item size: carav_stream/capture/gr_zmq.py) or a tag that says the
 stream is not this scene's (packet_len, rx_rate, carav_chirp) ends the node with one line naming it and its
-message. The stream ends when no message has come for idle_timeout_s.
+message. The stream ends when no message has come for idle_timeout_s (first_timeout_s before the first one: the
+flowgraph may start after the graph).
 
 Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]) codes, or float32 | complex64 samples (ideal ADC);
                      per_cycle clipped, nonfinite, damage (its reasons, comma-separated; "" for a whole cycle),
@@ -55,8 +56,10 @@ class GrZmqSource(Block):
               Param("activation", str, "", "activation log of the stream's cycles 0, 1, 2, ...", file=True),
               Param("pattern", str, "", "fixed activation pattern of every cycle, n_chirps digits 0 | 1"),
               Param("rho_from_tags", bool, False, "activation sequences from the stream's carav_rho tags"),
-              Param("idle_timeout_s", float, 5.0, "the stream ends after this long without a message", unit="s",
-                    low=0.0, strict=True),
+              Param("first_timeout_s", float, 60.0, "the stream ends if no message has come this long after the "
+                    "start", unit="s", low=0.0, strict=True),
+              Param("idle_timeout_s", float, 5.0, "the stream ends after this long without a message, once one has "
+                    "come", unit="s", low=0.0, strict=True),
               SCENE,
               Param("batch", int, 16, "cycles per frame", low=1, high=4096))
 
@@ -91,7 +94,8 @@ class GrZmqSource(Block):
         while self.framer.complete() < self._want():
             parts = self.receiver.receive(wait_s)
             if parts is None:
-                if time.monotonic() - self.last_message >= self.idle_timeout_s:
+                first = self.framer.counts["messages"] + self.framer.counts["other_key"] == 0
+                if time.monotonic() - self.last_message >= (self.first_timeout_s if first else self.idle_timeout_s):
                     self.stopped = True
                 return
             self.last_message, wait_s = time.monotonic(), 0.0

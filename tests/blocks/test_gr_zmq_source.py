@@ -87,6 +87,15 @@ def test_a_tagged_stream_comes_out_as_the_codes_it_stands_for_with_the_pattern()
     assert s["cycles"] == 7 and s["damaged_cycles"] == 0 and s["messages"] == 5 and s["sender_stopped"] is True
 
 
+def test_a_stream_whose_first_message_never_comes_ends_after_first_timeout_s_and_not_before():
+    source = GrZmqSource(scene=SCENE, address=f"tcp://127.0.0.1:{free_port('127.0.0.1')}", pattern="1111",
+                         first_timeout_s=1.0, idle_timeout_s=0.05)
+    source.start()
+    t0 = time.monotonic()
+    assert run_source(source) == [] and time.monotonic() - t0 >= 1.0
+    assert source.summary()["run"]["gr_stream"]["sender_stopped"] is True
+
+
 def test_an_untagged_stream_starts_cycle_0_at_its_first_item_and_an_ideal_adc_keeps_the_samples():
     scene = str(GOLDEN / "ranging_small.toml")
     sender = Sender(f"tcp://127.0.0.1:{free_port('127.0.0.1')}", "push")
