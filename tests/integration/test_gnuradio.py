@@ -2,7 +2,9 @@
 run by the system's Python) sends a known signal tagged packet_len, rx_rate and rx_time through a ZMQ PUSH Sink
 into gr_zmq_source, and the cycles carav records are the very items the flowgraph's File Sink wrote; and
 gr_zmq_sink's stream reaches a flowgraph's ZMQ PULL Source as the very samples carav recorded, with every tag on
-the item it was put on. CI installs GNU Radio (.ci/run); a local run without it skips these tests and says why."""
+the item it was put on. The examples' flowgraphs compile with grcc, and the one that feeds carav, run headless,
+gives graphs/gnuradio.toml a stream it judges clean and ranges to the millimetre. CI installs GNU Radio
+(.ci/run); a local run without it skips these tests and says why."""
 from __future__ import annotations
 
 import json
@@ -23,6 +25,7 @@ from tests.integration.conftest import ROOT
 pytestmark = pytest.mark.integration
 SYSTEM_PYTHON = "/usr/bin/python3"
 SCRIPTS = Path(__file__).with_name("gnuradio")
+EXAMPLES = ROOT / "examples" / "gnuradio"
 IDEAL = """name = "gr_ideal"
 fc_hz = 77e9
 bandwidth_hz = 150e6
@@ -156,3 +159,27 @@ rec = {{ type = "sigmf_sink", path = "rec/sent" }}
     assert [o for o, _ in tags["rx_time"]] == [n * c for c in range(cycles)]
     assert [s + f for _, (s, f) in tags["rx_time"]] == pytest.approx([c * scene.t_cycle_s for c in range(cycles)])
     assert "carav_rho" not in tags                                                   # the secret stays home
+
+
+def test_the_example_flowgraphs_compile_and_the_feeding_one_is_judged_clean_and_ranged(carav, flowgraph, tmp_path):
+    for grc in sorted(EXAMPLES.glob("*.grc")):
+        done = subprocess.run(["grcc", "-o", str(tmp_path), str(grc)], capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        assert (tmp_path / f"{grc.stem}.py").is_file()
+    address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
+    sender = subprocess.Popen([SYSTEM_PYTHON, str(tmp_path / "gnuradio_to_carav.py"), "--address", address,
+                               "--n-cycles", "20", "--slowdown", "10"], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        run = carav.run(ROOT / "graphs" / "gnuradio.toml", "--set", f"source.address={address}")
+        assert run.wait() == 0, run.stderr()
+        wait_until(lambda: sender.poll() is not None, "the flowgraph's end", lambda: group_cpu_s(sender.pid))
+        assert sender.returncode == 0, sender.stderr.read()
+    finally:
+        if sender.poll() is None:
+            os.killpg(sender.pid, 9)
+            sender.wait()
+    s = run.summary()
+    assert s["gr_stream"]["cycles"] == 20 and s["gr_stream"]["damaged_cycles"] == 0
+    assert s["cycles_judged"] == 20 and s["alarms"] == 0
+    assert s["range_error_m"]["rmse"] < 0.01 and s["velocity_error_mps"]["rmse"] < 0.1
