@@ -24,7 +24,7 @@ flowgraph may start after the graph).
 
 Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]) codes, or float32 | complex64 samples (ideal ADC);
                      per_cycle clipped, nonfinite, damage (its reasons, comma-separated; "" for a whole cycle),
-                     rx_time_s (the rx_time tag on a cycle's first item, else null)
+                     and, when the stream has rx_time tags, rx_time_s (the tag on a cycle's first item, else null)
         out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
 Summary run.gr_stream: messages, items, cycles, damaged_cycles, per reason (lost, overlapping, incomplete,
         no_activation) the cycles damaged for it, lost_cycles (nothing came), lost_items, overlapping_items,

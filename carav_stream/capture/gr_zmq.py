@@ -15,10 +15,11 @@ One message per scheduler call of the GNU Radio sink, in one part (two with a PU
 Without pass_tags nothing but the items travels: a receiver cannot tell where the stream began (a SUB that joins
 late), nor whether messages were dropped (a PUB over its high-water mark). With it, the offsets show both.
 
-encode and decode are pure; decode refuses every malformed message with a GrZmqError naming what is wrong: a bad
-magic (a hint when it is 0x5FF0 byte-swapped, or when an untagged stream's items start with a header), an unknown
-version, a header or tag cut short, a PMT that cannot be read, a tag outside its message's items, a payload that is
-not a whole number of items, a part count or key that does not fit the sender's settings.
+Receiver and Sender are the sockets (a PULL or SUB connected to a GNU Radio sink; a PUSH or PUB bound for a GNU
+Radio source); encode and decode are pure. decode refuses every malformed message with a GrZmqError naming what is
+wrong: a bad magic (a hint when it is 0x5FF0 byte-swapped, or when an untagged stream's items start with a header),
+an unknown version, a header or tag cut short, a PMT that cannot be read, a tag outside its message's items, a
+payload that is not a whole number of items, a part count or key that does not fit the sender's settings.
 """
 from __future__ import annotations
 
