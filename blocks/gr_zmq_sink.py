@@ -26,7 +26,7 @@ import numpy as np
 
 from carav_stream.capture.gr_stream import DEFAULT_TAGS, TAG_NAMES, cycle_tags, layout_of
 from carav_stream.capture.gr_zmq import Sender, check_address, encode, is_local
-from carav_stream.radar.adc import from_codes
+from carav_stream.radar.adc import adc_step, from_codes
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, In, Param, cycle_indices
 
@@ -62,8 +62,11 @@ class GrZmqSink(Block):
         self.offset = self.messages = self.cycles = self.n_tags = 0
 
     def process(self, frames: Frame, rho: Frame | None = None) -> None:
-        lay = self.layout
-        x = from_codes(scene_of(self.scene), frames.payload) if frames.payload.dtype == np.int16 else frames.payload
+        lay, scene = self.layout, scene_of(self.scene)
+        if frames.payload.dtype == np.int16 and adc_step(scene) is None:
+            raise BlockError(f"frame seq {frames.seq}: int16 codes, but scene {scene.name} has an ideal ADC "
+                             "(adc_bits 0): no lsb to turn them into samples")
+        x = from_codes(scene, frames.payload) if frames.payload.dtype == np.int16 else frames.payload
         shape = (len(cycle_indices(frames)), lay.n_chirps, lay.n_samples)
         if x.dtype != lay.item or x.shape != shape:
             raise BlockError(f"frame seq {frames.seq}: {frames.payload.dtype} {frames.payload.shape} is not "

@@ -148,8 +148,8 @@ class GrZmqSource(Block):
         if self.fixed is not None:
             return np.tile(self.fixed, (len(got.cycles), 1))
         if self.log_rho is not None:
-            if got.cycles[-1] >= len(self.log_rho):
-                raise BlockError(f"activation: {self.activation}: no sequence for cycle {got.cycles[-1]} of the "
+            if max(got.cycles) >= len(self.log_rho):
+                raise BlockError(f"activation: {self.activation}: no sequence for cycle {max(got.cycles)} of the "
                                  "stream", retry=False)
             return self.log_rho[got.cycles]
         rho = np.zeros((len(got.cycles), self.layout.n_chirps), dtype=bool)

@@ -101,6 +101,15 @@ def test_a_frame_that_is_not_the_scene_s_cycles_is_refused_naming_its_shape():
     h.block.finish()
 
 
+def test_codes_for_a_scene_with_an_ideal_adc_are_refused(tmp_path):
+    ideal = tmp_path / "ideal.toml"
+    ideal.write_text((GOLDEN / "adc_small_iq.toml").read_text().replace("adc_bits = 12", "adc_bits = 0"))
+    h = BlockHarness(GrZmqSink, scene=str(ideal), address=f"tcp://127.0.0.1:{free_port('127.0.0.1')}")
+    with pytest.raises(BlockError, match="frame seq 0: int16 codes, but scene .* has an ideal ADC"):
+        h.run({"frames": codes()[:1]})
+    h.block.finish()
+
+
 def test_the_activation_is_refused_without_its_sequences_and_beyond_this_host():
     address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
     h = BlockHarness(GrZmqSink, scene=SCENE, address=address, pass_tags=True, tags=["carav_rho"])
