@@ -87,6 +87,7 @@ def test_a_tagged_stream_comes_out_as_the_codes_it_stands_for_with_the_pattern()
     assert s["cycles"] == 7 and s["damaged_cycles"] == 0 and s["messages"] == 5 and s["sender_stopped"] is True
 
 
+@pytest.mark.slow
 def test_a_stream_whose_first_message_never_comes_ends_after_first_timeout_s_and_not_before():
     source = GrZmqSource(scene=SCENE, address=f"tcp://127.0.0.1:{free_port('127.0.0.1')}", pattern="1111",
                          first_timeout_s=1.0, idle_timeout_s=0.05)
@@ -162,6 +163,7 @@ def test_a_stream_that_cannot_be_this_scene_s_ends_the_node_in_one_line(params, 
     sender.close(0)
 
 
+@pytest.mark.slow
 def test_a_subscriber_takes_its_key_s_stream_from_where_it_joined_and_counts_the_other_key_s():
     pub = Sender(f"tcp://127.0.0.1:{free_port('127.0.0.1')}", "pub")
     source = GrZmqSource(scene=SCENE, address=pub.address, socket="sub", key="radar", pass_tags=True,
