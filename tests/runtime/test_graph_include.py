@@ -95,7 +95,10 @@ def test_a_relative_block_folder_stays_relative_to_the_file_that_wrote_it(tmp_pa
                                                                                      'block_paths = ["nope", ')))
 
 
-@pytest.mark.parametrize("graph", sorted(p.name for p in GRAPHS.glob("*.toml") if p.name != "replay.toml"))
+PLAYERS = ("replay.toml", "gnuradio.toml")      # graphs whose ADC frames come from outside: the chain after the ADC
+
+
+@pytest.mark.parametrize("graph", sorted(p.name for p in GRAPHS.glob("*.toml") if p.name not in PLAYERS))
 def test_every_shipped_graph_loads_and_includes_the_radar_chain_unchanged(graph):
     chain = load_graph(GRAPHS / "radar_chain.toml")
     g = load_graph(GRAPHS / graph)
@@ -116,6 +119,14 @@ def test_the_replay_graph_asks_for_its_recording_and_keeps_detection_ahead_of_ra
         if edge.src not in ("source", "channel", "attacker"):
             assert f'"{str(edge).replace("adc.frames", "source.frames")}"' in replay, edge
     assert '"source.rho -> detector.rho"' in replay
+
+
+def test_the_gnu_radio_graph_keeps_the_chain_after_the_adc_with_its_source_in_the_adc_s_place():
+    chain, g = load_graph(GRAPHS / "radar_chain.toml"), load_graph(GRAPHS / "gnuradio.toml")
+    after_adc = {str(e).replace("adc.frames", "source.frames") for e in chain.edges
+                 if e.src not in ("source", "channel", "attacker")}
+    assert after_adc | {"source.rho -> detector.rho"} == {str(e) for e in g.edges}
+    assert g.nodes["source"].type == "gr_zmq_source" and g.params["scene"] == "table1"
 
 
 def test_graph_wide_radar_parameters_are_checked_once_and_must_agree_across_blocks():
