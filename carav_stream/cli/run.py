@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from carav_stream.cli.view import view_graph
-from carav_stream.console import jsonout
+from carav_stream.console import jsonout, matout
 from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
 from carav_stream.runtime.curve_keys import split_run_problem
@@ -46,6 +46,8 @@ def run_options(p: argparse.ArgumentParser) -> None:
                    help="override a node's parameter, a graph-wide one with PARAM=VALUE, a [run] setting with "
                    "run.KEY=VALUE")
     p.add_argument("--json", type=output_file, metavar="FILE", help="write the summary as JSON")
+    p.add_argument("--mat", type=output_file, metavar="FILE", help="write the summary as a MATLAB file (v5), the "
+                   "struct `summary` (as carav export makes of the JSON)")
     p.add_argument("--transport", choices=TRANSPORTS, help="data plane of same-host edges: zmq (arrays in "
                    "ZeroMQ messages) or shm (arrays in shared memory, headers over ZeroMQ); default: the graph's "
                    "run.transport, else zmq")
@@ -98,6 +100,8 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     print_summary(summary)
     if args.json:
         jsonout.write(args.json, summary, indent=2)
+    if args.mat:
+        matout.write(args.mat, {"summary": jsonout.plain(summary)})
     if summary["failures"]:
         return Exit.FAILED
     if summary["lost"]:
