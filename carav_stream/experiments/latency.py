@@ -69,7 +69,8 @@ def _scaled(scene, db: float):
     return dataclasses.replace(scene, targets=tuple(dataclasses.replace(t, rcs_m2=t.rcs_m2 * g) for t in scene.targets))
 
 
-def _false_alarms(preset: str, fidelity: str, n: int, seed: int, tick: Callable[[int], None]) -> list[dict]:
+def _false_alarms(preset: str, fidelity: str, n: int, seed: int, tick: Callable[[int], None] = lambda k: None
+                  ) -> list[dict]:
     base = load_scene(preset)
     variants = scenes(base, np.random.default_rng(0))
     first = window_start(base)
@@ -93,7 +94,7 @@ def _false_alarms(preset: str, fidelity: str, n: int, seed: int, tick: Callable[
     return out
 
 
-def _misses(preset: str, fidelity: str, n: int, seed: int, tick: Callable[[int], None]) -> list[dict]:
+def _misses(preset: str, fidelity: str, n: int, seed: int, tick: Callable[[int], None] = lambda k: None) -> list[dict]:
     scene = load_scene(preset)
     first = window_start(scene)
     rng = np.random.default_rng([seed, len(preset), len(fidelity), 1])
