@@ -15,6 +15,7 @@ Graph   source = { type = "chirp_source", batch = 16 }
 """
 import time
 
+from carav_stream.radar.scene import aliased_targets, velocity_warning
 from carav_stream.radar.streams import SCENE, SEED, scene_of, seed_streams
 from carav_stream.runtime import Block, Frame, Out, Param
 
@@ -33,7 +34,11 @@ class ChirpSource(Block):
         seed_streams(self.seed, self.activation)
 
     def param_warnings(self) -> list[str]:
-        return list(scene_of(self.scene).warnings)   # the scene's doubtful physics, e.g. an ambiguous velocity
+        """The scene's doubtful physics, but a velocity beyond the unambiguous interval: that matters to the range
+        estimator alone, which warns when it does not unalias it (its max_speed_mps)."""
+        scene = scene_of(self.scene)
+        aliased = {velocity_warning(scene, i) for i in aliased_targets(scene)}
+        return [w for w in scene.warnings if w not in aliased]
 
     def start(self) -> None:
         self.streams = seed_streams(self.seed, self.activation, self.instance)

@@ -32,6 +32,7 @@ from carav_stream.estimate.estimators import METHODS, estimate
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.firmware.target_list import KINDS, target_list
 from carav_stream.radar.adc import adc_step, from_codes
+from carav_stream.radar.scene import aliased_targets, velocity_warning
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, pick
 
@@ -58,6 +59,13 @@ class RangeEstimator(Block):
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)
         self.geometry = Geometry.from_scene(self.scene_obj)
+
+    def param_warnings(self) -> list[str]:
+        """A target whose Doppler aliases beyond what max_speed_mps unaliases: its velocity estimates are the alias."""
+        scene = self.scene_obj
+        return [f"{velocity_warning(scene, i)}, and the range estimator reports that alias unless its max_speed_mps "
+                f"(now {self.max_speed_mps:g} m/s) reaches {abs(scene.range_rate_mps(scene.targets[i])):.3g} m/s"
+                for i in aliased_targets(scene, self.max_speed_mps)]
 
     def start(self) -> None:
         self.refused = 0

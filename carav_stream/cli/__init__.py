@@ -1,8 +1,9 @@
 """carav: run, validate and steer carav-stream graphs; sweep thresholds; reproduce the paper.
 
-    carav run GRAPH [--cycles N] [--set node.param=value | param=value ...] [--json FILE]
+    carav run GRAPH [--cycles N] [--set node.param=value | param=value ...] [--json FILE] [--mat FILE]
     carav record GRAPH --out DIR [carav run options]   the run's ADC output as SigMF (+ private activation log)
     carav replay DIR [--graph FILE] [--json FILE]       a recording through detection and ranging again
+    carav export DIR|SUMMARY.json --mat OUT.mat [--cycles A:B]   a recording or a summary as a MATLAB file
     carav validate GRAPH ...
     carav graph GRAPH [--set ...] [--out PICTURE.svg|.png|.pdf]   the graph as a picture (or as text, without --out)
     carav blocks [TYPE]
@@ -40,6 +41,7 @@ COMMANDS = {
     "run": ("carav_stream.cli.run", "run a graph and print its summary"),
     "record": ("carav_stream.cli.record", "run a graph and record its ADC output as SigMF, rho in a private log"),
     "replay": ("carav_stream.cli.replay", "a SigMF recording through detection, gate and ranging again"),
+    "export": ("carav_stream.cli.export", "a recording or a summary as a MATLAB file (.mat, v5: MATLAB and Octave)"),
     "validate": ("carav_stream.cli.validate", "check graph files without starting anything"),
     "graph": ("carav_stream.cli.graph", "draw a graph file: boxes, ports and labelled arrows (or its text)"),
     "blocks": ("carav_stream.cli.blocks", "list block types with their ports and parameters"),

@@ -2,6 +2,7 @@
 
     carav design --preset NAME | --scene FILE [--pf 1e-6] [--nr N] [--ns N] [--iq] [--snr-db DB] [--ideal-adc]
                  [--rarms LIST] [--trials N] [--seed S] [--fidelity beat|waveform] [--benign-trials N] [--json FILE]
+                 [--quiet]
 
 Thresholds (closed forms; model and limits: carav_stream/firmware/design.py):
 - C(eta), the RMS detector (D0 on the silent chirps, D1 on the active ones): eta with PF(eta) = pf per cycle, and PF
@@ -25,15 +26,18 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+from collections.abc import Callable
 
 import numpy as np
 
 from carav_stream.console import jsonout
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, even_count, float_list, number, output_file
+from carav_stream.console.progress import ProgressBar
 from carav_stream.detect.detector import PAPER_ETA
 from carav_stream.detect.opt_in import cusum_threshold, exact_bins, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
+from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
 from carav_stream.firmware.design import QUANTISED_BELOW, pf_per_cycle, pm_random, rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
@@ -71,6 +75,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ghost-trials", type=count(0), default=100,
                         help="attacked cycles per RARMS for the weakest ghost each detector catches (0: none)")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="also write the numbers as JSON")
+    parser.add_argument("--quiet", action="store_true", help="no progress (on stderr: a bar on a terminal, else a "
+                        "line every 10 s with the time left)")
 
 
 def _scene(args: argparse.Namespace):
@@ -92,8 +98,9 @@ def _scene(args: argparse.Namespace):
 
 
 def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelity: str = "beat",
-           benign_trials: int = 0, ghost_trials: int = 0) -> dict:
-    """Every number `carav design` prints, as a dict (JSON-ready)."""
+           benign_trials: int = 0, ghost_trials: int = 0, progress: Callable[[int, int], None] | None = None) -> dict:
+    """Every number `carav design` prints, as a dict (JSON-ready); progress(cycles done, cycles in all) as the
+    benign, smart and ghost cycles are simulated."""
 
     if not 0 < pf < 1:
         raise CommandError(f"--pf: must be in (0, 1), got {pf:g}", Exit.USAGE)
@@ -104,9 +111,10 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
     spectral = spectral_threshold(pf, m * bins) if bins else None
     source = RadarSource(scene, fidelity=fidelity)
     seeds = np.random.SeedSequence(seed).spawn(len(rarms) + 1)
+    tally = Tally(benign_trials + trials * len(rarms) + ghost_trials * len(GHOST_RARMS), progress)
     benign = None
     if benign_trials:
-        q = simulate_q(source, "none", 0.0, benign_trials, seeds[-1], workers=1).q
+        q = simulate_q(source, "none", 0.0, benign_trials, seeds[-1], workers=1, progress=tally).q
         benign = {"trials": benign_trials}
         for key, e in (("design", eta), ("paper", PAPER_ETA)):
             k = int(np.sum(q >= e))
@@ -115,7 +123,7 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
         benign["above_design"] = benign["design"]["ci"][0] > pf
     misses = []
     for r, child in zip(rarms, seeds):
-        q = simulate_q(source, "smart", r, trials, child, workers=1).q
+        q = simulate_q(source, "smart", r, trials, child, workers=1, progress=tally).q
         row = {"rarms": r}
         for key, e in (("design", eta), ("paper", PAPER_ETA)):
             k = int(np.sum(q < e))
@@ -126,7 +134,7 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
     ghost = None
     if ghost_trials:
         rows = miss_rates(scene, "ghost", GHOST_RARMS, ghost_trials, seed, fidelity=fidelity,
-                          params={"range_m": GHOST_RANGE_M}, pf=pf)
+                          params={"range_m": GHOST_RANGE_M}, pf=pf, tick=tally)
         ghost = {"range_m": GHOST_RANGE_M, "trials": ghost_trials, "rarms": list(GHOST_RARMS),
                  "weakest_caught": weakest_caught(rows), "rows": rows}
     return {
@@ -222,8 +230,9 @@ def _print(d: dict, stream=None) -> None:
 def run(args: argparse.Namespace) -> int:
     if not args.pf < 1:
         raise CommandError(f"--pf: must be in (0, 1), got {args.pf:g}", Exit.USAGE)
+    bar = ProgressBar("design") if ProgressBar.wanted(args.quiet) else None
     result = design(_scene(args), args.pf, args.rarms, args.trials, args.seed, args.fidelity, args.benign_trials,
-                    args.ghost_trials)
+                    args.ghost_trials, progress=bar)
     _print(result)
     if args.json:
         jsonout.write(args.json, result, indent=1)

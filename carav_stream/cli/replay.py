@@ -70,4 +70,5 @@ def run(args: argparse.Namespace) -> int:
     except RecordingError as exc:
         raise CommandError(str(exc), Exit.INVALID) from None
     overrides = overrides_for(rec, player, blocks, recorded_settings=args.graph is None, paced=args.paced)
-    return run_command.execute(run_command.load(graph_file, args, overrides), args, "replay")
+    return run_command.execute(run_command.load(graph_file, args, overrides), args, "replay",
+                               expected_cycles=min(len(rec.cycles), args.cycles or len(rec.cycles)))

@@ -8,9 +8,10 @@ from pathlib import Path
 from typing import Any
 
 from carav_stream.cli.view import view_graph
-from carav_stream.console import jsonout
+from carav_stream.console import jsonout, matout
 from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
+from carav_stream.console.progress import ProgressBar
 from carav_stream.runtime.curve_keys import split_run_problem
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
 from carav_stream.runtime.loader import load_graph
@@ -46,13 +47,16 @@ def run_options(p: argparse.ArgumentParser) -> None:
                    help="override a node's parameter, a graph-wide one with PARAM=VALUE, a [run] setting with "
                    "run.KEY=VALUE")
     p.add_argument("--json", type=output_file, metavar="FILE", help="write the summary as JSON")
+    p.add_argument("--mat", type=output_file, metavar="FILE", help="write the summary as a MATLAB file (v5), the "
+                   "struct `summary` (as carav export makes of the JSON)")
     p.add_argument("--transport", choices=TRANSPORTS, help="data plane of same-host edges: zmq (arrays in "
                    "ZeroMQ messages) or shm (arrays in shared memory, headers over ZeroMQ); default: the graph's "
                    "run.transport, else zmq")
     p.add_argument("--host", help="run only the nodes placed on this host (graphs with [hosts])")
     p.add_argument("--blocks", action="append", default=[], metavar="DIR", help="extra folder of block files")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                   help="live progress line (default: on a terminal)")
+                   help="live progress line (default: on a terminal; redirected, a line every 10 s with the time "
+                   "left, for a run of a known number of cycles)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -81,8 +85,9 @@ def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_
                            Exit.INVALID) from None
 
 
-def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int:
-    """Run a loaded graph with the options of `carav run` (host, progress, json) and report it."""
+def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expected_cycles: int | None = None) -> int:
+    """Run a loaded graph with the options of `carav run` (host, progress, json, mat) and report it; expected_cycles:
+    what the progress counts towards when the graph's run.cycles does not say (a replay: the recording's)."""
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     split = split_run_problem(graph, args.host)
@@ -91,13 +96,17 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     for w in graph.warnings:
         print(f"carav {command}: warning: {w}", file=sys.stderr)
     try:
-        sup = Supervisor(graph, host=args.host, progress=args.progress)
+        lines = _progress_lines(command) if args.progress is None and not sys.stderr.isatty() else None
+        sup = Supervisor(graph, host=args.host, progress=args.progress, on_progress=lines,
+                         expected_cycles=expected_cycles)
     except RunRootError as exc:           # the run folder is not the user's own: nothing started
         raise CommandError(str(exc), Exit.FAILED) from None
     summary = with_radar_time(sup.run())
     print_summary(summary)
     if args.json:
         jsonout.write(args.json, summary, indent=2)
+    if args.mat:
+        matout.write(args.mat, {"summary": jsonout.plain(summary)})
     if summary["failures"]:
         return Exit.FAILED
     if summary["lost"]:
@@ -105,6 +114,18 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     if summary["stopped_by"] == "signal":
         return Exit.INTERRUPTED           # drained and summarised, but not the run that was asked for
     return Exit.OK
+
+
+def _progress_lines(command: str):
+    """A redirected run's progress (a line every 10 s with the time left), its clock started by the first report,
+    when the nodes are told to go: their start-up is no part of the rate."""
+    bar: ProgressBar | None = None
+
+    def tell(done: int, total: int) -> None:
+        nonlocal bar
+        bar = bar or ProgressBar(command)
+        bar(done, total)
+    return tell
 
 
 def _num(x: Any, digits: int = 3) -> str:

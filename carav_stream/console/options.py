@@ -108,3 +108,19 @@ def output_folder(text: str) -> Path:
     elif not os.access(path, os.W_OK | os.X_OK):
         raise Error(f"{text}: folder is not writable")
     return path
+
+
+def span(text: str) -> tuple[int | None, int | None]:
+    """A:B, the whole numbers A <= n < B (either end may be left out: "100:", ":500")."""
+    first, colon, stop = text.partition(":")
+    if not colon:
+        raise Error(f"expected A:B (from A up to, not including, B), got {text!r}")
+    ends = []
+    for part in (first, stop):
+        try:
+            ends.append(count(0)(part) if part.strip() else None)
+        except Error as exc:
+            raise Error(f"{text!r}: {exc}") from None
+    if None not in ends and ends[0] >= ends[1]:
+        raise Error(f"{text!r}: B must be greater than A")
+    return ends[0], ends[1]

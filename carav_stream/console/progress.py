@@ -1,8 +1,8 @@
 """Progress of long commands on stderr, with an estimate of the time left.
 
 On a terminal, a one-line bar redrawn at most every 0.2 s. Redirected (a log file, a pipe, CI), a plain line at
-most every `every_s` seconds (10 by default), the first only once that much time has passed, so a command that
-ends quickly prints nothing and a long one is never silent:
+most every `every_s` seconds (EVERY_S, 10, by default), the first only once that much time has passed, so a command
+that ends quickly prints nothing and a long one is never silent:
 
     interference: 40.0 % (4000/10000 cycles), 52.1 s, about 78 s left
 """
@@ -11,7 +11,9 @@ from __future__ import annotations
 import sys
 import time
 
-__all__ = ["ProgressBar", "left_words"]
+__all__ = ["ProgressBar", "left_words", "EVERY_S"]
+
+EVERY_S = 10.0          # seconds between two redirected lines (tests shorten it)
 
 
 def left_words(elapsed_s: float, done: int, total: int) -> str:
@@ -32,22 +34,23 @@ class ProgressBar:
     def wanted(quiet: bool = False) -> bool:
         return not quiet
 
-    def __init__(self, label: str, stream=None, width: int = 30, unit: str = "cycles", every_s: float = 10.0,
+    def __init__(self, label: str, stream=None, width: int = 30, unit: str = "cycles", every_s: float | None = None,
                  clock=time.perf_counter):
         self.label, self.stream, self.width, self.unit = label, stream or sys.stderr, width, unit
         self.terminal = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.every_s = 0.2 if self.terminal else every_s
+        self.every_s = 0.2 if self.terminal else EVERY_S if every_s is None else every_s
         self.clock = clock
         self.t0 = clock()
         self.last = self.t0
         self.lines = 0
+        self.ended = False              # the line of the end is written once, however often the end is told
 
     def __call__(self, done: int, total: int) -> None:
         now = self.clock()
         finished = done >= total
-        if now - self.last < self.every_s and not (finished and (self.terminal or self.lines)):
+        if self.ended or now - self.last < self.every_s and not (finished and (self.terminal or self.lines)):
             return
-        self.last = now
+        self.last, self.ended = now, finished
         frac = done / total if total else 1.0
         elapsed = now - self.t0
         left = left_words(elapsed, done, total)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
 from carav_stream.radar.scene import Scene
 from carav_stream.radar.scene_loader import load_scene
@@ -25,18 +26,20 @@ ATTACKS = {"ghost": {"range_m": 25.0}, "random": {}, "smart": {}}
 RARMS = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 3.0)
 
 
-def blind_zones(n: int, seed: int, progress: Callable[[Scene, list[dict]], None] | None = None) -> list[dict]:
+def blind_zones(n: int, seed: int, partial: Callable[[Scene, list[dict]], None] | None = None,
+                progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """Per scene of SCENES and attack of ATTACKS: {"scene" (its label), "attack", "rows" (firmware.blind_zone's
-    miss_rates over RARMS, n attacked cycles each), "weakest_caught"}; progress(scene, its entries) as each scene is
-    done."""
+    miss_rates over RARMS, n attacked cycles each), "weakest_caught"}; partial(scene, its entries) as each scene is
+    done, progress(cycles done, cycles in all) as they are judged."""
+    tally = Tally(len(SCENES) * len(ATTACKS) * len(RARMS) * n, progress)
     out = []
     for label, (preset, over) in SCENES.items():
         scene = load_scene(preset, over)
         entries = []
         for attack, params in ATTACKS.items():
-            rows = miss_rates(scene, attack, RARMS, n, seed, fidelity="beat", params=params)
+            rows = miss_rates(scene, attack, RARMS, n, seed, fidelity="beat", params=params, tick=tally)
             entries.append({"scene": label, "attack": attack, "rows": rows, "weakest_caught": weakest_caught(rows)})
-        if progress is not None:
-            progress(scene, entries)
+        if partial is not None:
+            partial(scene, entries)
         out += entries
     return out

@@ -35,7 +35,7 @@ from carav_stream.detect.rdmap import rd_power
 from carav_stream.estimate.crlb import fmcw_crlb
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.estimate.tones import centroid_ranges, synth_beat
-from carav_stream.experiments.reporting import load_preset
+from carav_stream.experiments.reporting import Tally, load_preset
 from carav_stream.firmware import cfar
 from carav_stream.firmware.target_list import associate, gates, target_list
 from carav_stream.radar.activation import balanced_rows
@@ -45,29 +45,39 @@ from carav_stream.radar.synth import simulate_cycles
 
 __all__ = ["cfar_experiment"]
 
+DETECTION_SNR_DB = (5.0, 10.0, 15.0, 20.0, 25.0)
+REFINED_PRESETS, REFINED_SNR_DB = ("table1", "awr1642"), (10.0, 20.0, 30.0)
+RESOLUTION_BINS = (0.5, 1.0, 1.5, 2.0, 3.0)
+MIGRATION_RCS_SCALE, MIGRATION_SPEEDS_MPS = (1.0, 1e-3, 1e-4, 10 ** -4.5), (0.0, 100.0)
+
 
 def cfar_experiment(preset: str, trials: int, pfa: float, seed: int,
-                    progress: Callable[[str, dict], None] | None = None) -> dict:
+                    partial: Callable[[str, dict], None] | None = None,
+                    progress: Callable[[int, int], None] | None = None) -> dict:
     """Every part of the experiment (the module docstring) by name, in this order: false_alarms, detection (1, 2),
-    refined, two_targets, resolution (3), migration (4); each a dict of its settings and "rows". progress(name,
-    part) as each part is done. `trials` cycles per measurement of parts 1 and 2 (a quarter,
-    at least 40, for part 3; at most 64 for part 4), `pfa` the design rate per cell of parts 1 and 2."""
+    refined, two_targets, resolution (3), migration (4); each a dict of its settings and "rows". partial(name,
+    part) as each part is done, progress(cycles done, cycles in all) as they are measured. `trials` cycles per
+    measurement of parts 1 and 2 (a quarter, at least 40, for part 3; at most 64 for part 4), `pfa` the design rate
+    per cell of parts 1 and 2."""
     scene = load_scene(preset)
     rng = np.random.default_rng(seed)
-    c, c_list = trials, max(40, trials // 4)
+    c, c_list, c_walk = trials, max(40, trials // 4), min(trials, 64)
+    tally = Tally(c * (1 + len(DETECTION_SNR_DB)) + c_list * (len(REFINED_PRESETS) * len(REFINED_SNR_DB) + 1
+                                                               + len(RESOLUTION_BINS))
+                  + c_walk * len(MIGRATION_RCS_SCALE) * len(MIGRATION_SPEEDS_MPS), progress)
     parts: dict[str, dict] = {}
 
     def done(name: str, part: dict) -> None:
         parts[name] = part
-        if progress is not None:
-            progress(name, part)
+        if partial is not None:
+            partial(name, part)
 
-    done("false_alarms", _false_alarms(scene, rng, c, pfa, seed))          # the parts share rng, in this order
-    done("detection", _detection(scene, rng, c, pfa))
-    done("refined", _refined_list(rng, c_list))
-    done("two_targets", _two_targets(rng, c_list))
-    done("resolution", _resolution(rng, c_list))
-    done("migration", _migration(seed, min(c, 64)))
+    done("false_alarms", _false_alarms(scene, rng, c, pfa, seed, tally))   # the parts share rng, in this order
+    done("detection", _detection(scene, rng, c, pfa, tally))
+    done("refined", _refined_list(rng, c_list, tally))
+    done("two_targets", _two_targets(rng, c_list, tally))
+    done("resolution", _resolution(rng, c_list, tally))
+    done("migration", _migration(seed, c_walk, tally))
     return parts
 
 
@@ -76,7 +86,7 @@ def _frames(rng, c, m, n, iq):
     return (x + 1j * rng.standard_normal((c, m, n))) / np.sqrt(2) if iq else x
 
 
-def _false_alarms(scene, rng, c: int, pfa: float, seed: int) -> dict:
+def _false_alarms(scene, rng, c: int, pfa: float, seed: int, tick: Tally) -> dict:
     """Noise-only cycles: the share of map cells above the CA- and OS-CFAR thresholds, the targets listed per cycle."""
     m, n, iq = scene.n_chirps, scene.n_samples, scene.iq
     rho = balanced_rows(rng, c, m)
@@ -86,11 +96,12 @@ def _false_alarms(scene, rng, c: int, pfa: float, seed: int) -> dict:
         hit = np.mean(p > cfar.cfar_threshold(p, pfa=pfa, kind=kind))
         listed = cfar.detect_targets(p, rho, pfa=pfa, kind=kind, max_targets=64).n_found.mean()
         rows.append({"kind": kind, "above": float(hit), "listed_per_cycle": float(listed)})
+    tick(c)
     return {"scene": scene.name, "n_chirps": m, "n_range_cells": p.shape[2], "cells": p.shape[1] * p.shape[2],
             "cycles": c, "seed": seed, "pfa": pfa, "rows": rows}
 
 
-def _detection(scene, rng, c: int, pfa: float) -> dict:
+def _detection(scene, rng, c: int, pfa: float, tick: Tally) -> dict:
     """A Swerling 1 target centred on a cell: CA-CFAR's Pd per SNR beside the textbook curve."""
     m, n, iq = scene.n_chirps, scene.n_samples, scene.iq
     w = scipy.signal.windows.hann(n, sym=False)
@@ -99,7 +110,7 @@ def _detection(scene, rng, c: int, pfa: float) -> dict:
     k_bin, l_bin = n // 5, m // 8
     t, mm = np.arange(n), np.arange(m)[:, None]
     rows = []
-    for snr_db in (5.0, 10.0, 15.0, 20.0, 25.0):
+    for snr_db in DETECTION_SNR_DB:
         snr = 10 ** (snr_db / 10)
         # mean per-sample power giving that cell SNR: a real tone puts half its power in the positive-frequency bin
         a2 = snr / (m / 2 * gain * (1.0 if iq else 0.5))
@@ -114,16 +125,17 @@ def _detection(scene, rng, c: int, pfa: float) -> dict:
         pd = np.mean(q[:, l_bin, col] > thr[:, l_bin, col])
         rows.append({"snr_db": snr_db, "pd": float(pd),
                      "pd_textbook": float((1 + alpha / (n_train * (1 + snr))) ** -n_train)})
+        tick(c)
     return {"range_bin": k_bin, "doppler_bin": l_bin, "cycles": c, "rows": rows}
 
 
-def _refined_list(rng, c: int) -> dict:
+def _refined_list(rng, c: int, tick: Tally) -> dict:
     """One target per preset and SNR through the refined list (ml): range and velocity RMSE over the CRLB."""
     rows = []
-    for preset in ("table1", "awr1642"):
+    for preset in REFINED_PRESETS:
         g, m, r0, v0 = load_preset(preset)
         vmax = g.max_velocity_mps
-        for snr_db in (10.0, 20.0, 30.0):
+        for snr_db in REFINED_SNR_DB:
             rho = balanced_rows(rng, c, m)
             truth_r = np.full((c, 1), min(r0, 0.8 * g.max_range_m)) + rng.uniform(-0.5, 0.5, (c, 1)) * \
                 g.range_resolution_m
@@ -140,10 +152,11 @@ def _refined_list(rng, c: int) -> dict:
             rmse_v = np.sqrt(np.nanmean(err_v ** 2) / np.mean(bound["velocity_mps"] ** 2))
             rows.append({"preset": preset, "snr_db": snr_db, "range_rmse_over_crlb": float(rmse_r),
                          "velocity_rmse_over_crlb": float(rmse_v), "listed_per_cycle": float(tl.n_found.mean())})
+            tick(c)
     return {"cycles": c, "rows": rows}
 
 
-def _two_targets(rng, c: int) -> dict:
+def _two_targets(rng, c: int, tick: Tally) -> dict:
     """table1, a target 20 dB louder 12 range bins from one at 20 dB: the share of cycles listing the weak one."""
     g, m, r0, _ = load_preset("table1")
     rho = balanced_rows(rng, c, m)
@@ -156,10 +169,11 @@ def _two_targets(rng, c: int) -> dict:
     for kind in ("ca_cfar", "os_cfar"):
         listed = np.abs(target_list(x, rho, g, sigma, detection=kind).range_m - ranges[:, :1]) < g.range_resolution_m
         rows.append({"detection": kind, "weak_listed": float(listed.any(axis=1).mean())})
+    tick(c)
     return {"cycles": c, "rows": rows}
 
 
-def _resolution(rng, c: int) -> dict:
+def _resolution(rng, c: int, tick: Tally) -> dict:
     """Two equal targets (20 dB each after integration, the same velocity) a given number of range bins apart:
     the share of cycles whose OS-CFAR list holds both (each within 0.4 spacing, at most half a cell, of its
     truth), and the share that lists the pair as one (a target within half a cell of the pair's span, not both
@@ -169,7 +183,7 @@ def _resolution(rng, c: int) -> dict:
     snr_s = 20.0 - 10 * np.log10(m // 2)
     sigma = 10 ** (-snr_s / 20) / np.sqrt(2.0)
     rows = []
-    for bins in (0.5, 1.0, 1.5, 2.0, 3.0):
+    for bins in RESOLUTION_BINS:
         rho = balanced_rows(rng, c, m)
         r0 = 0.3 * g.max_range_m + rng.uniform(-0.5, 0.5, (c, 1)) * res
         ranges = np.hstack([r0, r0 + bins * res])
@@ -182,10 +196,11 @@ def _resolution(rng, c: int) -> dict:
         mid = ranges.mean(axis=1, keepdims=True)
         as_one = (np.abs(tl.range_m - mid) < (0.5 * bins + 0.5) * res).any(axis=1) & ~both
         rows.append({"spacing_bins": bins, "both_listed": float(both.mean()), "as_one": float(as_one.mean())})
+        tick(c)
     return {"cycles": c, "rows": rows}
 
 
-def _migration(seed: int, c: int) -> dict:
+def _migration(seed: int, c: int, tick: Tally) -> dict:
     """The awr1642 car and weaker copies through the signal chain: the OS-CFAR list without and with range-walk
     compensation."""
     base = scene_of("awr1642")
@@ -194,12 +209,12 @@ def _migration(seed: int, c: int) -> dict:
     r_true, v_true = car.range_m, base.range_rate_mps(car)
     r_gate, v_gate = gates(g, base.n_chirps, abs(v_true))
     rows = []
-    for rcs in (car.rcs_m2, car.rcs_m2 * 1e-3, car.rcs_m2 * 1e-4, car.rcs_m2 * 10 ** -4.5):
+    for rcs in (car.rcs_m2 * k for k in MIGRATION_RCS_SCALE):
         scene = dataclasses.replace(base, targets=(dataclasses.replace(car, rcs_m2=rcs),))
         rng = np.random.default_rng(seed)
         rho = balanced_rows(rng, c, scene.n_chirps)
         x = simulate_cycles(scene, rho, rng).frames
-        for speed in (0.0, 100.0):
+        for speed in MIGRATION_SPEEDS_MPS:
             tl = target_list(x, rho, g, scene.sigma_n, detection="os_cfar", max_speed_mps=speed)
             hit, false, err_r, err_v, snr = 0, 0, [], [], []
             for i in range(c):
@@ -219,4 +234,5 @@ def _migration(seed: int, c: int) -> dict:
                          "velocity_rmse_mps": float(np.sqrt(np.mean(err_v ** 2))),
                          "true_alias": float(np.mean(np.abs(err_v) < g.max_velocity_mps)) if err_v.size
                          else float("nan")})
+            tick(c)
     return {"range_m": r_true, "closing_mps": -v_true, "cycles": c, "rows": rows}

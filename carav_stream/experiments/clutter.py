@@ -27,6 +27,7 @@ import numpy as np
 from carav_stream.detect import opt_in
 from carav_stream.detect.detector import PAPER_ETA, detect
 from carav_stream.estimate.geometry import Geometry
+from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.target_list import associate, gates, target_list
 from carav_stream.radar.activation import balanced_rows
@@ -93,18 +94,23 @@ def _measure(scene, fidelity: str, n: int, rng, eta_design: float, max_speed: fl
             "false_targets_per_cycle": false / n}
 
 
-def clutter(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
+def clutter(n: int, seed: int, partial: Callable[[dict], None] | None = None,
+            progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """One row per case of CASES and scene variant: {"preset", "fidelity", "scene", and _measure's figures over n
-    attack-free cycles}; progress(row) as each is done."""
-    rows = []
-    for preset, fidelity, max_speed in CASES:
+    attack-free cycles}; partial(row) as each is done, progress(cycles done, cycles in all) as well."""
+    cases = []
+    for preset, fidelity, max_speed in CASES:      # each case its own generator: drawing the variants first is the same
         base = load_scene(preset)
-        eta_design = rms_threshold(scene_law(base), 1e-6)
         rng = np.random.default_rng([seed, len(preset), len(fidelity)])
-        for name, scene in scenes(base, rng).items():
+        cases.append((preset, fidelity, max_speed, rms_threshold(scene_law(base), 1e-6), rng, scenes(base, rng)))
+    tally = Tally(n * sum(len(c[-1]) for c in cases), progress)
+    rows = []
+    for preset, fidelity, max_speed, eta_design, rng, variants in cases:
+        for name, scene in variants.items():
             row = {"preset": preset, "fidelity": fidelity, "scene": name,
                    **_measure(scene, fidelity, n, rng, eta_design, max_speed)}
-            if progress is not None:
-                progress(row)
+            tally(n)
+            if partial is not None:
+                partial(row)
             rows.append(row)
     return rows

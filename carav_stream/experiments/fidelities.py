@@ -36,6 +36,7 @@ import numpy as np
 
 from carav_stream.estimate import Geometry, estimate
 from carav_stream.estimate.crlb import fmcw_crlb
+from carav_stream.experiments.reporting import Tally
 from carav_stream.radar import physics
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.scene_loader import load_scene
@@ -96,10 +97,13 @@ def range_errors(scene, n: int, seed: int) -> tuple[float, float, float]:
     return rms[0], rms[1], float(np.sqrt(np.mean((est["beat"] - est["waveform"]) ** 2)) / bound)
 
 
-def rows(units: str, trials: int, seed: int, row: Callable[[dict], None]) -> None:
+def rows(units: str, trials: int, seed: int, row: Callable[[dict], None],
+         progress: Callable[[int, int], None] | None = None) -> None:
     """Every (preset, echo, fraction of the maximum range) case, handed to `row` as it is computed: the car's range,
     SNR and range rate, and with units "detector" the largest D0 and D1 differences over their sd, with "estimator"
-    ml's RMSE at each fidelity and of their difference over the bound (`trials` cycles each)."""
+    ml's RMSE at each fidelity and of their difference over the bound (`trials` cycles each); progress(cases done,
+    cases in all) as well."""
+    tally = Tally(len(PRESETS) * len(ECHOES) * len(FRACTIONS), progress)
     for preset in PRESETS:
         base = load_scene(preset)
         if units == "estimator" and preset in ESTIMATOR_RATE_KMH:
@@ -116,4 +120,5 @@ def rows(units: str, trials: int, seed: int, row: Callable[[dict], None]) -> Non
                     out["d0"], out["d1"] = slot_differences(scene, rho)
                 else:
                     out["beat"], out["waveform"], out["difference"] = range_errors(scene, trials, seed)
+                tally(1)
                 row(out)

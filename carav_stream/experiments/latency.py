@@ -32,6 +32,7 @@ from carav_stream.core.units import C_MPS
 from carav_stream.detect.detector import detect
 from carav_stream.detect.opt_in import calibrate_threshold, integrated_silent_test, spill_test
 from carav_stream.experiments.clutter import scenes
+from carav_stream.experiments.reporting import Tally
 from carav_stream.radar import physics
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.attackers import make_attacker
@@ -68,7 +69,8 @@ def _scaled(scene, db: float):
     return dataclasses.replace(scene, targets=tuple(dataclasses.replace(t, rcs_m2=t.rcs_m2 * g) for t in scene.targets))
 
 
-def _false_alarms(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
+def _false_alarms(preset: str, fidelity: str, n: int, seed: int, tick: Callable[[int], None] = lambda k: None
+                  ) -> list[dict]:
     base = load_scene(preset)
     variants = scenes(base, np.random.default_rng(0))
     first = window_start(base)
@@ -76,6 +78,7 @@ def _false_alarms(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
     rho = balanced_rows(rng, max(n, 200), base.n_chirps)
     ref = simulate_cycles(base, rho, rng, fidelity=fidelity).frames
     thr_old = calibrate_threshold(head_tail_ratio(ref, rho, N_HEAD), PF_MEASURED)
+    tick(len(rho))
     out = []
     for name in ("car", "four targets"):
         for db in ECHO_DB:
@@ -87,10 +90,11 @@ def _false_alarms(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
                         "spill_pf_0_05": int(spill_test(x, rho, scene.sigma_n, first, pf=PF_MEASURED).alarm.sum()),
                         "spill_pf_1e_6": int(spill_test(x, rho, scene.sigma_n, first, pf=1e-6).alarm.sum()),
                         "head_tail": int(np.sum(head_tail_ratio(x, rho, N_HEAD) >= thr_old))})
+            tick(n)
     return out
 
 
-def _misses(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
+def _misses(preset: str, fidelity: str, n: int, seed: int, tick: Callable[[int], None] = lambda k: None) -> list[dict]:
     scene = load_scene(preset)
     first = window_start(scene)
     rng = np.random.default_rng([seed, len(preset), len(fidelity), 1])
@@ -108,6 +112,7 @@ def _misses(preset: str, fidelity: str, n: int, seed: int) -> list[dict]:
                     "spill_missed": int(n - spill_test(x, rho, scene.sigma_n, first, pf=1e-6).alarm.sum()),
                     "c15_missed": int(n - detect(x, rho, scene.sigma_n).alarm.sum()),
                     "integrated_missed": int(n - integrated_silent_test(x, rho, scene.sigma_n, pf=1e-6).alarm.sum())})
+        tick(n)
     return out
 
 
@@ -121,22 +126,27 @@ def windows() -> list[dict]:
     return out
 
 
-def false_alarms(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
-    """_false_alarms of every case of CASES, n cycles per cell; progress(row) for each row as its case is done."""
-    return _each_case(_false_alarms, n, seed, progress)
+def false_alarms(n: int, seed: int, partial: Callable[[dict], None] | None = None,
+                 progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """_false_alarms of every case of CASES, n cycles per cell; partial(row) for each row as its case is done,
+    progress(cycles done, cycles in all) as they are simulated (the reference cycles included)."""
+    per_case = {p: max(n, 200) + 2 * len(ECHO_DB) * n for p, _ in CASES}
+    return _each_case(_false_alarms, n, seed, partial, Tally(sum(per_case[p] for p, _ in CASES), progress))
 
 
-def misses(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
-    """_misses of every case of CASES, n attacked cycles per row; progress(row) for each row as its case is done."""
-    return _each_case(_misses, n, seed, progress)
+def misses(n: int, seed: int, partial: Callable[[dict], None] | None = None,
+           progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """_misses of every case of CASES, n attacked cycles per row; partial(row) for each row as its case is done,
+    progress(cycles done, cycles in all) as they are simulated."""
+    return _each_case(_misses, n, seed, partial, Tally(sum(len(LATENCIES_US[p]) * n for p, _ in CASES), progress))
 
 
-def _each_case(measure, n: int, seed: int, progress) -> list[dict]:
+def _each_case(measure, n: int, seed: int, partial, tally: Tally) -> list[dict]:
     out = []
     for preset, fidelity in CASES:
-        rows = measure(preset, fidelity, n, seed)
+        rows = measure(preset, fidelity, n, seed, tally)
         for r in rows:
-            if progress is not None:
-                progress(r)
+            if partial is not None:
+                partial(r)
         out += rows
     return out

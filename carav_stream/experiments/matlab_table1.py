@@ -11,6 +11,8 @@ tell: the interval of published values it would have accepted (|z| < 3), set bes
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from carav_stream.estimate import estimate
@@ -30,8 +32,9 @@ SNR_DB = 2.2          # the radar equation's per-sample SNR of the car (docs/SCE
 CHUNK = 50            # cycles per simulated block (memory: 50 x 64 x 1100 complex64 = 28 MB)
 
 
-def simulate(cycles: int, seed: int) -> dict[str, np.ndarray]:
-    """Per-cycle estimates of every chain: {quantity: (cycles,) float64}."""
+def simulate(cycles: int, seed: int, progress: Callable[[int, int], None] | None = None) -> dict[str, np.ndarray]:
+    """Per-cycle estimates of every chain: {quantity: (cycles,) float64}; progress(cycles done, cycles) as each
+    block is estimated."""
     g = fmcw_example_geometry()
     rng = np.random.default_rng(seed)
     out: dict[str, list[np.ndarray]] = {}
@@ -48,6 +51,8 @@ def simulate(cycles: int, seed: int) -> dict[str, np.ndarray]:
                        ("ml_range_m", ml.range_m[:, 0]), ("ml_velocity_mps", ml.velocity_mps[:, 0]),
                        ("root_music_beat_range_m", rm.beat_hz[:, 0] * g.range_per_hz_m)):
             out.setdefault(key, []).append(np.asarray(v, float).ravel())
+        if progress is not None:
+            progress(start + n, cycles)
     return {k: np.concatenate(v) for k, v in out.items()}
 
 

@@ -31,6 +31,7 @@ import numpy as np
 
 from carav_stream.detect.detector import PAPER_ETA, chirp_rms, detect
 from carav_stream.detect.opt_in import cusum_silent_power, cusum_threshold, silent_power_z
+from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.blind_zone import opt_in_alarms
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
@@ -49,7 +50,8 @@ CHUNK = 100          # cycles simulated at once (100 x 64 x 1100 float32: 28 MB)
 ALARMS = ("C(eta)", "C(1.5)", *OPT_IN)   # the detectors whose alarms a cell counts
 
 
-def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
+def cell(start: str, range_m: float, fidelity: str, n: int, seed: int,
+         tick: Callable[[int], None] | None = None) -> dict:
     """Alarms of every detector on n attack-free cycles of the table1 car at range_m, sampled as `start` says."""
     scene = load_scene("table1", {"targets[0].range_m": range_m, **STARTS[start]})
     law = scene_law(scene)
@@ -67,6 +69,8 @@ def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
         for name, alarm in opt_in_alarms(x, rho, scene, law, OPT_IN).items():
             counts[name] += int(np.sum(alarm))
         z.append(silent_power_z(chirp_rms(x), rho, law.sigma_eff, law.dof))
+        if tick is not None:
+            tick(len(rho))
     _, cusum = cusum_silent_power(np.concatenate(z), h=cusum_threshold(1 / PF))
     first = int(np.argmax(cusum)) if cusum.any() else None
     return {"start": start, "range_m": range_m, "fidelity": fidelity, "trials": n, "n_samples": scene.n_samples,
@@ -74,15 +78,17 @@ def cell(start: str, range_m: float, fidelity: str, n: int, seed: int) -> dict:
             "leak_fraction": leak.fraction, "leak_pf": leak.pf, "warned": leak.exceeds}
 
 
-def near_echoes(n: int, seed: int, progress: Callable[[dict], None] | None = None) -> list[dict]:
-    """cell() of every sampling of STARTS, range of RANGES_M and fidelity of FIDELITIES, n cycles each; progress(cell)
-    as each is done."""
+def near_echoes(n: int, seed: int, partial: Callable[[dict], None] | None = None,
+                progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """cell() of every sampling of STARTS, range of RANGES_M and fidelity of FIDELITIES, n cycles each; partial(cell)
+    as each is done, progress(cycles done, cycles in all) as they are judged."""
+    tally = Tally(len(STARTS) * len(RANGES_M) * len(FIDELITIES) * n, progress)
     rows = []
     for start in STARTS:
         for r in RANGES_M:
             for fid in FIDELITIES:
-                c = cell(start, r, fid, n, seed)
-                if progress is not None:
-                    progress(c)
+                c = cell(start, r, fid, n, seed, tally)
+                if partial is not None:
+                    partial(c)
                 rows.append(c)
     return rows

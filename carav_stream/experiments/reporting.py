@@ -1,5 +1,5 @@
 """Small helpers shared by the experiments: rates with Clopper-Pearson intervals, scenes, sources, a preset's target,
-and what a reproduction is asked for (Reproduction)."""
+what a reproduction is asked for (Reproduction), and the tally of cycles done that an engine's progress hears."""
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -10,7 +10,20 @@ from carav_stream.estimate.geometry import Geometry
 from carav_stream.montecarlo.radar_source import RadarSource
 from carav_stream.radar.scene_loader import load_scene
 
-__all__ = ["Reproduction", "rate", "radar_scene", "radar_source", "log", "load_preset"]
+__all__ = ["Reproduction", "Tally", "rate", "radar_scene", "radar_source", "log", "load_preset"]
+
+
+class Tally:
+    """Cycles done out of `total`: tally(k) adds k and tells progress(done, total), if there is one. The engines'
+    inner loops (and the Monte Carlo's, montecarlo.engine.simulate_q) take such a tally as their per-block tick."""
+
+    def __init__(self, total: int, progress: Callable[[int, int], None] | None = None) -> None:
+        self.total, self.progress, self.done = int(total), progress, 0
+
+    def __call__(self, k: int) -> None:
+        self.done += int(k)
+        if self.progress is not None:
+            self.progress(min(self.done, self.total), self.total)
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from carav_stream.core.units import KMH
 from carav_stream.detect.detector import detect
 from carav_stream.estimate import Geometry, estimate
 from carav_stream.experiments.errors import ExperimentError
+from carav_stream.experiments.reporting import Tally
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
@@ -125,13 +126,15 @@ def plot(results: list[dict], q0: np.ndarray, eta: float, path) -> None:
 
 def experiment(*, power: str, trials: int, attacker: str, eta: float, method: str, antenna_range_m: float,
                ghost_range_m: float, snr_db: float | None, seed: int,
-               progress: Callable[[str, dict], None] | None = None) -> dict:
+               partial: Callable[[str, dict], None] | None = None,
+               progress: Callable[[int, int], None] | None = None) -> dict:
     """The clean reference and every level of `attacker` ("secondary_antenna", "ghost" or "both") at `power` ("low",
     "medium", "high" or "all"), `trials` cycles each: {"snr_db", "eta", "method", "trials",
     "false_target_threshold", "clean": {"pf", "q", "range_error_m"}, "levels": [_summary's figures with "q",
     "range_error_m" and "false_target" per cycle]}, the per-cycle values as numpy arrays (json_ready() makes them
-    lists). progress("clean", {"snr_db", "pf", "range_error_median_m", "range_error_max_m",
-    "false_target_threshold"}) once the clean cycles are judged, progress("level", its entry) as each level is done."""
+    lists). partial("clean", {"snr_db", "pf", "range_error_median_m", "range_error_max_m",
+    "false_target_threshold"}) once the clean cycles are judged, partial("level", its entry) as each level is done;
+    progress(cycles done, cycles in all) as they are judged."""
     scene = load_scene("table1", {"snr_db": snr_db} if snr_db is not None else None)
     geometry = Geometry.from_scene(scene)
     resolution = float(scene.range_resolution_m)
@@ -147,12 +150,14 @@ def experiment(*, power: str, trials: int, attacker: str, eta: float, method: st
     out = {"snr_db": float(scene.snr_db()), "eta": eta, "method": method, "trials": n,
            "false_target_threshold": ft_threshold, "clean": {
                "pf": float(np.mean(q0 >= eta)), "q": q0, "range_error_m": err0}, "levels": []}
-    if progress is not None:
-        progress("clean", {"snr_db": out["snr_db"], "pf": out["clean"]["pf"],
-                           "range_error_median_m": float(np.median(err0)), "range_error_max_m": float(np.max(err0)),
-                           "false_target_threshold": ft_threshold})
     kinds = ("secondary_antenna", "ghost") if attacker == "both" else (attacker,)
     levels = tuple(POWER_RARMS) if power == "all" else (power,)
+    tally = Tally(n * (1 + len(kinds) * len(levels)), progress)
+    tally(n)
+    if partial is not None:
+        partial("clean", {"snr_db": out["snr_db"], "pf": out["clean"]["pf"],
+                           "range_error_median_m": float(np.median(err0)), "range_error_max_m": float(np.max(err0)),
+                           "false_target_threshold": ft_threshold})
     for kind in kinds:
         for level in levels:
             res = simulate_level(kind, level, scene, geometry, rho, int(rng.integers(2**63)), eta=eta, method=method,
@@ -160,8 +165,9 @@ def experiment(*, power: str, trials: int, attacker: str, eta: float, method: st
             entry = {**_summary(res, q0, eta, resolution, ft_threshold), "q": res["q"],
                      "range_error_m": res["range_error_m"], "false_target": res["far_rel"] > ft_threshold}
             out["levels"].append(entry)
-            if progress is not None:
-                progress("level", entry)
+            tally(n)
+            if partial is not None:
+                partial("level", entry)
     return out
 
 

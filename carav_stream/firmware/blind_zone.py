@@ -11,6 +11,8 @@ N_s <= 2) they are left out of the rows (`defined`).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from carav_stream.detect.detector import detect
@@ -41,9 +43,11 @@ def opt_in_alarms(x, rho, scene, law, names) -> dict[str, np.ndarray]:
 
 
 def miss_rates(scene, attack: str, rarms_grid, n: int, seed: int, *, fidelity: str = "auto",
-               params: dict | None = None, pf: float = DESIGN_PF) -> list[dict]:
+               params: dict | None = None, pf: float = DESIGN_PF, tick: Callable[[int], None] | None = None
+               ) -> list[dict]:
     """One row per RARMS: {"rarms", "missed": {detector: k}, "ci": {detector: [lo, hi]}, "trials", "eta"}; C(eta)
-    at the eta designed for pf, the opt-in tests at their 1e-6 designs (the detectors `defined` on the scene)."""
+    at the eta designed for pf, the opt-in tests at their 1e-6 designs (the detectors `defined` on the scene).
+    tick(k) as each block of k cycles is judged."""
     law = scene_law(scene)
     eta = rms_threshold(law, pf)
     names = defined(scene)
@@ -59,6 +63,8 @@ def miss_rates(scene, attack: str, rarms_grid, n: int, seed: int, *, fidelity: s
             missed["C(eta)"] += int(np.sum(detect(x, rho, scene.sigma_n).q < eta))
             for name, alarm in opt_in_alarms(x, rho, scene, law, names[1:]).items():
                 missed[name] += int(np.sum(~alarm))
+            if tick is not None:
+                tick(len(rho))
         ci = {d: [float(v) for v in clopper_pearson(k, n)] for d, k in missed.items()}
         rows.append({"rarms": float(r), "missed": missed, "ci": ci, "trials": n, "eta": eta})
     return rows

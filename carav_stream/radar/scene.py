@@ -174,14 +174,26 @@ def target_warnings(scene: Scene) -> list[str]:
         if tau > scene.t_adc_start_s + 0.5 * scene.n_samples / scene.fs_hz:
             out.append(f"{src}: targets[{i}].range_m: round trip {tau * 1e6:.3g} us is more than half "
                        f"the sampling window: most samples hold no echo of this chirp")
-        rr = scene.range_rate_mps(t)
-        vmax = scene.max_velocity_mps
-        if abs(rr) > vmax:
-            folded_v = (rr + vmax) % (2 * vmax) - vmax
-            out.append(f"{src}: targets[{i}].velocity_mps: range rate {rr:.3g} m/s ({rr * 3.6:.0f} km/h) is "
-                       f"beyond the unambiguous +-{vmax:.3g} m/s (lambda / 4 t_chirp, t_chirp = "
-                       f"{scene.t_chirp_s * 1e6:g} us): the Doppler FFT shows {folded_v:.3g} m/s")
+        if abs(scene.range_rate_mps(t)) > scene.max_velocity_mps:
+            out.append(velocity_warning(scene, i))
     return out
+
+
+def aliased_targets(scene: Scene, max_speed_mps: float = 0.0) -> list[int]:
+    """The targets whose range rate is beyond the unambiguous +-lambda / (4 t_chirp), where the Doppler FFT shows an
+    alias, and beyond max_speed_mps, up to which an estimator following the range walk unaliases it
+    (estimate/migration.py)."""
+    return [i for i, t in enumerate(scene.targets)
+            if abs(scene.range_rate_mps(t)) > max(scene.max_velocity_mps, max_speed_mps)]
+
+
+def velocity_warning(scene: Scene, i: int) -> str:
+    """Target i's range rate beyond the unambiguous velocity, and the alias the Doppler FFT shows."""
+    rr, vmax = scene.range_rate_mps(scene.targets[i]), scene.max_velocity_mps
+    folded_v = (rr + vmax) % (2 * vmax) - vmax
+    return (f"{scene.source or scene.name}: targets[{i}].velocity_mps: range rate {rr:.3g} m/s ({rr * 3.6:.0f} km/h) "
+            f"is beyond the unambiguous +-{vmax:.3g} m/s (lambda / 4 t_chirp, t_chirp = {scene.t_chirp_s * 1e6:g} "
+            f"us): the Doppler FFT shows {folded_v:.3g} m/s")
 
 
 def fold_beat_hz(scene: Scene, beat_hz: float) -> float:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
@@ -38,9 +39,16 @@ class RunReport:
         remote = {e.dst for e in self.graph.edges if e.dst in self.nodes and e.src not in self.nodes}
         return max((self.nodes[n].total("cycles") for n in remote), default=0)
 
-    def draw_progress(self) -> None:
-        elapsed = max(time.monotonic() - self.t_go, 1e-9)
+    def draw_progress(self, line: bool, on_progress: Callable[[int, int], None] | None = None,
+                      expected: int = 0) -> None:
+        """The terminal's progress line (if `line`); on_progress(cycles done, `expected`) when the run has an end
+        to count towards (expected > 0)."""
         n = self.cycles_done()
+        if on_progress is not None and expected:
+            on_progress(min(n, expected), expected)
+        if not line:
+            return
+        elapsed = max(time.monotonic() - self.t_go, 1e-9)
         total = f"/{self.cycles}" if self.cycles else ""
         rejected = sum(sum(st.counters.get("rejected", {}).values()) for st in self.nodes.values())
         print(f"\r[carav] {n}{total} cycles  {n / elapsed:8.1f} cycles/s  frames rejected {rejected}  "

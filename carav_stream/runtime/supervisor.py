@@ -50,14 +50,17 @@ NODE_ENV = {**MALLOC_ENV, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "
 
 class Supervisor:
     """Runs the nodes of `graph` on `host` (every node when None) until they finish, `cycles` cycles from each
-    source (the graph's run.cycles when None); run() returns the summary (report.RunReport.summary)."""
+    source (the graph's run.cycles when None); run() returns the summary (report.RunReport.summary). `progress`: the
+    terminal's line (default: on a terminal); on_progress(cycles done, expected_cycles or cycles) twice a second."""
 
     def __init__(self, graph: Graph, *, host: str | None = None, cycles: int | None = None,
-                 progress: bool | None = None, log: Callable[[str], None] | None = None) -> None:
+                 progress: bool | None = None, log: Callable[[str], None] | None = None,
+                 on_progress: Callable[[int, int], None] | None = None, expected_cycles: int | None = None) -> None:
         self.graph = graph
         self.host = host
         self.cycles = graph.run["cycles"] if cycles is None else cycles
         self.progress = sys.stderr.isatty() if progress is None else progress
+        self.on_progress, self.expected_cycles = on_progress, expected_cycles or self.cycles   # report.draw_progress
         self.log = log or (lambda text: print(text, file=sys.stderr, flush=True))
         self.run_id = f"{graph.path.stem[:24]}-{secrets.token_hex(3)}"
         self.run_dir = run_root() / self.run_id
@@ -380,10 +383,12 @@ class Supervisor:
             if self.signals >= 2:
                 self.failures.append("killed by a second interrupt")
                 break
-            if self.progress and time.monotonic() >= next_progress and started:
+            if time.monotonic() >= next_progress and started:
                 next_progress = time.monotonic() + 0.5
-                self.report.draw_progress()
+                self.report.draw_progress(self.progress, self.on_progress, self.expected_cycles)
         self.report.t_end = time.monotonic()
+        if started:
+            self.report.draw_progress(False, self.on_progress, self.expected_cycles)
         if self.progress:
             print(file=sys.stderr)
 

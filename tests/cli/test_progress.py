@@ -1,7 +1,13 @@
 """Progress of long commands: a bar on a terminal, a line every few seconds with the time left when redirected,
 nothing at all from a command that ends before the first line is due."""
 import io
+import re
 
+import pytest
+
+from carav_stream.cli import main as carav
+from carav_stream.console import progress
+from carav_stream.console.errors import Exit
 from carav_stream.console.progress import ProgressBar, left_words
 
 
@@ -54,3 +60,33 @@ def test_the_time_left_reads_in_seconds_minutes_or_hours():
     assert left_words(60.0, 1, 4) == "about 3 min left"
     assert left_words(3600.0, 1, 3) == "about 2.0 h left"
     assert left_words(5.0, 0, 4) == "" and left_words(5.0, 4, 4) == ""
+
+
+@pytest.mark.slow
+def test_a_redirected_long_experiment_prints_progress_lines_on_stderr_only(capsys, monkeypatch):
+    monkeypatch.setattr(progress, "EVERY_S", 0.0)               # a line at every step instead of every 10 s
+    assert carav(["experiment", "fidelities", "--units", "detector", "--seed", "5"]) == Exit.OK
+    said = capsys.readouterr()
+    lines = said.err.splitlines()
+    assert len(lines) == 24, said.err                            # one per case: 2 presets x 2 echoes x 6 ranges
+    assert all(re.fullmatch(r"fidelities: [\d.]+ % \(\d+/24 cases\), [\d.]+ s(, about \d+ (s|min) left)?", line)
+               for line in lines), said.err
+    assert lines[0].startswith("fidelities: 4.2 % (1/24 cases)") and lines[-1].startswith("fidelities: 100.0 % (24/")
+    assert "%" not in said.out and said.out.count("\n") == 26    # the table alone on stdout: 2 heading lines, 24 rows
+
+
+def test_every_long_experiment_and_design_can_be_quietened():
+    from carav_stream.cli import EXPERIMENTS, build_parser
+    for name in ["design", *(f"experiment {e}" for e in EXPERIMENTS)]:
+        argv = [*name.split(), "--quiet"]
+        assert build_parser(argv).parse_args(argv).quiet is True, name
+
+
+def test_the_end_is_written_once_however_often_it_is_told():
+    out, clock = io.StringIO(), Clock()
+    bar = ProgressBar("run", stream=out, every_s=10.0, clock=clock)
+    for t, done in ((11.0, 50), (12.0, 100), (12.5, 100), (20.0, 100)):
+        clock.t = t
+        bar(done, 100)
+    assert out.getvalue().splitlines() == ["run: 50.0 % (50/100 cycles), 11.0 s, about 11 s left",
+                                           "run: 100.0 % (100/100 cycles), 12.0 s"]

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.io import loadmat
 
 from carav_stream.capture.sigmf_io import open_recording
 from tests.capture.ti_dca1000 import capture_bytes
@@ -27,7 +28,7 @@ def recorded(carav):
     """The demo graph (smart attacker, RARMS 1.2 from cycle 20: some attacked cycles pass, some alarm) recorded."""
     out = carav.workdir / "live"
     done = carav.cli("record", str(ROOT / "graphs" / "demo.toml"), "--out", str(out), "--json",
-                     str(carav.workdir / "live.json"), *LIVE)
+                     str(carav.workdir / "live.json"), "--mat", str(carav.workdir / "live.mat"), *LIVE)
     assert done.returncode == 0, done.stderr
     return out, json.loads((carav.workdir / "live.json").read_text())
 
@@ -52,6 +53,25 @@ def test_a_replay_gives_the_live_verdicts_q_and_estimates_bit_for_bit(carav, rec
     replay = json.loads((carav.workdir / "replay.json").read_text())
     assert {k: replay[k] for k in SAME} == {k: live[k] for k in SAME}
     assert replay["detected"] > 0 and replay["range_error_m"]["n"] > 0
+
+
+def test_a_run_and_its_recording_exported_to_matlab_say_what_its_json_and_open_recording_say(carav, recorded):
+    live_dir, live = recorded
+    done = carav.cli("export", str(carav.workdir / "live.json"), "--mat", str(carav.workdir / "json.mat"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    by_run, by_export = (loadmat(str(carav.workdir / f), simplify_cells=True)["summary"]
+                         for f in ("live.mat", "json.mat"))
+    assert repr(by_run) == repr(by_export) and by_run["cycles"] == CYCLES == live["cycles"]
+    done = carav.cli("export", str(live_dir), "--mat", str(carav.workdir / "rec.mat"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    rec, m = open_recording(live_dir), loadmat(str(carav.workdir / "rec.mat"))
+    assert m["adc"].shape == rec.samples.shape[:3] == (CYCLES, 64, rec.samples.shape[2])
+    samples = np.asarray(rec.samples)
+    np.testing.assert_array_equal(m["adc"], samples[..., 0] + 1j * samples[..., 1] if samples.ndim == 4 else samples)
+    np.testing.assert_array_equal(m["activation"], rec.rho)
+    alarms = [a["carav:alarm"] for a in annotations(live_dir)]
+    np.testing.assert_array_equal(loadmat(str(carav.workdir / "rec.mat"), simplify_cells=True)["per_cycle"]["alarm"],
+                                  alarms)
 
 
 def test_recording_and_replay_refuse_bad_folders_in_one_line(carav, recorded):

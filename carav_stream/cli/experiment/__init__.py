@@ -3,10 +3,24 @@ printed tables and its JSON (run). The engines take plain arguments, return thei
 through callbacks; what is printed, and how, is decided here."""
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
-__all__ = ["write_json"]
+from carav_stream.console.progress import ProgressBar
+
+__all__ = ["write_json", "quiet_option", "progress_bar"]
+
+
+def quiet_option(parser: argparse.ArgumentParser) -> None:
+    """--quiet: every experiment shows its progress on stderr unless told not to."""
+    parser.add_argument("--quiet", action="store_true", help="no progress (on stderr: a bar on a terminal, else a "
+                        "line every 10 s with the time left)")
+
+
+def progress_bar(args: argparse.Namespace, label: str, unit: str = "cycles") -> ProgressBar | None:
+    """The progress bar an engine's progress(done, total) callback is given, None with --quiet."""
+    return ProgressBar(label, unit=unit) if ProgressBar.wanted(args.quiet) else None
 
 
 def write_json(path: Path | None, data) -> None:

@@ -1,13 +1,13 @@
 """`carav experiment blind-zones`: what each detector misses of the weak attacks, per scene
 (carav_stream/experiments/blind_zones.py).
 
-    carav experiment blind-zones [--trials N] [--seed S] [--json FILE]
+    carav experiment blind-zones [--trials N] [--seed S] [--json FILE] [--quiet]
 """
 from __future__ import annotations
 
 import argparse
 
-from carav_stream.cli.experiment import write_json
+from carav_stream.cli.experiment import progress_bar, quiet_option, write_json
 from carav_stream.console.options import count, output_file
 from carav_stream.experiments.blind_zones import blind_zones
 from carav_stream.firmware.blind_zone import DETECTORS
@@ -19,6 +19,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trials", type=count(10), default=200, help="attacked cycles per RARMS")
     parser.add_argument("--seed", type=count(0), default=7, help="seed of the simulation")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
+    quiet_option(parser)
 
 
 def _print_scene(scene, entries: list[dict], n: int) -> None:
@@ -40,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
     n = args.trials
     print(f"share of attacked cycles missed, {n} per cell, seed {args.seed}; each detector at its design for PF 1e-6 "
           "per cycle; beat fidelity")
-    out = blind_zones(n, args.seed, progress=lambda scene, entries: _print_scene(scene, entries, n))
+    out = blind_zones(n, args.seed, partial=lambda scene, entries: _print_scene(scene, entries, n),
+                      progress=progress_bar(args, "blind-zones"))
     write_json(args.json, out)
     return 0

@@ -1,12 +1,13 @@
 """`carav experiment cfar`: the radar's CFAR target detection measured against its design
 (carav_stream/experiments/cfar_experiment.py).
 
-    carav experiment cfar [--preset NAME] [--trials N] [--pfa P] [--seed S]
+    carav experiment cfar [--preset NAME] [--trials N] [--pfa P] [--seed S] [--quiet]
 """
 from __future__ import annotations
 
 import argparse
 
+from carav_stream.cli.experiment import progress_bar, quiet_option
 from carav_stream.console.options import count, number
 from carav_stream.experiments.cfar_experiment import cfar_experiment
 
@@ -18,6 +19,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--trials", type=count(1), default=400, help="cycles per measurement")
     parser.add_argument("--pfa", type=number(0.0, strict=True), default=1e-4, help="design false-alarm rate per cell")
     parser.add_argument("--seed", type=count(0), default=5, help="seed")
+    quiet_option(parser)
 
 
 def _false_alarms(p: dict) -> None:
@@ -76,5 +78,6 @@ PRINTERS = {"false_alarms": _false_alarms, "detection": _detection, "refined": _
 
 
 def run(args: argparse.Namespace) -> int:
-    cfar_experiment(args.preset, args.trials, args.pfa, args.seed, progress=lambda name, part: PRINTERS[name](part))
+    cfar_experiment(args.preset, args.trials, args.pfa, args.seed, partial=lambda name, part: PRINTERS[name](part),
+                    progress=progress_bar(args, "cfar"))
     return 0

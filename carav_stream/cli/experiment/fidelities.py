@@ -1,12 +1,13 @@
 """`carav experiment fidelities`: where the beat and the waveform fidelity agree, at the range edge and for loud
 echoes, in the detector's units or the estimator's (carav_stream/experiments/fidelities.py).
 
-    carav experiment fidelities [--units detector|estimator] [--trials N] [--seed S]
+    carav experiment fidelities [--units detector|estimator] [--trials N] [--seed S] [--quiet]
 """
 from __future__ import annotations
 
 import argparse
 
+from carav_stream.cli.experiment import progress_bar, quiet_option
 from carav_stream.console.options import count
 from carav_stream.experiments.fidelities import rows
 
@@ -18,6 +19,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="the detector's statistics or the estimator's range")
     parser.add_argument("--trials", type=count(10), default=200, help="cycles per fidelity and case (estimator)")
     parser.add_argument("--seed", type=count(0), default=5, help="seed of the activation and the noise")
+    quiet_option(parser)
 
 
 def _print_row(r: dict) -> None:
@@ -41,5 +43,5 @@ def run(args: argparse.Namespace) -> int:
               "RMSE at each fidelity and the RMS of their difference, over the bound")
         print(f"{'preset':<8} {'echo':<5} {'R / Rmax':>8} {'range m':>8} {'SNR dB':>7} {'m/s':>7} {'beat':>8} "
               f"{'waveform':>9} {'difference':>11}")
-    rows(args.units, args.trials, args.seed, _print_row)
+    rows(args.units, args.trials, args.seed, _print_row, progress_bar(args, "fidelities", unit="cases"))
     return 0

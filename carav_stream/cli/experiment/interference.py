@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import argparse
 
-from carav_stream.cli.experiment import write_json
+from carav_stream.cli.experiment import progress_bar, quiet_option, write_json
 from carav_stream.console.options import count, float_list, number, output_file
-from carav_stream.console.progress import ProgressBar
 from carav_stream.experiments.interference import simulate
 
 __all__ = ["configure", "run"]
@@ -27,8 +26,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="interferer chirp period / its sweep duration (default 1.37: idle time, unsynchronised)")
     parser.add_argument("--seed", type=count(0), default=11, help="seed of the simulation")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
-    parser.add_argument("--quiet", action="store_true", help="no progress (on stderr: a bar on a terminal, else a "
-                        "line every 10 s with the time left)")
+    quiet_option(parser)
 
 
 def _rate(k: int, n: int) -> str:
@@ -41,8 +39,8 @@ def _row(name: str, rarms: float, cell: dict, n: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    bar = ProgressBar("interference") if ProgressBar.wanted(args.quiet) else None
-    res = simulate(args.trials, args.rarms, args.slopes, args.range, args.period_ratio, args.seed, progress=bar)
+    res = simulate(args.trials, args.rarms, args.slopes, args.range, args.period_ratio, args.seed,
+                   progress=progress_bar(args, "interference"))
     n = res["trials"]
     print(f"table1 car at 43 m, +2.2 dB per sample; interferer at {res['range_m']:g} m, oncoming at 100 km/h, "
           f"period {res['period_ratio']:g} x its sweep, offset {res['t_offset_s'] * 1e6:.3f} us; {n} cycles per "

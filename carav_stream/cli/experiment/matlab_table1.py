@@ -1,13 +1,13 @@
 """`carav experiment matlab-table1`: MATLAB's published FMCWExample result beside our replica of its chain, `ml` and
 `root_music`, as a markdown table (carav_stream/experiments/matlab_table1.py; docs/ESTIMATION.md quotes it).
 
-    carav experiment matlab-table1 [--cycles N] [--seed S] [--json FILE]
+    carav experiment matlab-table1 [--cycles N] [--seed S] [--json FILE] [--quiet]
 """
 from __future__ import annotations
 
 import argparse
 
-from carav_stream.cli.experiment import write_json
+from carav_stream.cli.experiment import progress_bar, quiet_option, write_json
 from carav_stream.console.options import count, output_file
 from carav_stream.experiments.matlab_table1 import SNR_DB, figures, simulate
 
@@ -18,6 +18,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cycles", type=count(10), default=400, help="Monte Carlo cycles")
     parser.add_argument("--seed", type=count(0), default=2026)
     parser.add_argument("--json", type=output_file, metavar="FILE", help="write every figure as JSON")
+    quiet_option(parser)
 
 
 ROWS = [  # (chain, quantity, key, decimals)
@@ -50,7 +51,7 @@ def report(fig: dict, cycles: int, seed: int) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    fig = figures(simulate(args.cycles, args.seed))
+    fig = figures(simulate(args.cycles, args.seed, progress=progress_bar(args, "matlab-table1")))
     print("\n".join(report(fig, args.cycles, args.seed)))
     write_json(args.json, fig)
     return 0

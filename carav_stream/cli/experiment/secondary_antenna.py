@@ -3,7 +3,7 @@
 
     carav experiment secondary-antenna [--power low|medium|high|all] [--trials N] [--attacker KIND|both] [--eta ETA]
                                        [--method NAME] [--antenna-range M] [--ghost-range M] [--snr-db DB]
-                                       [--seed S] [--json FILE] [--plot FILE.png]
+                                       [--seed S] [--json FILE] [--plot FILE.png] [--quiet]
 """
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import argparse
 
 import numpy as np
 
-from carav_stream.cli.experiment import write_json
+from carav_stream.cli.experiment import progress_bar, quiet_option, write_json
 from carav_stream.console.errors import CommandError
 from carav_stream.console.options import count, number, output_file
 from carav_stream.detect.detector import PAPER_ETA
@@ -39,6 +39,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
     parser.add_argument("--plot", type=output_file, default=None, metavar="FILE.png",
                         help="PF/PM curves and Q against range error")
+    quiet_option(parser)
 
 
 def _print_clean(c: dict, args: argparse.Namespace) -> None:
@@ -66,7 +67,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         res = experiment(power=args.power, trials=args.trials, attacker=args.attacker, eta=args.eta,
                          method=args.method, antenna_range_m=args.antenna_range, ghost_range_m=args.ghost_range,
-                         snr_db=args.snr_db, seed=args.seed, progress=lambda what, data: printers[what](data))
+                         snr_db=args.snr_db, seed=args.seed, partial=lambda what, data: printers[what](data),
+                         progress=progress_bar(args, "secondary-antenna"))
     except ExperimentError as exc:
         raise CommandError(str(exc)) from None
     for kind in dict.fromkeys(s["attacker"] for s in res["levels"]):
