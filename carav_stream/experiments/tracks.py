@@ -31,6 +31,7 @@ from collections.abc import Callable
 import numpy as np
 
 from carav_stream.detect.detector import PAPER_ETA
+from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.track import CycleReport, TrackerConfig, run
@@ -107,13 +108,17 @@ def cell(model: str, rarms: float, n_cycles: int, seed: int) -> dict:
 
 
 def tracks_experiment(models: list[str], rarms: list[float], n_cycles: int, seed: int,
-                      progress: Callable[[dict], None] | None = None) -> list[dict]:
-    """cell() of every model and RARMS, in that order; progress(cell) as each is done."""
+                      partial: Callable[[dict], None] | None = None,
+                      progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """cell() of every model and RARMS, in that order; partial(cell) as each is done, progress(done, total) in
+    cells."""
     rows = []
+    tally = Tally(len(models) * len(rarms), progress)
     for i, model in enumerate(models):
         for j, level in enumerate(rarms):
             c = cell(model, level, n_cycles, seed + 1000 * i + j)
-            if progress is not None:
-                progress(c)
+            if partial is not None:
+                partial(c)
             rows.append(c)
+            tally(1)
     return rows

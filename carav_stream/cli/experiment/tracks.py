@@ -1,13 +1,13 @@
 """`carav experiment tracks`: what each attacker does to the car's picture of the road, without a defence, with
 CARAV, with the tracker's NIS alarm and with both (carav_stream/experiments/tracks.py).
 
-    carav experiment tracks [--cycles N] [--models LIST] [--rarms LIST] [--seed S] [--json FILE]
+    carav experiment tracks [--cycles N] [--models LIST] [--rarms LIST] [--seed S] [--json FILE] [--quiet]
 """
 from __future__ import annotations
 
 import argparse
 
-from carav_stream.cli.experiment import write_json
+from carav_stream.cli.experiment import progress_bar, quiet_option, write_json
 from carav_stream.console.errors import CommandError
 from carav_stream.console.options import count, float_list, output_file
 from carav_stream.experiments.tracks import DEFENCES, MODELS, SCENE, START, TRACKER, tracks_experiment
@@ -23,6 +23,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rarms", type=float_list(0.0), default=[1.0, 3.0], help="attack levels (default 1,3)")
     parser.add_argument("--seed", type=count(0), default=13, help="seed of the simulation")
     parser.add_argument("--json", type=output_file, default=None, metavar="FILE", help="write the results as JSON")
+    quiet_option(parser)
 
 
 def _number(x: float | None, fmt: str) -> str:
@@ -54,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
           f"{TRACKER['sigma_velocity_mps']:g} m/s), coast {TRACKER['coast_cycles']} cycles, NIS over "
           f"{TRACKER['nis_window']} updates at {TRACKER['nis_pfa']:g}")
     print("figures from the attack's start on; lead: the nearest confirmed track")
-    rows = tracks_experiment(models, args.rarms, args.cycles, args.seed, progress=_print_cell)
+    rows = tracks_experiment(models, args.rarms, args.cycles, args.seed, partial=_print_cell,
+                             progress=progress_bar(args, "tracks", unit="runs"))
     write_json(args.json, rows)
     return 0
