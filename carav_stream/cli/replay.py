@@ -19,7 +19,8 @@ from carav_stream.console.errors import CommandError, Exit
 from carav_stream.runtime.loader import read_graph_file
 
 RECORDED = {"rms_detector": ("eta", "sigma_n"),
-            "range_estimator": ("method", "n_targets", "detection", "pfa", "max_targets", "sigma_n")}
+            "range_estimator": ("method", "n_targets", "detection", "pfa", "max_targets", "sigma_n",
+                                "max_speed_mps")}
 
 
 def configure(p: argparse.ArgumentParser) -> None:

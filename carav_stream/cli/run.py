@@ -223,8 +223,14 @@ def _radar_lines(s: dict[str, Any]) -> list[str]:
                              "m"))
     lines.append(_errors("velocity error, first target", s.get("velocity_error_mps"), "m/s"))
     if s.get("velocity_ambiguous"):
-        lines.append(f"    the target is faster than the unambiguous +-{_qty(s['unambiguous_velocity_mps'], 'm/s')}: "
-                     "the error above is the aliased estimate's")
+        v_max = s["unambiguous_velocity_mps"]
+        rmse = (s.get("velocity_error_mps") or {}).get("rmse")
+        # an estimator that follows the range walk (range_estimator's max_speed_mps) reports the unfolded velocity:
+        # its error against the true velocity is then well inside +-v_max; a folded estimate's is about 2 v_max
+        unfolded = rmse is not None and rmse < v_max
+        lines.append(f"    the target is faster than the unambiguous +-{_qty(v_max, 'm/s')}: " + (
+            "the estimates were unfolded, the error above is against the true velocity" if unfolded
+            else "the error above is the aliased estimate's"))
         lines.append(_errors("  velocity error modulo the ambiguity", s.get("velocity_error_modulo_ambiguity_mps"),
                              "m/s"))
     for key, text in (("refused_by_estimator", "cycles the estimator refused (no clean verdict)"),

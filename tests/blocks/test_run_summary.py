@@ -134,3 +134,21 @@ def test_a_restarted_summary_says_which_cycles_its_figures_cover_and_carav_run_p
     assert run["figures_cover"]["text"] == ("figures cover cycles 1088-5312 only (4 cycles counted): run_summary "
                                             "restarted 2 times")
     assert any(line.strip() == run["figures_cover"]["text"] for line in _radar_lines(run))
+
+
+@pytest.mark.parametrize("unfolded", [False, True])
+def test_the_printed_summary_says_whether_a_fast_targets_velocity_was_unfolded_or_aliased(unfolded):
+    # awr1642's head-on car: a Doppler FFT alone reports the alias; an estimator following the range walk
+    # (range_estimator's max_speed_mps) reports the true velocity, and the summary must not call that aliased
+    scene = scene_of("awr1642")
+    true_v, v_max = scene.range_rate_mps(scene.targets[0]), scene.max_velocity_mps
+    reported = true_v if unfolded else (true_v + v_max) % (2 * v_max) - v_max
+    s = RunSummary(scene="awr1642")
+    s.start()
+    s.process(wire(Frame.of(None, cycles=2, per_cycle={"attack_active": [False, False],
+                                                       "range_m": [[20.0], [20.0]],
+                                                       "velocity_mps": [[reported + 0.1], [reported - 0.1]]}), 0),
+              None)
+    text = "\n".join(_radar_lines({**s.summary()["run"], "cycles": 2}))
+    assert ("the estimates were unfolded" in text) is unfolded
+    assert ("the error above is the aliased estimate's" in text) is not unfolded
