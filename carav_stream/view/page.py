@@ -80,7 +80,8 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
     from bokeh.layouts import column, row
     from bokeh.plotting import figure
 
-    from carav_stream.view.sync import page_sync  # a Bokeh model class: needs Bokeh too
+    # a Bokeh model class (view.sync): the view extra's too
+    from carav_stream.view.sync import page_sync
 
     doc.title = cfg.title
     q_fig, q_src, eta_line, eta_div = _q_plot(bm, figure, cfg)
