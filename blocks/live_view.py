@@ -3,12 +3,13 @@
 A sink whose inputs are taps (block.In.tap): the gate's refusals, the estimator's estimates and the gate's clean
 frames reach it only when it has room, so a slow or closed browser never slows the chain; what its taps skip is
 counted as skipped (`skipped_by_taps` in the run summary), never as lost. The page (carav_stream/view, a Bokeh
-server on a thread of this node, on loopback unless `address` says otherwise) shows, `update_hz` times a second: Q per
-cycle against eta coloured by D0, D1, opt-in detectors and fail-closed refusals; the range and velocity
-estimates against the scene's targets; the range-Doppler map of the latest clean cycle; the attacker's model and
-RARMS with a form that swaps them through the same request as `carav swap`; the nodes' rates and the edges'
-queue fill from `carav status`. The page's address carries a per-run token and its websocket takes only the page's
-own origin (carav_stream/view/server.py).
+server on a thread of this node, on loopback unless `address` says otherwise) shows, up to `update_hz` times a second
+(a browser tab gets an update once it has shown the last one): Q per cycle against eta coloured by D0, D1, opt-in
+detectors and fail-closed refusals; the range and velocity estimates against the scene's targets; the
+range-Doppler map of the latest clean cycle, and why these stand still while the gate refuses cycles (how many,
+by class); the attacker's model and RARMS with a form that swaps them through the same request as `carav swap`;
+the nodes' rates and the edges' queue fill from `carav status`. The page's address carries a per-run token and
+its websocket takes only the page's own origin (carav_stream/view/server.py).
 
 Ports   in  alarms     header only (tap)      gate.alarms: per_cycle cycle_index, reason, q, raised_by, attack_active
         in  estimates  header only (tap)      range_estimator.estimates: per_cycle q, range_m, velocity_mps, ...
@@ -34,7 +35,7 @@ class LiveView(Block):
               Param("port", int, 5006, "TCP port of the page; 0 = any free port (printed)", low=0, high=65535),
               Param("token", str, "", "access token in the page's address (`carav run --view` draws one per run); "
                     "empty = a new one is drawn and the address printed"),
-              Param("update_hz", float, 4.0, "page updates per second", unit="Hz", low=0.2, high=50.0),
+              Param("update_hz", float, 4.0, "page updates per second, at most", unit="Hz", low=0.2, high=50.0),
               Param("history", int, 2000, "cycles kept on the page's plots", unit="cycles", low=10),
               Param("attacker", str, "attacker", "node the page's swap form swaps"),
               Param("eta", float, 0.0, "threshold line on the Q plot; 0 = the eta the frames carry", low=0.0))

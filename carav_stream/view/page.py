@@ -1,4 +1,4 @@
-"""The live view's page: one Bokeh document per browser tab, updated `update_hz` times a second from ViewState.
+"""The live view's page: one Bokeh document per browser tab, updated up to `update_hz` times a second from ViewState.
 
 Plots: Q per cycle with the threshold eta, coloured by the detector's decision (clean, D0, D1, opt-in detectors,
 fail-closed refusals drawn at Q = 0 with their reason on hover); the range and the velocity estimates of every
@@ -6,6 +6,14 @@ listed target against the scene's true targets; the range-Doppler map of the lat
 noise); the attacker node's block, model and RARMS with a form to swap them; per-node rates and per-edge queue
 fill from the supervisor's status; the display counters (maps drawn, clean frames not drawn, frames the taps
 skipped). Every model carries a `name` so tests (and scripts) find it in the browser's Bokeh document.
+
+The plots of clean cycles (range, velocity, the map) say, in the line between them, why they stand still: the
+latest clean cycle and the cycles the gate refused after it, by class (one line for the three: each text that
+changes makes the browser lay the whole page out again). Legends sit in a panel beside or below their plot,
+never over it. A tab gets its next update only once it has shown the last one (view.sync): a browser short of CPU
+sees the present, less often, rather than an ever older past. The tables are Bokeh DataTables, which redraw only
+when their row set changes (BokehJS redraws a table on a change of its CDSView's indices, and new figures in as
+many rows leave those equal): a new status makes its table redraw (`_redraw_on_new_data`).
 """
 from __future__ import annotations
 
@@ -19,6 +27,9 @@ from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.adc import from_codes
 from carav_stream.view.control import RunControl, models
 from carav_stream.view.state import CATEGORIES, ViewState, rd_map_db
+
+REFUSALS = {"D0": "alarms by D0", "D1": "alarms by D1", "opt-in": "alarms by an opt-in detector",
+            "refused": "refusals without a verdict"}
 
 COLOURS = {"clean": "#1f77b4", "D0": "#d62728", "D1": "#ff7f0e", "opt-in": "#9467bd", "refused": "#7f7f7f"}
 NODE_COLUMNS = ("node", "block", "state", "cycles", "frames_s", "cycles_s", "restarts")
@@ -46,6 +57,7 @@ class _Models:
     eta_line: Any
     eta_div: Any
     est_src: Any
+    pause_div: Any
     rd_src: Any
     rd_div: Any
     attacker_div: Any
@@ -56,31 +68,36 @@ class _Models:
     edge_src: Any
     info: Any
     choices: list[str]
+    sync: Any
     seen: dict[str, Any] = field(default_factory=lambda: {"points": 0, "estimates": 0, "map": 0, "status": None,
                                                           "model": None})
 
 
 def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: PageConfig) -> None:
-    """The page in `doc` (one per browser tab), updated from `state` `cfg.update_hz` times a second."""
+    """The page in `doc` (one per browser tab), updated from `state` up to `cfg.update_hz` times a second."""
     # Bokeh is the view extra's: imported when a page is made, not with the package
     import bokeh.models as bm
     from bokeh.layouts import column, row
     from bokeh.plotting import figure
 
+    # a Bokeh model class (view.sync): the view extra's too
+    from carav_stream.view.sync import page_sync
+
     doc.title = cfg.title
     q_fig, q_src, eta_line, eta_div = _q_plot(bm, figure, cfg)
     r_fig, v_fig, est_src = _estimate_plots(bm, figure, cfg)
+    pause_div = bm.Div(name="pause_text", text="no clean cycle yet", width=980)
     rd_fig, rd_src, rd_div = _rd_plot(bm, figure, cfg.geometry)
     attacker_div, model_in, rarms_in, swap_button, swap_div, choices = _swap_form(bm, control)
     nodes, node_src, edges, edge_src = _tables(bm)
     info = bm.Div(name="info", text="", width=980)
 
     doc.add_root(column(
-        bm.Div(text=f"<h2>{cfg.title}</h2>"), info, row(q_fig), eta_div, row(r_fig, v_fig),
+        bm.Div(text=f"<h2>{cfg.title}</h2>"), info, row(q_fig), eta_div, row(r_fig, v_fig), pause_div,
         row(column(rd_fig, rd_div), column(attacker_div, row(model_in, rarms_in), swap_button, swap_div, nodes)),
         edges))
-    m = _Models(q_src, eta_line, eta_div, est_src, rd_src, rd_div, attacker_div, model_in, rarms_in, swap_div,
-                node_src, edge_src, info, choices)
+    m = _Models(q_src, eta_line, eta_div, est_src, pause_div, rd_src, rd_div, attacker_div, model_in, rarms_in,
+                swap_div, node_src, edge_src, info, choices, page_sync(doc))
     doc.add_periodic_callback(lambda: _update(m, state, cfg), max(50, int(1000 / cfg.update_hz)))
 
 
@@ -89,18 +106,18 @@ def _q_plot(bm: Any, figure: Any, cfg: PageConfig) -> tuple[Any, dict[str, Any],
     q_fig = figure(name="q_plot", height=300, width=980, title="Detector statistic Q per cycle against eta",
                    x_axis_label="cycle", y_axis_label="Q (dimensionless)", tools="pan,wheel_zoom,box_zoom,reset",
                    y_range=bm.DataRange1d(start=0.0))   # from 0: eta and the refusals (drawn at 0) stay in view
+    # in the panel right of the plot, covering no point (the glyphs name it: legend_name)
+    q_fig.add_layout(bm.Legend(name="q_legend", click_policy="hide"), "right")
     q_src = {c: bm.ColumnDataSource({"cycle": [], "q": [], "detail": [], "attacked": []}, name=f"q_{c}")
              for c in CATEGORIES}
     for c in CATEGORIES:
         q_fig.scatter("cycle", "q", source=q_src[c], color=COLOURS[c], size=4 if c == "clean" else 6,
-                      marker="x" if c == "refused" else "circle", legend_label=LABELS[c])
+                      marker="x" if c == "refused" else "circle", legend_label=LABELS[c], legend_name="q_legend")
     q_fig.add_tools(bm.HoverTool(tooltips=[("cycle", "@cycle"), ("Q", "@q"), ("by / reason", "@detail"),
                                            ("attack on", "@attacked")]))
     eta_line = bm.Span(name="eta_line", location=cfg.eta if cfg.eta is not None else float("nan"),
                        dimension="width", line_color="black", line_dash="dashed", line_width=1.5)
     q_fig.add_layout(eta_line)
-    q_fig.legend.location = "top_left"
-    q_fig.legend.click_policy = "hide"
     return q_fig, q_src, eta_line, bm.Div(name="eta_text", text="")
 
 
@@ -111,6 +128,8 @@ def _estimate_plots(bm: Any, figure: Any, cfg: PageConfig) -> tuple[Any, Any, An
                    x_axis_label="cycle", y_axis_label="range (m)", tools="pan,wheel_zoom,box_zoom,reset")
     v_fig = figure(name="velocity_plot", height=260, width=485, title="Velocity estimates against the true targets",
                    x_axis_label="cycle", y_axis_label="range rate (m/s)", tools="pan,wheel_zoom,box_zoom,reset")
+    for fig in (r_fig, v_fig):
+        fig.add_layout(bm.Legend(orientation="horizontal"), "below")
     r_fig.scatter("cycle", "range_m", source=est_src, size=4, legend_label="estimate (every listed target)")
     v_fig.scatter("cycle", "velocity_mps", source=est_src, size=4, legend_label="estimate (every listed target)")
     for fig, truths in ((r_fig, cfg.truth_range_m), (v_fig, cfg.truth_velocity_mps)):
@@ -118,7 +137,6 @@ def _estimate_plots(bm: Any, figure: Any, cfg: PageConfig) -> tuple[Any, Any, An
             fig.add_layout(bm.Span(location=t, dimension="width", line_color="green", line_width=2))
         if truths:
             fig.line([0, 0], [truths[0], truths[0]], line_color="green", line_width=2, legend_label="true target")
-        fig.legend.location = "top_left"
     return r_fig, v_fig, est_src
 
 
@@ -163,19 +181,33 @@ def _tables(bm: Any) -> tuple[Any, Any, Any, Any]:
         bm.TableColumn(field="frames_s", title="frames/s (last s)"),
         bm.TableColumn(field="cycles_s", title="cycles/s (last s)"),
         bm.TableColumn(field="restarts", title="restarts")])
+    _redraw_on_new_data(bm, nodes)
     edge_src = bm.ColumnDataSource({k: [] for k in ("edge", "fill", "skipped")}, name="edges")
-    edges = bm.DataTable(name="edge_table", source=edge_src, width=470, height=230, index_position=None, columns=[
-        bm.TableColumn(field="edge", title="edge", width=300),
-        bm.TableColumn(field="fill", title="in flight / queue capacity (why beyond it)", width=320),
-        bm.TableColumn(field="skipped", title="skipped (tap)")])
+    # the page's width: the reason an edge reads beyond its capacity is a sentence
+    edges = bm.DataTable(name="edge_table", source=edge_src, width=980, height=230, index_position=None, columns=[
+        bm.TableColumn(field="edge", title="edge", width=230),
+        bm.TableColumn(field="fill", title="in flight / queue capacity (why beyond it)", width=650),
+        bm.TableColumn(field="skipped", title="skipped (tap)", width=100)])
+    _redraw_on_new_data(bm, edges)
     return nodes, node_src, edges, edge_src
 
 
+def _redraw_on_new_data(bm: Any, table: Any) -> None:
+    """Make `table` redraw whenever its source's data is replaced. BokehJS's DataTable redraws on its CDSView's
+    change, which fires only when the view's row indices change: new figures in the same rows left the rendered
+    table as it was first drawn while its data moved on. The view's change, emitted here, is the one it listens to."""
+    table.source.js_on_change("data", bm.CustomJS(args={"view": table.view}, code="view.change.emit()"))
+
+
 def _update(m: _Models, state: ViewState, cfg: PageConfig) -> None:
-    """What the page shows, brought up to `state`: new points and estimates, the threshold, the latest map, the
-    tables and the attacker's form (when a new status came), the counters."""
+    """What the page shows, brought up to `state`: new points and estimates, the threshold, the latest map and why
+    the plots of clean cycles stand still, the tables and the attacker's form (when a new status came), the
+    counters. Nothing while the tab has not shown the last update (view.sync)."""
+    if m.sync.shown < m.sync.sent:
+        return
     _draw_points(m, state, cfg)
     _draw_map(m, state, cfg)
+    _draw_pause(m, state)
     status, status_error = _draw_status(m, state, cfg)
     k = state.counts()
     skipped = sum(e.get("skipped", 0) for e in (status or {}).get("edges", {}).values())
@@ -185,6 +217,7 @@ def _update(m: _Models, state: ViewState, cfg: PageConfig) -> None:
                  + (f" &middot; status: {status_error}" if status_error else ""))
     if m.info.text != info_text:
         m.info.text = info_text
+    m.sync.sent += 1       # the update's last change: the tab acknowledges it once it has shown all of it
 
 
 def _draw_points(m: _Models, state: ViewState, cfg: PageConfig) -> None:
@@ -220,6 +253,27 @@ def _draw_map(m: _Models, state: ViewState, cfg: PageConfig) -> None:
                      "dw": [float(ranges[-1] - ranges[0])], "dh": [float(velocities[-1] - velocities[0])]}
     m.rd_div.text = f"cycle {cycle}: peak {float(db.max()):.1f} dB over the noise"
     state.drawn(m.seen["map"])
+
+
+def _draw_pause(m: _Models, state: ViewState) -> None:
+    """The line under the range and velocity plots: up to which clean cycle the plots of clean cycles go, and
+    why they stand still."""
+    text = pause_text(*state.paused())
+    if m.pause_div.text != text:
+        m.pause_div.text = text
+
+
+def pause_text(last_clean: int, refused: dict[str, int]) -> str:
+    """What the plots of clean cycles (range, velocity, range-Doppler) show up to, and, when the gate refused
+    cycles after the latest clean one, that they paused and why: how many, by class."""
+    n = sum(refused.values())
+    if not n:
+        return (f"range, velocity and range-Doppler plots: up to cycle {last_clean}, the latest clean cycle"
+                if last_clean >= 0 else "no clean cycle yet")
+    since = f"after cycle {last_clean}" if last_clean >= 0 else "from the start"
+    by = ", ".join(f"{refused[c]} {REFUSALS[c]}" for c in REFUSALS if refused.get(c))
+    return (f"<b>range, velocity and range-Doppler plots paused {since}</b>: the gate refused the {n} "
+            f"cycle{'s' if n != 1 else ''} since ({by}; every cycle that reached the view)")
 
 
 def _draw_status(m: _Models, state: ViewState, cfg: PageConfig) -> tuple[dict[str, Any] | None, str | None]:

@@ -2,8 +2,9 @@
 
 Bokeh's server keeps a document per browser tab in sync with Python over a websocket: the page module changes
 plot data in Python and Bokeh sends only the change (a `stream` sends the new points alone). It runs on a thread
-of the live_view node's process, never in the radar chain's processes; a slow or closed browser slows only that
-thread (its websocket writes queue in tornado), and the node's taps skip frames rather than wait for it.
+of the live_view node's process, never in the radar chain's processes; a browser tab takes an update only once it
+has shown the last one (view.sync), so a slow browser gets fewer updates rather than a growing queue of writes,
+and the node's taps skip frames rather than wait for it.
 
 Who may open the page: the page can swap the run's attacker, so it is not open to every local process.
 - The page's address carries a per-run token (`?token=...`, 24 random bytes from `secrets`): a request for the

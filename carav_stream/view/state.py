@@ -7,6 +7,11 @@ reason), whether the attacker was on, and the estimates (every listed target). O
 cycles are kept; a page that looks less often than that loses the oldest points from its plot, never from the
 run (the run summary counts everything).
 
+Why a plot paused: the range, velocity and range-Doppler plots draw clean cycles only, so they stand still while the
+gate refuses every cycle (an attack it detects, or a fail-closed refusal). `paused()` gives the latest clean cycle
+received and the refused cycles received after it, by class: exact whatever order the taps deliver them in, unless a
+clean cycle reaches the view more than REFUSED_KEPT refused cycles late (then those older ones stay counted).
+
 Display accounting: a clean frame the view received but did not draw a map of (a newer one came before the page
 looked) is counted in `frames_not_drawn`; frames the tap edge skipped while the view was busy are counted by the
 runtime (`skipped_by_taps`). Neither is lost.
@@ -27,6 +32,7 @@ from carav_stream.runtime.cycles import cycle_indices, per_cycle
 from carav_stream.runtime.frames import Frame
 
 CATEGORIES = ("clean", "D0", "D1", "opt-in", "refused")   # how a cycle's Q point is drawn
+REFUSED_KEPT = 1 << 16      # refused cycles after the latest clean one kept by index; older ones only counted
 
 
 def category(reason: str | None, raised_by: str | None) -> str:
@@ -94,6 +100,11 @@ class ViewState:
         self.status: dict[str, Any] | None = None     # the supervisor's last status (set by the page's poller)
         self.status_error: str | None = None
         self.swap_log: list[str] = []                 # the page's swaps and their answers, newest last
+        self.last_clean = -1                          # the latest clean cycle received (estimated or mapped)
+        self.refused_after: collections.deque[tuple[int, str]] = collections.deque()   # (cycle, class) after it
+        self.refused_by: collections.Counter[str] = collections.Counter()   # their classes, folded ones included
+        self.folded_max = -1                          # the highest refused cycle only counted (beyond REFUSED_KEPT)
+        self.folded: collections.Counter[str] = collections.Counter()
 
     def add(self, port: str, frame: Frame) -> None:
         """Take one frame from tap `port` (alarms, estimates or clean). Cheap: the map is drawn by a reader."""
@@ -130,10 +141,43 @@ class ViewState:
                     self.frames_not_drawn += 1        # the one before it was never drawn
                 self.latest = (cycles[-1], frame.payload[-1], frame.arrays["rho"][-1])
                 self.latest_version += 1
+                self._clean(max(cycles))
 
     def _point(self, p: CyclePoint) -> None:
         self.n_points += 1
         self.points.append((self.n_points, p))
+        if p.category == "clean":
+            self._clean(p.cycle)
+        elif p.cycle > self.last_clean:
+            self.refused_after.append((p.cycle, p.category))
+            self.refused_by[p.category] += 1
+            if len(self.refused_after) > REFUSED_KEPT:
+                cycle, cat = self.refused_after.popleft()
+                self.folded[cat] += 1
+                self.folded_max = max(self.folded_max, cycle)
+
+    def _clean(self, cycle: int) -> None:
+        """A clean cycle received: the refused cycles before it no longer explain a pause."""
+        if cycle <= self.last_clean:
+            return
+        self.last_clean = cycle
+        if self.folded_max <= cycle:
+            self.refused_by.subtract(self.folded)
+            self.folded.clear()
+            self.folded_max = -1
+        if self.refused_after:
+            kept: collections.deque[tuple[int, str]] = collections.deque()
+            for c, cat in self.refused_after:
+                if c > cycle:
+                    kept.append((c, cat))
+                else:
+                    self.refused_by[cat] -= 1
+            self.refused_after = kept
+
+    def paused(self) -> tuple[int, dict[str, int]]:
+        """(the latest clean cycle received, -1 before any; the refused cycles received after it, by class)."""
+        with self.lock:
+            return self.last_clean, {cat: n for cat, n in self.refused_by.items() if n > 0}
 
     def since(self, points_after: int, estimates_after: int) -> tuple[list[CyclePoint], int, list[EstimatePoint], int]:
         """The points and estimates added after the given running numbers, and the numbers to ask with next."""

@@ -1,22 +1,45 @@
 """`carav run --view` in a real headless browser (Debian's Chromium driven by Selenium): the page loads, its plots
 update while the graph runs, and a swap made from the page reaches the attacker node, shows in `carav status` and
-in the run summary, and the alarms follow it. CI installs the browser (.ci/run); a local run without one skips
-this test and says why."""
+in the run summary, and the alarms follow it. On a machine loaded by two processes spinning on its two cores, the
+tables as drawn follow the run, the plots of clean cycles that paused say why with the count of refused cycles,
+and no legend sits over a plot. CI installs the browser (.ci/run); a local run without one skips these tests and
+says why."""
 import json
 import os
 import re
 import socket
+import subprocess
+import sys
 import urllib.error
 import urllib.request
 
 import pytest
 
 from bench.browser import DEEP_FIND, headless_chromium, missing, model
+from carav_stream.node_start import parent_death_signal
 from carav_stream.view.server import free_port
 from tests.integration.conftest import PACED, ROOT, wait_until
 
 pytestmark = pytest.mark.integration
 BATCH = 32   # table1_smart's cycles per frame (radar_chain.toml)
+ATTACK_FROM = 100   # table1_smart's attacker switches on at this cycle, and the gate refuses every cycle from there
+# The cells of the row of node arguments[0] as the node table draws them (SlickGrid rows in Bokeh's shadow roots),
+# or null: what a user reads, not the table's data.
+DRAWN_ROW = """const rows = [];
+(function walk(root) {
+  for (const el of root.querySelectorAll('.slick-row'))
+    rows.push([...el.querySelectorAll('.slick-cell')].map(c => c.textContent.trim()));
+  for (const el of root.querySelectorAll('*')) if (el.shadowRoot) walk(el.shadowRoot);
+})(document);
+return rows.find(cells => cells[0] === arguments[0]) || null;"""
+# For each figure named in arguments[0]: how many legends sit in its center (over the plot) and in its side panels.
+LEGENDS = """const doc = Bokeh.documents[0]; const out = {};
+for (const name of arguments[0]) {
+  const fig = doc.get_model_by_name(name); out[name] = {};
+  for (const side of ["center", "left", "right", "above", "below"])
+    out[name][side] = fig[side].filter(r => r.constructor.__name__ === "Legend").length;
+}
+return out;"""
 
 
 def browser():
@@ -40,13 +63,24 @@ def handshake(port: int, origin: str | None) -> str:
         return s.recv(4096).decode(errors="replace").split("\r\n")[0]
 
 
-def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_attacker(carav):
-    from selenium.webdriver.support.ui import Select
-    port = free_port("127.0.0.1")
+@pytest.fixture
+def two_busy_cores():
+    """Two processes spinning on the CPU for the test's length (the machine as loaded as the user's who saw the
+    node table stand still), each stopped by its pid in teardown, and killed by the kernel if the test dies."""
+    spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"], start_new_session=True,
+                                 preexec_fn=parent_death_signal) for _ in range(2)]
+    yield spinners
+    for p in spinners:
+        p.kill()
+        p.wait()
+
+
+def start_viewed(carav, port: int):
+    """table1_smart run until stopped, paced, with its live view on `port`: (the run, the page's address) once the
+    page answers."""
     run = carav.run(ROOT / "graphs" / "table1_smart.toml", "--view", "--port", str(port), "--cycles", "0", *PACED)
     wait_until(lambda: "live view at " in run.stderr(), "the page's address", run, interval_s=0.2)
     url = re.search(r"live view at (\S+)", run.stderr()).group(1)
-    assert url.startswith(f"http://127.0.0.1:{port}/?token=") and len(url.split("token=")[1]) >= 32
 
     def page_up():
         try:
@@ -55,6 +89,14 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
             assert run.proc.poll() is None, run.stderr()
             return False
     wait_until(page_up, "the live view page", run, interval_s=0.2)
+    return run, url
+
+
+def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_attacker(carav):
+    from selenium.webdriver.support.ui import Select
+    port = free_port("127.0.0.1")
+    run, url = start_viewed(carav, port)
+    assert url.startswith(f"http://127.0.0.1:{port}/?token=") and len(url.split("token=")[1]) >= 32
     # without the run's token, or with another, the page is refused; its websocket takes only the page's origin
     for wrong in (f"http://127.0.0.1:{port}/", url[:-4] + "AAAA"):
         with pytest.raises(urllib.error.HTTPError) as refused:
@@ -113,6 +155,82 @@ def test_the_page_updates_while_the_graph_runs_and_a_swap_from_it_reaches_the_at
     view = s["per_node"]["view"]
     assert view["block"] == "live_view" and view["in"]["alarms"] > 0 and view["in"]["clean"] > 0
     assert view["history"][0]["summary"]["view"]["maps_drawn"] >= 1
+
+
+def test_on_a_loaded_machine_the_tables_follow_the_run_paused_plots_say_why_and_no_legend_covers_a_plot(
+        carav, two_busy_cores):
+    """Every check runs and every problem is reported together: one viewed run on a loaded machine is long."""
+    run, url = start_viewed(carav, free_port("127.0.0.1"))
+    driver = browser()
+    problems = []
+    try:
+        driver.set_script_timeout(300)          # the browser runs on the loaded cores too
+        driver.get(url)
+        data = lambda name, col: model(driver, name, f"data[{json.dumps(col)}]") or []  # noqa: E731
+        wait_until(lambda: model(driver, "q_plot", "name"), "the page's Bokeh document", run, interval_s=0.5)
+
+        figures = ["q_plot", "range_plot", "velocity_plot", "rd_plot"]
+        legends = driver.execute_script(LEGENDS, figures)
+        over = {name: sides["center"] for name, sides in legends.items() if sides["center"]}
+        if over or not legends["q_plot"]["right"]:
+            problems.append(f"legends over a plot: {over}; the Q plot's legends by side: {legends['q_plot']}")
+
+        # the node table as drawn: its figures change between two readings, and reach what the run had done
+        # before the second one began; a page whose table's data moves on without it fails as soon as the data
+        # has changed five times
+        drawn = lambda: driver.execute_script(DRAWN_ROW, "source")  # noqa: E731
+        first = wait_until(lambda: (row := drawn()) and int(row[3]) > 0 and row, "the node table drawn", run,
+                           interval_s=0.5)
+        ran = json.loads(carav.cli("status", "--json").stdout)[0]["cycles"]
+        data_seen = set()
+
+        def table_followed():
+            row, cycles = drawn(), dict(zip(data("nodes", "node"), data("nodes", "cycles"))).get("source")
+            data_seen.add(cycles)
+            if row != first and int(row[3]) >= ran:
+                return "ok"
+            if len(data_seen) > 5:
+                return (f"the node table as drawn stands at {row} (first drawn {first}) while its data moved on "
+                        f"to cycles {cycles}, and the run to {ran}")
+            return None
+        result = wait_until(table_followed, "the node table as drawn to move on", run, interval_s=0.5)
+        if result != "ok":
+            problems.append(result)
+
+        # the range and velocity plots stop at the last clean cycle; the page says why, with the count
+        moved_on = ATTACK_FROM + 10 * BATCH
+        wait_until(lambda: max(data("q_D0", "cycle"), default=0) > moved_on, "alarms on the Q plot", run)
+        if max(data("estimates", "cycle")) != ATTACK_FROM - 1:
+            problems.append(f"estimates after the attack began: up to cycle {max(data('estimates', 'cycle'))}")
+        texts = lambda: driver.execute_script(  # noqa: E731
+            "const d = Bokeh.documents[0]; return ['pause_text', 'info'].map(n => d.get_model_by_name(n))"
+            ".map(m => m ? m.text : '')")
+        said = re.compile(r"plots paused after cycle (\d+)</b>: the gate refused the (\d+) cycles since "
+                          r"\((\d+) alarms by D0; every cycle that reached the view\)")
+
+        def reason():
+            pause, info = texts()
+            return said.search(pause), int(re.search(r"latest cycle (\d+)", info).group(1)), pause
+        why, latest, pause = wait_until(lambda: (r := reason())[1] > moved_on and r, "the page's text", run)
+        if why is None:
+            problems.append(f"the plots of clean cycles paused at cycle {ATTACK_FROM - 1} and the page does not "
+                            f"say why: {pause!r}")
+        else:
+            last_clean, n, by_d0 = (int(g) for g in why.groups())
+            # every cycle after the last clean one that reached the view was refused, and counted (taps may skip)
+            if not (last_clean == ATTACK_FROM - 1 and 0 < n == by_d0 <= latest - last_clean):
+                problems.append(f"the pause misreads the run: {why.group(0)!r} with the latest cycle {latest}")
+            later = wait_until(lambda: (r := reason())[0] and int(r[0].group(2)) > n and r[0], "the count", run)
+            assert int(later.group(1)) == ATTACK_FROM - 1
+    except BaseException:
+        driver.save_screenshot(str(carav.workdir / "live_view_loaded.png"))
+        raise
+    finally:
+        driver.quit()
+    assert not problems, "\n".join(problems)
+    assert carav.cli("stop").returncode == 0
+    assert run.wait() == 0, run.stderr()
+    assert run.summary()["lost"] == 0
 
 
 def test_a_graph_without_a_gate_has_nothing_to_watch(carav):

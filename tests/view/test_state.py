@@ -1,5 +1,6 @@
 """The live view's data, without a browser: classes of cycles, what a page gets since its last look, the map's
-display accounting, and the range-Doppler map against the scene's true target."""
+display accounting, why the plots of clean cycles paused, and the range-Doppler map against the scene's true
+target."""
 import dataclasses
 
 import numpy as np
@@ -11,6 +12,7 @@ from carav_stream.radar.attackers import KINDS
 from carav_stream.radar.streams import scene_of
 from carav_stream.radar.synth import simulate_cycles
 from carav_stream.runtime import Frame
+from carav_stream.view import state as view_state
 from carav_stream.view.control import swap_params
 from carav_stream.view.state import ViewState, category, rd_map_db
 from tests.blocks.helpers import wire
@@ -81,6 +83,42 @@ def test_only_the_latest_clean_cycle_is_drawn_each_page_draws_it_once_and_skippe
     assert s.latest_clean(version)[1] == 4
     k = s.counts()
     assert k["maps_drawn"] == 1 and k["frames_not_drawn"] == 1 and k["frames_in"] == {"clean": 3}
+
+
+def test_a_pause_counts_the_cycles_refused_after_the_latest_clean_one_by_class_in_any_order_of_arrival():
+    s = ViewState(history=10)
+    assert s.paused() == (-1, {})
+    s.add("alarms", alarms([0, 1], ["attack", "no_verdict"], ["D0", None], [3.0, None], [True, True]))
+    assert s.paused() == (-1, {"D0": 1, "refused": 1})                  # refused from the start
+    s.add("estimates", estimates([2, 3], [1.0, 1.0], [[43.0], [43.0]], [[1.0], [1.0]], seq=1))
+    assert s.paused() == (3, {})
+    # far more cycles than `history`: the count is of every refused cycle, not of the points kept
+    frames = [[4, 6, 7, 8, 9, 10, 11, 12], *(list(range(13 + 8 * k, 21 + 8 * k)) for k in range(3))]   # 4, 6-36
+    for k, cycles in enumerate(frames):
+        s.add("alarms", alarms(cycles, ["attack"] * 8, ["D0"] * 4 + ["D1"] * 4, [3.0] * 8, [True] * 8, seq=2 + k))
+    assert s.paused() == (3, {"D0": 16, "D1": 16})
+    # the estimator's tap delivers clean cycle 5 after the gate's alarms up to cycle 36 (taps keep no common order)
+    s.add("estimates", estimates([5], [1.0], [[43.0]], [[1.0]], seq=9))
+    assert s.paused() == (5, {"D0": 15, "D1": 16})                      # cycle 4 was before it
+    s.add("alarms", alarms([4], ["no_verdict"], [None], [None], [True], seq=10))   # a late one from before it
+    assert s.paused() == (5, {"D0": 15, "D1": 16})
+    s.add("clean", clean([37], seq=11))                                 # a clean frame the gate passed
+    assert s.paused() == (37, {})
+
+
+def test_a_pause_longer_than_the_cycles_kept_by_index_still_counts_every_refused_cycle(monkeypatch):
+    monkeypatch.setattr(view_state, "REFUSED_KEPT", 8)
+    s = ViewState()
+    s.add("estimates", estimates([0], [1.0], [[43.0]], [[1.0]]))
+    s.add("alarms", alarms(list(range(1, 31)), ["attack"] * 30, ["D0"] * 30, [3.0] * 30, [True] * 30, seq=1))
+    assert s.paused() == (0, {"D0": 30}) and len(s.refused_after) == 8
+    # a clean cycle older than the highest one only counted (22): those stay counted (the documented limit)
+    s.add("estimates", estimates([12], [1.0], [[43.0]], [[1.0]], seq=2))
+    assert s.paused() == (12, {"D0": 30})
+    s.add("estimates", estimates([25], [1.0], [[43.0]], [[1.0]], seq=3))
+    assert s.paused() == (25, {"D0": 5})                                # cycles 26-30
+    s.add("estimates", estimates([31], [1.0], [[43.0]], [[1.0]], seq=4))
+    assert s.paused() == (31, {})
 
 
 @pytest.mark.parametrize("preset", ["table1", "awr1642"])
