@@ -13,6 +13,7 @@ from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
 from carav_stream.runtime.curve_keys import split_run_problem
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
+from carav_stream.runtime.launcher import Launcher
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.rundir import RunRootError
 from carav_stream.runtime.supervisor import Supervisor
@@ -56,18 +57,23 @@ def run_options(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    graph = load(args.graph, args)
-    if not args.view:
-        return execute(graph, args)
-    port = args.port or free_port(args.view_host)
-    token = new_token()
-    path = view_graph(graph, args.view_host, port, token)
+    # first: the zygote that will fork the nodes imports what they need while the graph is read and validated
+    launcher = Launcher()
     try:
-        viewed = load(path, args, shown_as=args.graph)
-        print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
-        return execute(viewed, args)
+        graph = load(args.graph, args)
+        if not args.view:
+            return execute(graph, args, launcher=launcher)
+        port = args.port or free_port(args.view_host)
+        token = new_token()
+        path = view_graph(graph, args.view_host, port, token)
+        try:
+            viewed = load(path, args, shown_as=args.graph)
+            print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
+            return execute(viewed, args, launcher=launcher)
+        finally:
+            shutil.rmtree(path.parent, ignore_errors=True)
     finally:
-        shutil.rmtree(path.parent, ignore_errors=True)
+        launcher.close()
 
 
 def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:
@@ -81,8 +87,9 @@ def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_
                            Exit.INVALID) from None
 
 
-def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int:
-    """Run a loaded graph with the options of `carav run` (host, progress, json) and report it."""
+def execute(graph: Graph, args: argparse.Namespace, command: str = "run", launcher: Launcher | None = None) -> int:
+    """Run a loaded graph with the options of `carav run` (host, progress, json) and report it; `launcher`: the
+    one started before the graph was loaded, if any (else the supervisor starts its own)."""
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     split = split_run_problem(graph, args.host)
@@ -91,7 +98,7 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run") -> int
     for w in graph.warnings:
         print(f"carav {command}: warning: {w}", file=sys.stderr)
     try:
-        sup = Supervisor(graph, host=args.host, progress=args.progress)
+        sup = Supervisor(graph, host=args.host, progress=args.progress, launcher=launcher)
     except RunRootError as exc:           # the run folder is not the user's own: nothing started
         raise CommandError(str(exc), Exit.FAILED) from None
     summary = with_radar_time(sup.run())
@@ -175,7 +182,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "refused_by_estimator", "unreadable_cycles", "figures_cover"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
-                "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security"}
+                "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security", "node_starts"}
 
 
 def _radar_lines(s: dict[str, Any]) -> list[str]:
