@@ -184,7 +184,9 @@ def rows(doc: dict) -> list[tuple[str, str, str, str]]:
            ("the same run, every node a fresh interpreter", f"{r['ratio_fresh_to_import']:.2f} x ({m['fresh']:.2f} s; "
             f"forked / fresh {r['ratio_zygote_to_fresh']:.2f})", "(reported)", "-"),
            (f"`carav validate {r['graph']}` alone: the command's own start and validation",
-            f"{m['validate']:.2f} s ({m['validate'] / m['import']:.2f} x the imports)", "(reported)", "-")]
+            f"{m['validate']:.2f} s ({m['validate'] / m['import']:.2f} x the imports)", "(reported)", "-"),
+           (f"what the run adds to that (nodes started, ready, {r['cycles']} cycles, drained), forked / fresh",
+            f"{m['zygote'] - m['validate']:.2f} / {m['fresh'] - m['validate']:.2f} s", "(reported)", "-")]
     if r["restart_rounds"]["zygote"]:
         t, p = r["restart_median_s"], r["pss_median_mb"]
         out += [(f"a SIGKILLed {r['victim']}: death seen by the supervisor to its successor's ready report, forked / "
