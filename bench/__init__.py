@@ -12,6 +12,7 @@ study        carav study on 1 and 2 local Dask workers; the scheduler's cost per
 view         what the live view costs the radar chain, with and without a browser
 dca1000_udp  the live DCA1000 UDP receiver fed by the project's replayer, against the AWR1642's data rate
 soak         the demo graph for minutes with live swaps: memory and descriptor growth, lost cycles
+startup      a graph's start with its nodes forked from the zygote and as fresh interpreters: wall, restart, memory
 compare      one benchmark on an older revision and on this tree, alternated round by round: medians and ratios
 report       BENCHMARKS.md and docs/bench/*.md rendered from the records
 pages        the head of each docs/bench page (command, module, record file) from the list below
@@ -35,6 +36,7 @@ BENCHES = {
     "dca1000-udp": ("bench.dca1000_udp", "the live DCA1000 receiver against the AWR1642's data rate"),
     "chaos": ("bench.chaos", "SIGKILL a random node every 2 s on both planes: nothing judged twice, counts right"),
     "soak": ("bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
+    "startup": ("bench.startup", "a graph's start, nodes forked from the zygote or fresh: wall, restart, memory"),
     "compare": ("bench.compare", "one benchmark on an older revision and on this tree, alternated: medians, ratios"),
     "report": ("bench.report", "render BENCHMARKS.md and docs/bench/*.md from the benchmark records"),
 }

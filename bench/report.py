@@ -25,6 +25,8 @@ from bench.compiled import KERNELS, choice
 from bench.estimators import LISTS, TARGET_RATIO, TARGET_TIME_FACTOR, pareto, scores, where
 from bench.pipeline import ceiling
 from bench.soak import SOAK_RSS_MB_PER_H, no_growth
+from bench.startup import rows as startup_rows
+from bench.startup import table as startup_table
 from bench.study import TARGET
 
 BEGIN, END = "<!-- begin: dev.py bench report -->", "<!-- end: dev.py bench report -->"
@@ -565,6 +567,7 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], l
     "pipeline": ("Pipeline: the multi-process radar graph", pipeline_rows, pipeline_table),
     "soak": ("Soak: the demo graph for minutes with live swaps", soak_rows, soak_table),
     "chaos": ("Chaos: a random node SIGKILLed every 2 s, restarted by policy", chaos_rows, chaos_table),
+    "startup": ("Start-up: nodes forked from the zygote against fresh interpreters", startup_rows, startup_table),
     "study": ("Studies on Dask: scaling over local workers", study_rows, study_table),
     "view": ("Live view: what watching costs the chain", view_rows, view_table),
     "dca1000_udp": ("Live capture: the DCA1000 UDP receiver against the AWR1642's data rate", udp_rows, udp_table),

@@ -1,4 +1,5 @@
-"""How the supervisor starts a node: `python -m carav_stream.node_start SPEC_FILE`.
+"""How the supervisor starts a node, `python -m carav_stream.node_start SPEC_FILE`, or its zygote, the process that
+forks nodes, `python -m carav_stream.node_start --zygote FD ROOM` (runtime/zygote.py, runtime/launcher.py).
 
 A node dies with its supervisor from its first instruction on, even when the supervisor is SIGKILLed while the
 node is still importing numpy, ZeroMQ and its block. This module imports nothing of the package and
@@ -9,7 +10,8 @@ nothing heavy, and before anything else:
    a supervisor that died between the fork and step 1 left the node adopted by another process, which step 1
    cannot notice; the node then exits at once (status 1, one line on standard error).
 
-Then it runs the node (`carav_stream.runtime.node`, whose own `python -m` entry point does the same two steps).
+Then it runs the node (`carav_stream.runtime.node`, whose own `python -m` entry point does the same two steps), or
+the zygote (`carav_stream.runtime.zygote`), whose nodes take the same two steps after the fork.
 """
 import ctypes
 import os
@@ -18,6 +20,7 @@ import signal
 import sys
 
 SUPERVISOR_PID_ENV = "CARAV_SUPERVISOR_PID"
+ZYGOTE_FLAG = "--zygote"
 PR_SET_PDEATHSIG = 1
 
 
@@ -42,7 +45,8 @@ def main() -> None:
     die_with_parent()
     # run as a module, not imported: what it imports (numpy, ZeroMQ) comes only now, after the two steps, and the
     # package's own modules keep no import of this launcher's in their graph of imports
-    runpy.run_module("carav_stream.runtime.node", run_name="__main__", alter_sys=True)
+    zygote = sys.argv[1:2] == [ZYGOTE_FLAG]
+    runpy.run_module(f"carav_stream.runtime.{'zygote' if zygote else 'node'}", run_name="__main__", alter_sys=True)
 
 
 if __name__ == "__main__":

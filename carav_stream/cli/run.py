@@ -14,6 +14,7 @@ from carav_stream.console.options import count, output_file
 from carav_stream.console.progress import ProgressBar
 from carav_stream.runtime.curve_keys import split_run_problem
 from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
+from carav_stream.runtime.launcher import Launcher
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.rundir import RunRootError
 from carav_stream.runtime.supervisor import Supervisor
@@ -60,18 +61,23 @@ def run_options(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    graph = load(args.graph, args)
-    if not args.view:
-        return execute(graph, args)
-    port = args.port or free_port(args.view_host)
-    token = new_token()
-    path = view_graph(graph, args.view_host, port, token)
+    # first: the zygote that will fork the nodes imports what they need while the graph is read and validated
+    launcher = Launcher()
     try:
-        viewed = load(path, args, shown_as=args.graph)
-        print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
-        return execute(viewed, args)
+        graph = load(args.graph, args)
+        if not args.view:
+            return execute(graph, args, launcher=launcher)
+        port = args.port or free_port(args.view_host)
+        token = new_token()
+        path = view_graph(graph, args.view_host, port, token)
+        try:
+            viewed = load(path, args, shown_as=args.graph)
+            print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
+            return execute(viewed, args, launcher=launcher)
+        finally:
+            shutil.rmtree(path.parent, ignore_errors=True)
     finally:
-        shutil.rmtree(path.parent, ignore_errors=True)
+        launcher.close()
 
 
 def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:
@@ -85,9 +91,11 @@ def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_
                            Exit.INVALID) from None
 
 
-def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expected_cycles: int | None = None) -> int:
+def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expected_cycles: int | None = None,
+            launcher: Launcher | None = None) -> int:
     """Run a loaded graph with the options of `carav run` (host, progress, json, mat) and report it; expected_cycles:
-    what the progress counts towards when the graph's run.cycles does not say (a replay: the recording's)."""
+    what the progress counts towards when the graph's run.cycles does not say (a replay: the recording's);
+    `launcher`: the one started before the graph was loaded, if any (else the supervisor starts its own)."""
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     split = split_run_problem(graph, args.host)
@@ -98,7 +106,7 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expect
     try:
         lines = _progress_lines(command) if args.progress is None and not sys.stderr.isatty() else None
         sup = Supervisor(graph, host=args.host, progress=args.progress, on_progress=lines,
-                         expected_cycles=expected_cycles)
+                         expected_cycles=expected_cycles, launcher=launcher)
     except RunRootError as exc:           # the run folder is not the user's own: nothing started
         raise CommandError(str(exc), Exit.FAILED) from None
     summary = with_radar_time(sup.run())
@@ -196,7 +204,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "refused_by_estimator", "unreadable_cycles", "figures_cover"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
-                "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security"}
+                "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security", "node_starts"}
 
 
 def _radar_lines(s: dict[str, Any]) -> list[str]:

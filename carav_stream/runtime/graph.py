@@ -15,7 +15,8 @@ TOP_KEYS = {"include", "description", "connections", "remove_connections", "bloc
             "security", "block_paths", "template"}
 NODE_KEYS = {"type", "host", "restart"}
 RUN_DEFAULTS: dict[str, Any] = {"cycles": 0, "queue_frames": 8, "heartbeat_timeout_s": 15.0,
-                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": planes.DEFAULT}
+                                "drain_timeout_s": 30.0, "ready_timeout_s": 60.0, "transport": planes.DEFAULT,
+                                "zygote": True}
 # the data planes of same-host edges a graph may name (runtime/planes/: arrays in ZeroMQ messages, in shared
 # memory, and those of CARAV_PLANE_PATH's folders when this module is first imported)
 TRANSPORTS = planes.names()

@@ -14,7 +14,8 @@
 
     [run]      cycles, queue_frames, heartbeat_timeout_s, drain_timeout_s, ready_timeout_s,
                transport = "zmq" | "shm" | a plane of CARAV_PLANE_PATH (the data plane of same-host arrays: in
-               ZeroMQ messages, in shared memory, ...: runtime/planes/)
+               ZeroMQ messages, in shared memory, ...: runtime/planes/),
+               zygote = true | false (nodes forked from a warm process, or each a fresh interpreter: launcher.py)
     [restart]  policy = "never" | "on-failure", max_restarts
     [hosts.b]  address = "127.0.0.1", bind = "127.0.0.1", port_base = 47000
     [security] curve_server_cert, curve_client_cert, curve_authorized, tcp = "plain"   (tcp edges: ZeroMQ CURVE

@@ -12,6 +12,7 @@ import subprocess
 from dataclasses import dataclass, field
 from typing import Any
 
+from carav_stream.runtime.launcher import Forked
 from carav_stream.runtime.protocol import NodeSpec
 
 # dicts: port or edge -> n
@@ -22,8 +23,8 @@ PER_PORT_COUNTERS = ("in", "out", "sent", "rejected", "unpaired", "undeliverable
 class NodeState:
     name: str
     spec: NodeSpec
-    proc: subprocess.Popen | None = None
-    procs: list[subprocess.Popen] = field(default_factory=list)        # every incarnation's, the current last
+    proc: subprocess.Popen | Forked | None = None
+    procs: list[subprocess.Popen | Forked] = field(default_factory=list)   # every incarnation's, the current last
     start_ticks: int | None = None     # when the current process started (senders.start_ticks)
     ready: bool = False
     done: bool = False

@@ -66,7 +66,8 @@ class RunReport:
         return out
 
     def summary(self, *, failures: list[str], swaps: list[dict[str, Any]], stopped_by: str | None,
-                refused_swaps: list[dict[str, Any]] = (), security: dict[str, Any] | None = None) -> dict[str, Any]:
+                refused_swaps: list[dict[str, Any]] = (), security: dict[str, Any] | None = None,
+                node_starts: dict[str, int] | None = None) -> dict[str, Any]:
         """The run's summary: counts per node and for the whole run, frames lost (by edge), restarts, failures,
         swaps applied and refused, why it stopped, wall time and throughput from go to the end, who was refused
         (`security`: the supervisor's part, completed here with the tcp connections each input refused); blocks'
@@ -114,6 +115,8 @@ class RunReport:
             # frames a tap edge skipped because its observer was busy (block.In.tap): by design, not lost
             "skipped_by_taps": {e: n for p in per_node.values() for e, n in p["skipped"].items() if n},
             "restarts": sum(st.restarts for st in self.nodes.values()),
+            # node processes started, restarts included: forked from the zygote, or fresh interpreters
+            "node_starts": dict(node_starts or {}),
             "failures": failures, "swaps": swaps, "refused_swaps": list(refused_swaps), "stopped_by": stopped_by,
             "wall_s": wall, "throughput_cycles_per_s": cycles / wall if wall else 0.0, "per_node": per_node,
             "transport": self.graph.run["transport"], "shared_memory": self.shared_memory(),

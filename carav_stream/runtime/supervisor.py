@@ -5,7 +5,8 @@ Each run has a folder of its own (rundir.py), holding the ipc endpoints, the nod
 `run.json` (how `carav status|stop|swap` find the run). It is removed when the run ends, whatever the way it ends.
 The supervisor plans the nodes (plan.py) and the keys of their tcp edges (curve_keys.py), hears and tells them
 through control_router.ControlRouter (a node's word only from its own processes), answers admin requests through
-admin_server.AdminServer, keeps what it knows of each node in node_state.NodeState (none of its processes reaped
+admin_server.AdminServer, starts the node processes through launcher.Launcher (forked from a zygote, or fresh
+interpreters), keeps what it knows of each node in node_state.NodeState (none of its processes reaped
 before the run ends) and reports the run through report.RunReport.
 
 Stop order: sources are told to stop, end of stream flows down the graph behind the last frames, and each
@@ -26,26 +27,20 @@ from typing import Any
 
 import zmq
 
-from carav_stream import node_start
-from carav_stream.core.allocator import MALLOC_ENV
 from carav_stream.runtime import planes, transport
 from carav_stream.runtime.admin_server import AdminServer
 from carav_stream.runtime.control_router import ControlRouter
 from carav_stream.runtime.curve_keys import plan_keys
 from carav_stream.runtime.graph import LOCAL_HOST, Graph
+from carav_stream.runtime.launcher import NODE_ENV, Launcher, node_env
 from carav_stream.runtime.node_state import NodeState
 from carav_stream.runtime.plan import input_bounds, input_sources, plan_specs
 from carav_stream.runtime.protocol import LEASE_FRAMES, Control, Report, pack
 from carav_stream.runtime.report import RunReport
-from carav_stream.runtime.rundir import RUN_ID_ENV, remove_stale_runs, run_root
+from carav_stream.runtime.rundir import remove_stale_runs, run_root
 from carav_stream.runtime.senders import start_ticks
 
-# The environment of node processes (settings in the user's environment win):
-# - glibc malloc keeps freed buffers for reuse rather than handing them back to the OS after every frame
-#   (core.allocator: large frames would otherwise be mmap'ed, faulted in and unmapped again every time).
-# - BLAS libraries run one thread: a graph's parallelism is its processes, and a threaded BLAS call in one
-#   node competing with the other nodes for the cores can stall for milliseconds.
-NODE_ENV = {**MALLOC_ENV, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+__all__ = ["NODE_ENV", "Supervisor"]        # NODE_ENV: the nodes' environment (launcher.py), named here by documents
 
 
 class Supervisor:
@@ -55,7 +50,8 @@ class Supervisor:
 
     def __init__(self, graph: Graph, *, host: str | None = None, cycles: int | None = None,
                  progress: bool | None = None, log: Callable[[str], None] | None = None,
-                 on_progress: Callable[[int, int], None] | None = None, expected_cycles: int | None = None) -> None:
+                 on_progress: Callable[[int, int], None] | None = None, expected_cycles: int | None = None,
+                 launcher: Launcher | None = None) -> None:
         self.graph = graph
         self.host = host
         self.cycles = graph.run["cycles"] if cycles is None else cycles
@@ -73,6 +69,7 @@ class Supervisor:
         self.plane: planes.Plane | None = None      # the run's data plane (run.transport), made by plan()
         self.security: dict[str, Any] = {}          # how the run's tcp edges are protected (plan)
         self.control: ControlRouter | None = None   # the control socket's end (run)
+        self.launcher = launcher                    # starts the node processes (run makes one if not given)
         self.report = RunReport(graph, self.nodes, run_id=self.run_id, host=host, cycles=self.cycles)
         self.admin = AdminServer(graph, self.nodes, self.report, send=self.send, request_stop=self.request_stop,
                                  log=self.log)
@@ -115,12 +112,8 @@ class Supervisor:
     def spawn(self, st: NodeState) -> None:
         spec_path = self.run_dir / f"{st.name}.spec"
         spec_path.write_bytes(st.spec.to_wire())
-        logf = open(self.run_dir / f"{st.name}.log", "ab")
-        st.proc = subprocess.Popen([sys.executable, "-m", "carav_stream.node_start", str(spec_path)],
-                                   stdin=subprocess.DEVNULL, stdout=logf, stderr=logf, pass_fds=st.spec.inherit_fds,
-                                   env={**NODE_ENV, **os.environ, RUN_ID_ENV: self.run_id,
-                                        node_start.SUPERVISOR_PID_ENV: str(os.getpid())})
-        logf.close()
+        st.proc = self.launcher.launch(spec_path, self.run_dir / f"{st.name}.log", st.spec.inherit_fds,
+                                       node_env(self.run_id), self.graph.run["ready_timeout_s"])
         st.procs.append(st.proc)            # kept, not reaped, until the run ends: its pid stays its own
         st.start_ticks = start_ticks(st.proc.pid)
         self.control.started(st.name, st.proc.pid)
@@ -286,6 +279,10 @@ class Supervisor:
         (self.run_dir / "pid").write_text(str(os.getpid()))     # how a later run knows this one is gone
         old = {s: signal.signal(s, self.on_signal) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
         self.ctx = zmq.Context()
+        if self.launcher is None:       # the zygote's imports run while the run is set up
+            self.launcher = Launcher(zygote=self.graph.run["zygote"], log=self.log)
+        elif not self.graph.run["zygote"]:
+            self.launcher.close()
         try:
             self.router = self.ctx.socket(zmq.ROUTER)
             self.router.linger = 0
@@ -312,6 +309,7 @@ class Supervisor:
             self.kill_all()
             for st in self.nodes.values():
                 st.reap_all()
+            self.launcher.close()
             self.ctx.destroy(linger=0)
             if self.plane is not None:
                 self.plane.close()
@@ -325,6 +323,7 @@ class Supervisor:
         refused = dict(self.control.refused) if self.control is not None else {}
         return self.report.summary(failures=self.failures, swaps=self.admin.swaps, stopped_by=self.stop_requested,
                                    refused_swaps=self.admin.refused_swaps,
+                                   node_starts=self.launcher.counts() if self.launcher else {},
                                    security={**self.security, "refused_control": refused})
 
     def loop(self) -> None:
