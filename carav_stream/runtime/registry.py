@@ -2,15 +2,14 @@
 CARAV_BLOCK_PATH). A block file `name.py` defines one Block subclass; its graph type is the file name."""
 from __future__ import annotations
 
-import hashlib
 import importlib
-import importlib.util
 import inspect
 import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from carav_stream.core.modules import import_file, module_files
 from carav_stream.runtime.block import Block
 
 BUILTIN_PACKAGE = "carav_blocks"
@@ -41,34 +40,10 @@ def search_path(extra: list[str | Path] = ()) -> list[Path]:
     return [builtin_dir(), *(Path(p).resolve() for p in [*env, *extra])]
 
 
-def _candidate_files(folder: Path) -> dict[str, Path]:
-    if not folder.is_dir():
-        return {}
-    return {p.stem: p for p in sorted(folder.glob("*.py")) if not p.stem.startswith("_")}
-
-
-def _load_module(path: Path):
-    if path.parent == builtin_dir():
-        return importlib.import_module(f"{BUILTIN_PACKAGE}.{path.stem}")
-    digest = hashlib.sha1(str(path.parent).encode()).hexdigest()[:10]
-    name = f"carav_user_blocks_{digest}.{path.stem}"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except BaseException:
-        del sys.modules[name]
-        raise
-    return module
-
-
 def load_block_file(path: Path) -> BlockType:
     """Import one block file and return its Block subclass (the one defined in that file)."""
     try:
-        module = _load_module(path)
+        module = import_file(path, builtin_dir(), BUILTIN_PACKAGE, "carav_user_blocks")
     except Exception as exc:
         raise RegistryError(f"{path}: block file failed to import: {type(exc).__name__}: {exc}") from exc
     classes = [c for c in vars(module).values()
@@ -87,7 +62,7 @@ class Registry:
         self.files: dict[str, Path] = {}
         self.conflicts: list[str] = []
         for folder in self.paths:
-            for name, path in _candidate_files(folder).items():
+            for name, path in module_files(folder).items():
                 if name in self.files and self.files[name] != path:
                     self.conflicts.append(f"block type {name!r} is defined twice: {self.files[name]} and {path}")
                     continue

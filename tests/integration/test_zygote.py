@@ -9,21 +9,9 @@ import pytest
 
 from carav_stream.testing.graphs import node_pids
 from tests.integration.conftest import exit_code_after_a_kill, read_jsonl, wait_until
+from tests.integration.test_supervisor_death import CHAIN  # a restarting three-node chain, paced by its tagger
 
 pytestmark = pytest.mark.integration
-
-CHAIN = """
-connections = ["src.out -> t.inp", "t.out -> log.inp"]
-[run]
-cycles = 0
-queue_frames = 2
-[restart]
-policy = "on-failure"
-[blocks]
-src = { type = "counter_source" }
-t = { type = "tagger", delay_s = 0.005 }
-log = { type = "jsonl_sink", path = "out.jsonl" }
-"""
 
 
 def _stat(pid: int) -> list[str] | None:

@@ -26,16 +26,14 @@ rejected and counted like any bad message), and must never hand out bytes a writ
 """
 from __future__ import annotations
 
-import hashlib
-import importlib
-import importlib.util
 import inspect
 import os
-import sys
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from carav_stream.core.modules import import_file, module_files
 
 PATH_ENV = "CARAV_PLANE_PATH"
 DEFAULT = "zmq"         # the plane of a graph that names none (graph.RUN_DEFAULTS), listed first
@@ -132,10 +130,8 @@ def _files() -> dict[str, Path]:
     folders = [Path(__file__).parent, *(Path(p).resolve() for p in os.environ.get(PATH_ENV, "").split(os.pathsep) if p)]
     found: dict[str, Path] = {}
     for folder in folders:
-        if folder.is_dir():
-            for path in sorted(folder.glob("*.py")):
-                if not path.stem.startswith("_"):
-                    found.setdefault(path.stem, path)
+        for name, path in module_files(folder).items():
+            found.setdefault(name, path)
     return found
 
 
@@ -162,18 +158,7 @@ def get(name: str) -> type[Plane]:
 
 
 def _load(path: Path) -> Any:
-    if path.parent == Path(__file__).parent:
-        return importlib.import_module(f"{__name__}.{path.stem}")
-    digest = hashlib.sha1(str(path.parent.resolve()).encode()).hexdigest()[:10]
-    name = f"carav_user_planes_{digest}.{path.stem}"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
     try:
-        spec.loader.exec_module(module)
+        return import_file(path, Path(__file__).parent, __name__, "carav_user_planes")
     except BaseException as exc:
-        del sys.modules[name]
         raise PlaneError(f"{path}: plane module failed to import: {type(exc).__name__}: {exc}") from exc
-    return module
