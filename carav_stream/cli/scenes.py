@@ -60,12 +60,14 @@ def _column(scene) -> dict[str, str]:
         folded = fold_beat_hz(scene, b)
         beat = _mhz(b) + ("" if math.isclose(folded, b) else f", folds to {_mhz(folded)}")
     targets = "; ".join(f"{t.range_m:g} m, {_kmh(t.velocity_mps)}, {t.rcs_m2:g} m^2"
-                        + (f", Swerling {t.swerling}" if t.swerling else "") for t in scene.targets) or "none"
+                        + (f", Swerling {t.swerling}" if t.swerling else "")
+                        + (f", {t.azimuth_deg:+g} deg" if scene.has_array else "") for t in scene.targets) or "none"
     v_max = scene.max_velocity_mps
     rate = scene.range_rate_mps(t0) if t0 is not None else None
     return {
         "description": scene.description or "-",
         "chirps x samples": f"{scene.n_chirps} x {scene.n_samples} ({'I/Q' if scene.iq else 'I only'})",
+        "antennas": _antennas(scene),
         "sweep / chirp period": f"{_mhz(scene.bandwidth_hz)} in {_us(scene.t_sweep_s)} / {_us(scene.t_chirp_s)}",
         "sampling window": f"{_us(scene.n_samples / scene.fs_hz)} from {_us(scene.t_adc_start_s)}" + (
             f" (the default: {IF_SETTLE_SAMPLES} samples in, once the IF filter has settled after the ramp's reset; "
@@ -85,10 +87,20 @@ def _column(scene) -> dict[str, str]:
         "max range": f"{scene.max_range_m:.4g} m",
         "ranges where the fidelities differ (the IF filter's transition band)":
             ", ".join(f"{a:.4g}-{b:.4g} m" for a, b in fidelity_dependent_ranges_m(scene)) or "none",
-        "unambiguous velocity": f"+-{v_max:.4g} m/s",
+        "unambiguous velocity": f"+-{v_max:.4g} m/s" + (
+            f" (one transmitter repeats every {_us(scene.t_loop_s)})" if scene.n_slots > 1 else ""),
         "ADC": f"{scene.adc_bits} bits" if scene.adc_bits else "ideal",
         "warnings": str(len(_warnings(scene))) if _warnings(scene) else "none",
     }
+
+
+def _antennas(scene) -> str:
+    """'1 TX x 1 RX', or the array: transmitters in TDM, receivers, the virtual array's positions."""
+    if not scene.has_array:
+        return "1 TX x 1 RX"
+    virtual = scene.virtual_positions_wl
+    return (f"{scene.n_tx} TX (TDM, {scene.n_slots} slots a loop) x {scene.n_rx} RX: {virtual.size} virtual "
+            f"elements at {', '.join(f'{x:g}' for x in virtual)} wavelengths")
 
 
 @lru_cache(maxsize=64)

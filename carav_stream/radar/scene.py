@@ -25,12 +25,21 @@ Conventions
       "Near echoes in the silent slots"). The table1 preset starts there too; real radars wait for the synthesiser
       and the IF filter to settle (TI's adcStartTime, 7 us in the awr1642 preset). 0 samples from the reset, as
       MATLAB's example does, when a scene says so.
+    * Arrays (docs/SCENES.md, "Receiver arrays"): antenna positions along one axis in wavelengths; a path from
+      azimuth theta reaches an element at x wavelengths with the phase exp(+j 2 pi x sin theta) relative to x = 0
+      (theta > 0 towards larger x). Chirp slot k of a cycle is fired by transmitter ``tdm_schedule[k % n_slots]``;
+      an echo goes out from that transmitter and back to every receiver (the virtual element at tx + rx), an
+      attacker's signal only reaches the receivers (one way). A scene with one receiver and one slot is exactly
+      the single-antenna radar of the paper: frames keep the shape (cycles, chirps, samples) and every output is
+      the same; with several receivers frames carry a receiver axis, (cycles, receivers, chirps, samples).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from carav_stream.core.units import C_MPS
 
@@ -53,14 +62,17 @@ class Target:
     velocity_mps: float = 0.0
     rcs_m2: float = 1.0
     swerling: int = 0
+    azimuth_deg: float = 0.0
 
 
 @dataclass(frozen=True)
 class AttackerSpec:
-    """An attacker as written in a scene: its kind and its parameters (name, value) pairs."""
+    """An attacker as written in a scene: its kind, its parameters (name, value) pairs, and the azimuth its antenna
+    is seen at from the radar (what a receiver array can measure)."""
 
     kind: str
     params: tuple[tuple[str, Any], ...] = ()
+    azimuth_deg: float = 0.0
 
     def kwargs(self) -> dict[str, Any]:
         return dict(self.params)
@@ -94,6 +106,9 @@ class Scene:
     attackers: tuple[AttackerSpec, ...] = ()
     waveform_oversample: int = 4
     if_filter: bool = True
+    tx_positions_wl: tuple[float, ...] = (0.0,)
+    rx_positions_wl: tuple[float, ...] = (0.0,)
+    tdm_schedule: tuple[int, ...] = (0,)
     warnings: tuple[str, ...] = ()
     description: str = ""
     source: str = field(default="", compare=False)
@@ -124,8 +139,47 @@ class Scene:
 
     @property
     def max_velocity_mps(self) -> float:
-        """Unambiguous |range rate|: lambda / (4 t_chirp)."""
-        return self.wavelength_m / (4.0 * self.t_chirp_s)
+        """Unambiguous |range rate|: lambda / (4 T), T the repetition of one transmitter (t_chirp times the TDM
+        loop's slots; t_chirp for a single transmitter)."""
+        return self.wavelength_m / (4.0 * self.t_loop_s)
+
+    @property
+    def n_rx(self) -> int:
+        return len(self.rx_positions_wl)
+
+    @property
+    def n_tx(self) -> int:
+        return len(self.tx_positions_wl)
+
+    @property
+    def n_slots(self) -> int:
+        """Chirp slots in one TDM loop (every transmitter of the schedule fires once per loop)."""
+        return len(self.tdm_schedule)
+
+    @property
+    def n_loops(self) -> int:
+        return self.n_chirps // self.n_slots
+
+    @property
+    def t_loop_s(self) -> float:
+        """Repetition interval of one transmitter: a whole TDM loop."""
+        return self.n_slots * self.t_chirp_s
+
+    @property
+    def has_array(self) -> bool:
+        return self.n_rx > 1 or self.n_slots > 1
+
+    @property
+    def virtual_positions_wl(self) -> np.ndarray:
+        """float64 (n_slots * n_rx,): the virtual array, slot-major: tx_positions_wl[tdm_schedule[j]] + rx r."""
+        tx = np.asarray(self.tx_positions_wl, dtype=np.float64)[list(self.tdm_schedule)]
+        return (tx[:, None] + np.asarray(self.rx_positions_wl, dtype=np.float64)[None, :]).ravel()
+
+    def frame_shape(self, n_cycles: int) -> tuple[int, ...]:
+        """Shape of the ADC frames of n_cycles cycles: a receiver axis only when there is more than one receiver."""
+        if self.n_rx > 1:
+            return (n_cycles, self.n_rx, self.n_chirps, self.n_samples)
+        return (n_cycles, self.n_chirps, self.n_samples)
 
     @property
     def cycles_per_s(self) -> float:
@@ -192,8 +246,15 @@ def velocity_warning(scene: Scene, i: int) -> str:
     rr, vmax = scene.range_rate_mps(scene.targets[i]), scene.max_velocity_mps
     folded_v = (rr + vmax) % (2 * vmax) - vmax
     return (f"{scene.source or scene.name}: targets[{i}].velocity_mps: range rate {rr:.3g} m/s ({rr * 3.6:.0f} km/h) "
-            f"is beyond the unambiguous +-{vmax:.3g} m/s (lambda / 4 t_chirp, t_chirp = {scene.t_chirp_s * 1e6:g} "
-            f"us): the Doppler FFT shows {folded_v:.3g} m/s")
+            f"is beyond the unambiguous +-{vmax:.3g} m/s ({_repetition(scene)}): the Doppler FFT shows "
+            f"{folded_v:.3g} m/s")
+
+
+def _repetition(scene: Scene) -> str:
+    if scene.n_slots == 1:
+        return f"lambda / 4 t_chirp, t_chirp = {scene.t_chirp_s * 1e6:g} us"
+    return (f"lambda / 4 T, T = {scene.n_slots} TDM slots x {scene.t_chirp_s * 1e6:g} us = "
+            f"{scene.t_loop_s * 1e6:g} us between one transmitter's chirps")
 
 
 def fold_beat_hz(scene: Scene, beat_hz: float) -> float:

@@ -21,11 +21,25 @@ from carav_stream.core.units import K_BOLTZMANN, KMH
 from carav_stream.radar.attackers import AttackerError, make_attacker
 from carav_stream.radar.scene import IF_SETTLE_SAMPLES, AttackerSpec, Scene, SceneError, Target, target_warnings
 
-__all__ = ["PRESET_DIR", "SCENE_PARAMS", "TARGET_PARAMS", "apply_overrides", "load_scene", "preset_names",
-           "scene_from_dict"]
+__all__ = ["ARRAY_LAYOUTS", "PRESET_DIR", "SCENE_PARAMS", "TARGET_PARAMS", "apply_overrides", "load_scene",
+           "preset_names", "scene_from_dict"]
 
 PRESET_DIR = Path(__file__).with_name("presets")
 _ITEM_KEY = re.compile(r"(targets|attackers)\[(\d+)\]\.(\w+)")
+
+# Antenna layouts along the azimuth axis, in wavelengths: (tx positions, rx positions, TDM schedule). A layout
+# with n_tx / n_rx given is the uniform linear array (ula): receivers half a wavelength apart, transmitters
+# n_rx half-wavelengths apart, so the virtual array is a filled uniform one of n_tx * n_rx elements.
+ARRAY_LAYOUTS = {
+    "ula": None,
+    # TI AWR1642 BoosterPack: TX1 and TX2 two wavelengths apart, four receivers at half a wavelength: an
+    # eight-element filled virtual array, chirps alternating TX1, TX2.
+    "awr1642": ((0.0, 2.0), (0.0, 0.5, 1.0, 1.5), (0, 1)),
+    # TI AWR1243 BoosterPack: TX1 and TX3 two wavelengths apart in azimuth, TX2 between them one wavelength in
+    # (and half a wavelength up: elevation is not modelled, so its azimuth offset alone counts), four receivers;
+    # chirps TX1, TX2, TX3: twelve virtual elements, four positions held twice.
+    "awr1243": ((0.0, 1.0, 2.0), (0.0, 0.5, 1.0, 1.5), (0, 1, 2)),
+}
 
 # Defaults are MATLAB phased/FMCWExample hardware (Tables I and II defer to it for RF parameters).
 # None: not set; the loader derives the value (see each meaning).
@@ -65,6 +79,17 @@ SCENE_PARAMS = (
     Param("waveform_oversample", int, 4, "waveform fidelity: grid points per ADC sample", low=1),
     Param("if_filter", bool, True, "beat fidelity: an ideal anti-alias (IF) filter removes beats outside the band "
                                    "(false: they fold, as in MATLAB's FMCWExample; waveform fidelity always filters)"),
+    Param("array", str, "ula", "antenna layout: a uniform linear array of n_tx x n_rx at half a wavelength, or a "
+                               "radar's own (docs/SCENES.md, 'Receiver arrays')", choices=tuple(ARRAY_LAYOUTS)),
+    Param("n_rx", int, None, "receivers of the uniform linear array (default 1)", low=1, high=64, optional=True),
+    Param("n_tx", int, None, "transmitters of the uniform linear array, fired in turn (TDM; default 1)", low=1,
+          high=16, optional=True),
+    Param("rx_positions_wl", list, None, "receiver positions along the array, instead of the layout's",
+          unit="wavelengths", optional=True),
+    Param("tx_positions_wl", list, None, "transmitter positions along the array, instead of the layout's",
+          unit="wavelengths", optional=True),
+    Param("tdm_schedule", list, None, "one TDM loop: the transmitter (index into the positions) firing in each "
+                                      "chirp slot (default each transmitter once, in order)", optional=True),
     Param("targets", list, [], "[[targets]] tables"),
     Param("attackers", list, [], "[[attackers]] tables: kind and the model's parameters"),
 )
@@ -75,7 +100,12 @@ TARGET_PARAMS = (
     Param("velocity_kmh", float, None, "ground speed, instead of velocity_mps", unit="km/h", optional=True),
     Param("rcs_m2", float, 1.0, "mean radar cross section", unit="m^2", low=0.0, strict=True),
     Param("swerling", int, 0, "RCS fluctuation model (0 = constant)", choices=(0, 1, 2, 3, 4)),
+    Param("azimuth_deg", float, 0.0, "azimuth from boresight, + towards larger array positions", unit="deg",
+          low=-90.0, high=90.0),
 )
+ATTACKER_AZIMUTH = Param("azimuth_deg", float, 0.0, "azimuth of the attacker's antenna from boresight", unit="deg",
+                         low=-90.0, high=90.0)
+
 _RADAR = {p.name: p for p in SCENE_PARAMS}
 _TARGET = {p.name: p for p in TARGET_PARAMS}
 _REQUIRED = [p.name for p in SCENE_PARAMS if p.required]
@@ -187,8 +217,13 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         p.fail("snr_db", "give sigma_n or snr_db, not both")
     targets = tuple(_target(p, i, t) for i, t in enumerate(_tables(p, d, "targets")))
     raw_attackers = _tables(p, d, "attackers")
+    array = _array(p, v)
     if p.items:
         raise SceneError(p.items)
+    tx_pos, rx_pos, schedule = array
+    if n_chirps % len(schedule) or (n_chirps // len(schedule)) % 2:
+        p.fail("n_chirps", f"{n_chirps} chirps must make an even number of TDM loops of {len(schedule)} slots "
+                           "(the activation is balanced over loops)")
 
     t_chirp = v.get("t_chirp_s") or v["t_sweep_s"]
     default_start = v.get("t_adc_start_s") is None
@@ -221,7 +256,8 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         tx_power_w=v["tx_power_w"], tx_gain_db=v["tx_gain_db"], rx_gain_db=v["rx_gain_db"],
         noise_figure_db=v["noise_figure_db"], temperature_k=v["temperature_k"], sigma_n=1.0,
         radar_speed_mps=v["radar_speed_mps"], targets=targets, waveform_oversample=v["waveform_oversample"],
-        if_filter=v["if_filter"], description=v["description"], source=source, adc_start_default=default_start)
+        if_filter=v["if_filter"], description=v["description"], source=source, adc_start_default=default_start,
+        tx_positions_wl=tx_pos, rx_positions_wl=rx_pos, tdm_schedule=schedule)
     sigma_n = _sigma_n(base, v)
     if not (math.isfinite(sigma_n) and sigma_n > 0):   # snr_db = +-1e300 passes the type check, say
         p.fail("snr_db" if v.get("snr_db") is not None else "sigma_n",
@@ -238,6 +274,43 @@ def scene_from_dict(d: dict, source: str) -> Scene:
         raise SceneError(p.items)
     scene = replace(scene, attackers=tuple(specs))
     return replace(scene, warnings=tuple(target_warnings(scene) + _attacker_warnings(scene)))
+
+
+def _array(p: _Problems, v: dict) -> tuple[tuple[float, ...], tuple[float, ...], tuple[int, ...]]:
+    """(tx positions, rx positions, TDM schedule) from the layout, n_tx/n_rx and explicit positions."""
+    layout = ARRAY_LAYOUTS.get(v.get("array", "ula"))
+    if layout is not None:
+        for key in ("n_rx", "n_tx"):
+            if v.get(key) is not None:
+                p.fail(key, f"the {v['array']} layout fixes its antennas; give {key} with array = \"ula\"")
+        tx, rx, schedule = layout
+    else:
+        n_rx, n_tx = v.get("n_rx") or 1, v.get("n_tx") or 1
+        rx = tuple(0.5 * r for r in range(n_rx))
+        tx = tuple(0.5 * n_rx * t for t in range(n_tx))
+        schedule = tuple(range(n_tx))
+    tx = _positions(p, "tx_positions_wl", v.get("tx_positions_wl"), tx)
+    rx = _positions(p, "rx_positions_wl", v.get("rx_positions_wl"), rx)
+    given = v.get("tdm_schedule")
+    if given is not None:
+        if not given or not all(isinstance(j, int) and not isinstance(j, bool) and 0 <= j < len(tx) for j in given):
+            p.fail("tdm_schedule", f"must list transmitter indices 0..{len(tx) - 1}, got {given!r}")
+        else:
+            schedule = tuple(given)
+    elif v.get("tx_positions_wl") is not None:
+        schedule = tuple(range(len(tx)))
+    return tx, rx, schedule
+
+
+def _positions(p: _Problems, key: str, given: list | None, default: tuple[float, ...]) -> tuple[float, ...]:
+    if given is None:
+        return default
+    ok = (given and len(given) <= 64 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                               and math.isfinite(x) and abs(x) <= 1e4 for x in given))
+    if not ok:
+        p.fail(key, f"must list 1 to 64 finite positions in wavelengths, got {given!r}")
+        return default
+    return tuple(float(x) for x in given)
 
 
 def _sigma_n(scene: Scene, v: dict) -> float:
@@ -273,13 +346,16 @@ def _target(p: _Problems, i: int, t: dict) -> Target | None:
         return None
     velocity = v["velocity_kmh"] * KMH if v.get("velocity_kmh") is not None else v.get("velocity_mps", 0.0)
     return Target(range_m=v["range_m"], velocity_mps=velocity, rcs_m2=v.get("rcs_m2", 1.0),
-                  swerling=v.get("swerling", 0))
+                  swerling=v.get("swerling", 0), azimuth_deg=v.get("azimuth_deg", 0.0))
 
 
 def _attacker_spec(p: _Problems, i: int, a: dict, scene: Scene) -> AttackerSpec | None:
     where = f"attackers[{i}]"
     kind = a.get("kind")
-    params = {k: val for k, val in a.items() if k != "kind"}
+    params = {k: val for k, val in a.items() if k not in ("kind", "azimuth_deg")}
+    azimuth, problem = ATTACKER_AZIMUTH.check(a.get("azimuth_deg", 0.0))
+    if problem:
+        p.fail(f"{where}.azimuth_deg", problem)
     if not isinstance(kind, str):
         p.fail(f"{where}.kind", f"missing or not a string, got {kind!r}")
         return None
@@ -290,7 +366,7 @@ def _attacker_spec(p: _Problems, i: int, a: dict, scene: Scene) -> AttackerSpec 
             p.fail(f"{where}.{name}" if name else where, msg)
         return None
     frozen = {k: tuple(val) if isinstance(val, list) else val for k, val in params.items()}
-    return AttackerSpec(kind, tuple(sorted(frozen.items())))
+    return AttackerSpec(kind, tuple(sorted(frozen.items())), azimuth_deg=0.0 if problem else azimuth)
 
 
 def _attacker_warnings(scene: Scene) -> list[str]:

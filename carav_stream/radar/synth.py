@@ -166,6 +166,9 @@ def channel(scene: Scene, tx: Transmission, rng_noise: np.random.Generator, cycl
     """
     if cycle0 != tx.cycle0:
         raise ValueError(f"channel: cycle0 {cycle0} does not match the transmission's cycle0 {tx.cycle0}")
+    if scene.has_array:
+        raise ValueError(f"channel: {scene.name} has {scene.n_tx} transmitters and {scene.n_rx} receivers; the "
+                         "channel models one antenna of each")
     n_cycles = tx.rho.shape[0]
     dtype = np.complex64 if scene.iq else np.float32
     shape = (n_cycles, scene.n_chirps, scene.n_samples)

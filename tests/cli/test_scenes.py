@@ -48,7 +48,7 @@ def test_table1_figures_are_the_textbook_ones(capsys):
 def test_every_preset_by_default_with_its_warnings_spelled_out(capsys):
     assert carav(["scenes"]) == Exit.OK
     out = capsys.readouterr().out
-    assert out.splitlines()[0] == "| | `awr1642` | `awr1642_literal` | `table1` | `table1_following` |"
+    assert out.splitlines()[0] == "| | `awr1642` | `awr1642_literal` | `awr1642_mimo` | `table1` | `table1_following` |"
     assert "folds to 0.3811 MHz" in out and "- `awr1642`: " in out and "beyond the unambiguous" in out
 
 
