@@ -435,12 +435,19 @@ def soak_rows(doc: dict) -> list[Row]:
              f"(glibc trim threshold {r.get('trim_mb', 512)} MB)",
              f"{r['lost']} (failures: {len(r['failures'])})", "0", _met(r["lost"] == 0 and not r["failures"]))]
     for p in r["processes"].values():
-        err = p["rss_floor_mb_per_h_stderr"]
-        rows.append((f"{p['node']}: resident memory floor growth, second half",
-                     f"{p['rss_floor_mb_per_h']:+.1f} +- {err:.1f} MB/h "
-                     f"({p['rss_mb_start']:.1f} -> {p['rss_mb_end']:.1f} MB)",
+        err = p["anon_floor_mb_per_h_stderr"]
+        rows.append((f"{p['node']}: heap (anonymous) memory floor growth, second half",
+                     f"{p['anon_floor_mb_per_h']:+.1f} +- {err:.1f} MB/h "
+                     f"({p['anon_mb_start']:.1f} -> {p['anon_mb_end']:.1f} MB)",
                      f"< {SOAK_RSS_MB_PER_H:g} MB/h or < 3 standard errors",
-                     _met(no_growth(p["rss_floor_mb_per_h"], err))))
+                     _met(no_growth(p["anon_floor_mb_per_h"], err))))
+        if p.get("heap_bound_mb") is not None:
+            rows.append((f"{p['node']}: heap, most in the second half, against what its buffers can hold",
+                         f"{p['anon_mb_max']:.1f} MB", f"<= {p['heap_bound_mb']:.0f} MB (its lowest heap + buffers x "
+                         "largest frames)", _met(p["anon_mb_max"] <= p["heap_bound_mb"])))
+        rows.append((f"{p['node']}: shared memory resident, most in the second half",
+                     f"{p['shmem_mb_max']:.1f} MB", f"<= the segments it maps, {p['shm_mapped_mb']:.0f} MB",
+                     _met(p["shmem_mb_max"] <= p["shm_mapped_mb"] + 1.0)))
         rows.append((f"{p['node']}: open file descriptors, second half", f"{p['fds_start']} -> {p['fds_end']}",
                      "no growth", _met(p["fds_end"] <= p["fds_start"])))
     return rows
@@ -450,15 +457,20 @@ def soak_table(doc: dict) -> list[str]:
     r = doc["records"][0]
     lines = [f"{r['cycles']} cycles in {r['elapsed_s']:.0f} s ({r['cycles_per_s']:.0f} cycles/s), {r['swaps']} swaps, "
              f"lost {r['lost']}, rejected {r['rejected']}", "",
-             f"Glibc trim threshold {r['trim_mb']} MB; memory floor = smallest sample per {r['floor_s']:g} s window.",
+             f"Glibc trim threshold {r['trim_mb']} MB; memory floor = smallest sample per {r['floor_s']:g} s window; "
+             "heap = anonymous resident memory, shared = the run's shared-memory segments' pages resident in the "
+             "process (bounded by the segments it maps).",
              "",
-             "| process | samples | RSS MB start / end | floor MB/h (+- std. error) | all samples MB/h | "
-             "descriptors start / end | per h |",
-             "|---|---:|---|---:|---:|---|---:|"]
+             "| process | samples | RSS MB start / end | heap MB start / end / most | heap bound MB | "
+             "heap floor MB/h (+- std. error) | RSS floor MB/h | shared MB most / mapped | descriptors start / end |",
+             "|---|---:|---|---|---:|---:|---:|---|---|"]
     for name, p in r["processes"].items():
         lines.append(f"| {name} | {p['samples']} | {p['rss_mb_start']:.1f} / {p['rss_mb_end']:.1f} | "
-                     f"{p['rss_floor_mb_per_h']:+.1f} (+- {p['rss_floor_mb_per_h_stderr']:.1f}) | "
-                     f"{p['rss_mb_per_h']:+.1f} | {p['fds_start']} / {p['fds_end']} | {p['fds_per_h']:+.1f} |")
+                     f"{p['anon_mb_start']:.1f} / {p['anon_mb_end']:.1f} / {p['anon_mb_max']:.1f} | "
+                     f"{'-' if p.get('heap_bound_mb') is None else format(p['heap_bound_mb'], '.0f')} | "
+                     f"{p['anon_floor_mb_per_h']:+.1f} (+- {p['anon_floor_mb_per_h_stderr']:.1f}) | "
+                     f"{p['rss_floor_mb_per_h']:+.1f} | {p['shmem_mb_max']:.1f} / {p['shm_mapped_mb']:.0f} | "
+                     f"{p['fds_start']} / {p['fds_end']} |")
     return lines
 
 

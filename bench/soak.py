@@ -16,12 +16,17 @@ the instant of the sample, which come and go; the benchmark therefore fits the f
 sample in each `--floor-s` window, which a leak raises and frames in flight do not. `--trim-mb 512` measures the
 production setting.
 
-Figures per node: resident memory and file descriptors at the start of the second half of the run and at the
-end, and the growth per hour of the memory floor and of the descriptors from a least-squares line through the
+Figures per node: resident memory, of which anonymous (the heap: where a leak grows) and shared (pages of the run's
+shared-memory segments, runtime/shm.py), and file descriptors, at the start of the second half of the run and at
+the end, and the growth per hour of the memory floors and of the descriptors from a least-squares line through the
 second half (the first half is warm-up: caches, allocator pools); the line through every sample is kept in the
-record beside it. Targets: no growth beyond noise (memory floor: a slope under SOAK_RSS_MB_PER_H per node and hour,
-or under three standard errors of the fitted slope; descriptors: none), and no lost cycle. Memory is sampled per
-process: a swapped or restarted node's new process is a new series.
+record beside it. Shared pages are bounded by design: a segment holds SLOTS_PER_QUEUED_FRAME x queue_frames +
+SPARE_SLOTS slots of one frame, a writer takes the lowest free slot, so a process's shared pages follow the most
+frames ever in flight at once on its ports (more under load, when consumers lag) and stay resident up to the size of
+the segments it maps, which the record gives beside them. Targets: no heap growth beyond noise (its floor's slope
+under SOAK_RSS_MB_PER_H per node and hour, or under three standard errors of the fitted slope), shared memory within
+the mapped segments, no descriptor growth, and no lost cycle. Memory is sampled per process: a swapped or restarted
+node's new process is a new series.
 """
 from __future__ import annotations
 
@@ -41,8 +46,11 @@ import numpy as np
 
 from bench import records as bench_records
 from carav_stream.console.options import count, number, output_file
+from carav_stream.runtime.graph import RUN_DEFAULTS
 
 SOAK_RSS_MB_PER_H = 20.0
+QUEUE_FRAMES = RUN_DEFAULTS["queue_frames"]        # the demo graph's: it sets none
+HEAP_SLACK_MB = 20.0      # beyond frames: the allocator's per-thread arenas and free lists, Python's own objects
 MODELS = (("random", ["rarms=3.0"]), ("smart", ["rarms=3.0"]), ("none", []))
 
 
@@ -60,15 +68,31 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=output_file, metavar="FILE", help="write the records as JSON")
 
 
-def proc_figures(pid: int) -> tuple[float, int] | None:
-    """(resident MB, open descriptors) of a live process, or None if it is gone."""
+def proc_figures(pid: int) -> dict[str, float] | None:
+    """A live process's memory in MB (resident, of which anonymous and shared), the size of the run's shared-memory
+    segments it maps (MB), and its open descriptors; None if it is gone."""
     try:
         status = Path(f"/proc/{pid}/status").read_text()
+        maps = Path(f"/proc/{pid}/maps").read_text()
         fds = len(os.listdir(f"/proc/{pid}/fd"))
     except (FileNotFoundError, ProcessLookupError, PermissionError):
         return None
-    rss_kb = next(int(line.split()[1]) for line in status.splitlines() if line.startswith("VmRSS:"))
-    return rss_kb / 1024, fds
+    kb = {line.split(":")[0]: int(line.split()[1]) for line in status.splitlines()
+          if line.startswith(("VmRSS:", "RssAnon:", "RssShmem:"))}
+    return {"rss": kb["VmRSS"] / 1024, "anon": kb.get("RssAnon", 0) / 1024, "shmem": kb.get("RssShmem", 0) / 1024,
+            "shm_mapped": segments_mapped_mb(maps), "fds": fds}
+
+
+def segments_mapped_mb(maps: str) -> float:
+    """MB of the run's shared-memory segments (memfds named carav-<port>, runtime/shm.py) mapped in a /proc maps
+    text: what the process's shared resident memory can never exceed."""
+    total = 0
+    for line in maps.splitlines():
+        fields = line.split(maxsplit=5)
+        if len(fields) == 6 and fields[5].startswith("/memfd:carav"):
+            lo, hi = (int(x, 16) for x in fields[0].split("-"))
+            total += hi - lo
+    return total / 2 ** 20
 
 
 def growth_per_hour(t_s: list[float], values: list[float]) -> tuple[float, float]:
@@ -121,6 +145,37 @@ def _node_pids(env: dict[str, str]) -> dict[str, int]:
             if info.get("pid")}
 
 
+def _holdings(env: dict[str, str]) -> dict[str, Any]:
+    """From `carav status` just before the stop: each node's largest message per input, the most frames its
+    pairing buffer held per input, its buffer limit, and the graph's edges and queue_frames ({} if it does not
+    answer)."""
+    st = _carav(env, "status", "--json", timeout_s=None)
+    if st.returncode != 0 or not st.stdout.strip().startswith("["):
+        return {}
+    (run,) = json.loads(st.stdout)
+    nodes = {n: {k: info["counters"].get(k) for k in ("frame_bytes", "most_buffered", "buffer_limit")}
+             for n, info in run["nodes"].items() if "counters" in info}
+    return {"nodes": nodes, "edges": sorted(run["edges"]), "queue_frames": QUEUE_FRAMES}
+
+
+def heap_bound_mb(node: str, holdings: dict[str, Any], base_mb: float) -> float | None:
+    """What `node`'s heap may hold above `base_mb` by design, in MB: per input, its pairing buffer's limit plus
+    ZeroMQ's receive queue of queue_frames, of its largest message; per output edge, ZeroMQ's send queue of
+    queue_frames of the largest message its consumer took (frames leave without a copy, so a queued one is still
+    the sender's); HEAP_SLACK_MB for the rest. None when the status did not say."""
+    info = holdings.get("nodes", {}).get(node)
+    if not info or info.get("frame_bytes") is None:
+        return None
+    q = holdings["queue_frames"]
+    total = sum(b * (info["buffer_limit"] + q) for b in info["frame_bytes"].values())
+    for edge in holdings["edges"]:
+        src, dst = (end.strip() for end in edge.split("->"))
+        if src.split(".")[0] == node:
+            consumer = holdings["nodes"].get(dst.split(".")[0]) or {}
+            total += q * (consumer.get("frame_bytes") or {}).get(dst.split(".")[1], 0)
+    return base_mb + HEAP_SLACK_MB + total / 2 ** 20
+
+
 def _start_swap(env: dict[str, str], i: int) -> subprocess.Popen:
     """Start swap `i` of the attacker (MODELS in turn); it runs beside the caller."""
     model, sets = MODELS[i % len(MODELS)]
@@ -153,7 +208,8 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                                      "--set", f"source.cycles_per_s={cycles_per_s}", "--no-progress",
                                      "--json", str(summary_path)), env=env, start_new_session=True,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        series: dict[tuple[str, int], list[tuple[float, float, int]]] = {}
+        series: dict[tuple[str, int], list[dict[str, float]]] = {}
+        holds: dict[str, Any] = {}
         swaps = 0
         swapping: subprocess.Popen | None = None          # the `carav swap` under way, if any
         try:
@@ -179,7 +235,7 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                         figs = {node: proc_figures(pid) for node, pid in pids.items()}
                     for node, f in figs.items():
                         if f:
-                            series.setdefault((node, pids[node]), []).append((now - t0, *f))
+                            series.setdefault((node, pids[node]), []).append({"t": now - t0, **f})
                 if swapping is not None and swapping.poll() is not None:
                     _check_swap(swapping, swaps)
                     swaps += 1
@@ -193,6 +249,7 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                 swapping.wait()
                 _check_swap(swapping, swaps)
                 swaps += 1
+            holds = _holdings(env)
             stop = _carav(env, "stop")
             if stop.returncode != 0:
                 raise RuntimeError(f"carav stop failed: {stop.stderr.strip()}")
@@ -203,36 +260,58 @@ def soak(minutes: float, swap_s: float, sample_s: float, batch: int, trim_mb: in
                 proc.wait()
         summary = json.loads(summary_path.read_text())
     elapsed = time.monotonic() - t0
-    sampled = [t for samples in series.values() for t, *_ in samples]
+    sampled = [x["t"] for samples in series.values() for x in samples]
     half = (min(sampled) + max(sampled)) / 2 if sampled else 0.0   # of the sampled run, not of its stop
     nodes = {}
     for (node, pid), samples in sorted(series.items()):
-        late = [s for s in samples if s[0] >= half]
+        late = [x for x in samples if x["t"] >= half]
         if len(late) < 3:
             continue       # a process that lived through too little of the second half to judge
-        t, rss, fds = zip(*late)
-        rss_per_h, rss_err = growth_per_hour(t, rss)
-        t_floor, rss_floor = floor(t, rss, floor_s)
-        floor_per_h, floor_err = growth_per_hour(t_floor, rss_floor)
-        nodes[f"{node}[{pid}]"] = {"node": node, "pid": pid, "samples": len(late), "rss_mb_start": rss[0],
-                                   "rss_mb_end": rss[-1], "rss_mb_per_h": rss_per_h, "rss_mb_per_h_stderr": rss_err,
-                                   "floor_windows": len(rss_floor), "rss_floor_mb_per_h": floor_per_h,
-                                   "rss_floor_mb_per_h_stderr": floor_err,
-                                   "fds_start": fds[0], "fds_end": fds[-1], "fds_per_h": growth_per_hour(t, fds)[0]}
+        fig = process_figures(late, floor_s)
+        base = min(x["anon"] for x in samples)          # the node's heap with nothing in flight, as low as seen
+        fig["heap_bound_mb"] = heap_bound_mb(node, holds, base)
+        fig["most_buffered"] = (holds.get("nodes", {}).get(node) or {}).get("most_buffered")
+        nodes[f"{node}[{pid}]"] = {"node": node, "pid": pid, **fig}
     return {"minutes": minutes, "trim_mb": trim_mb, "floor_s": floor_s, "elapsed_s": elapsed, "swaps": swaps,
             "paced_cycles_per_s": cycles_per_s, "cycles": summary["cycles"],
             "cycles_per_s": summary["throughput_cycles_per_s"], "lost": summary["lost"],
             "failures": summary["failures"], "rejected": summary["rejected"], "processes": nodes}
 
 
+def process_figures(late: list[dict[str, float]], floor_s: float) -> dict[str, Any]:
+    """One process's figures over the second half: growth of its memory floors (all, anonymous: the heap, where a
+    leak would grow) and its shared memory against the segments it maps (bounded by design: a segment has
+    SLOTS_PER_QUEUED_FRAME x queue_frames + SPARE_SLOTS slots of one frame each, and the lowest free slot is taken,
+    so shared pages grow with the most frames ever in flight at once, up to the segment's size, and stay)."""
+    t = [x["t"] for x in late]
+    out: dict[str, Any] = {"samples": len(late)}
+    for key, name in (("rss", "rss"), ("anon", "anon")):
+        v = [x[key] for x in late]
+        per_h, err = growth_per_hour(t, v)
+        t_floor, v_floor = floor(t, v, floor_s)
+        floor_per_h, floor_err = growth_per_hour(t_floor, v_floor)
+        out.update({f"{name}_mb_start": v[0], f"{name}_mb_end": v[-1], f"{name}_mb_max": max(v),
+                    f"{name}_mb_per_h": per_h, f"{name}_mb_per_h_stderr": err, f"{name}_floor_mb_per_h": floor_per_h,
+                    f"{name}_floor_mb_per_h_stderr": floor_err})
+    out["floor_windows"] = len(floor(t, t, floor_s)[0])
+    out["shmem_mb_max"] = max(x["shmem"] for x in late)
+    out["shm_mapped_mb"] = max(x["shm_mapped"] for x in late)
+    fds = [x["fds"] for x in late]
+    out.update({"fds_start": fds[0], "fds_end": fds[-1], "fds_per_h": growth_per_hour(t, fds)[0]})
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     rec = soak(args.minutes, args.swap_s, args.sample_s, args.batch, args.trim_mb, args.floor_s, args.cycles_per_s)
     print(f"soak: {rec['elapsed_s']:.0f} s, {rec['cycles']} cycles ({rec['cycles_per_s']:.0f} cycles/s), "
           f"{rec['swaps']} swaps, lost {rec['lost']}, rejected {rec['rejected']}, failures {len(rec['failures'])}")
-    print(f"{'process':<24}{'RSS MB start':>13}{'end':>8}{'floor MB/h':>12}{'+-':>7}{'fds':>6}{'end':>5}{'fds/h':>8}")
+    print(f"{'process':<24}{'RSS MB start':>13}{'end':>8}{'heap floor MB/h':>16}{'+-':>7}{'heap max':>9}"
+          f"{'bound':>8}{'shared MB max':>14}{'of mapped':>10}{'fds':>6}{'end':>5}")
     for name, p in rec["processes"].items():
-        print(f"{name:<24}{p['rss_mb_start']:>13.1f}{p['rss_mb_end']:>8.1f}{p['rss_floor_mb_per_h']:>12.1f}"
-              f"{p['rss_floor_mb_per_h_stderr']:>7.1f}{p['fds_start']:>6}{p['fds_end']:>5}{p['fds_per_h']:>8.1f}")
+        bound = "-" if p["heap_bound_mb"] is None else f"{p['heap_bound_mb']:.0f}"
+        print(f"{name:<24}{p['rss_mb_start']:>13.1f}{p['rss_mb_end']:>8.1f}{p['anon_floor_mb_per_h']:>16.1f}"
+              f"{p['anon_floor_mb_per_h_stderr']:>7.1f}{p['anon_mb_max']:>9.1f}{bound:>8}{p['shmem_mb_max']:>14.1f}"
+              f"{p['shm_mapped_mb']:>10.1f}{p['fds_start']:>6}{p['fds_end']:>5}")
     if args.json:
         bench_records.write(args.json, args, [rec])
     return 0 if rec["lost"] == 0 and not rec["failures"] else 1

@@ -56,6 +56,7 @@ class NodePorts:
                                bounds=ctl.input_bounds, producers=ctl.producers)
         self.packer = header_packer()
         self.c_in = collections.Counter()
+        self.frame_bytes: dict[str, int] = {}     # port -> the largest message taken from it, in bytes
         self.c_out = collections.Counter()
         self.c_rejected = collections.Counter()
         self.c_refused = collections.Counter()      # per tcp input: connections refused at the CURVE handshake
@@ -126,6 +127,9 @@ class NodePorts:
         if not self.pairing.accept(port, frame, sender):
             return None
         self.c_in[port] += 1
+        nbytes = sum(part.nbytes if isinstance(part, memoryview) else len(part) for part in parts)
+        if nbytes > self.frame_bytes.get(port, 0):
+            self.frame_bytes[port] = nbytes
         return frame
 
     # -- outputs -------------------------------------------------------------------------------------------

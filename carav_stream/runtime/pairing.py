@@ -80,6 +80,7 @@ class Pairing:
         self.stall_s, self.clock = stall_s, clock
         self.stalled_since: float | None = None
         self.buffers = {p: collections.deque() for p in self.ports}
+        self.most_buffered: dict[str, int] = {}     # port -> the most frames its buffer ever held at once
         self.eos: dict[str, int | None] = {}       # port -> frames its producer announced (None: upstream gone)
         self.last_seq: dict[str, int] = {}
         self.handled = -1                          # last seq handed to the block (a later partner is late)
@@ -176,7 +177,10 @@ class Pairing:
         return True
 
     def push(self, port: str, frame: Frame) -> None:
-        self.buffers[port].append(frame)
+        b = self.buffers[port]
+        b.append(frame)
+        if len(b) > self.most_buffered.get(port, 0):
+            self.most_buffered[port] = len(b)
 
     def wanted(self) -> list[str]:
         """Ports worth receiving from: not ended and with room in their buffer."""

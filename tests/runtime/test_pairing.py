@@ -129,3 +129,13 @@ def test_describe_names_each_input_s_buffered_frames_last_seq_and_end_of_stream(
     fresh = Node()
     fresh.feed("b", 3, 4)
     assert fresh.pairing.describe() == "a: 0 buffered, last seq None; b: 2 buffered from seq 3, last seq 4"
+
+
+def test_the_most_frames_an_input_buffered_at_once_is_kept_as_its_high_water_mark():
+    node = Node()
+    node.feed("a", 0, 1, 2)                  # three wait for their partners
+    assert node.pairing.most_buffered == {"a": 3}
+    node.feed("b", 0, 1, 2, 3)               # all four land before the pairs are handed on; 3 then waits alone
+    assert node.pairing.most_buffered == {"a": 3, "b": 4} and len(node.pairing.buffers["b"]) == 1
+    node.feed("a", 3)
+    assert node.pairing.most_buffered == {"a": 3, "b": 4} and not any(node.pairing.buffers.values())
