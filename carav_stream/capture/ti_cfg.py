@@ -164,19 +164,18 @@ def _bits(mask: int) -> list[int]:
 
 
 def _device(name: str | None, tx_en: int, where: str) -> tuple[Device, bool]:
-    """The device given, or the one assumed from the transmitters channelCfg enables; TiCfgError when it lacks one."""
-    assumed = name is None
-    if assumed:
-        name = DEFAULT_DEVICE_3TX if tx_en >> 2 & 1 else DEFAULT_DEVICE
+    """The device given (TiCfgError when channelCfg enables a transmitter it lacks), or the one assumed from the
+    transmitters channelCfg enables."""
+    if name is None:
+        return DEVICES[DEFAULT_DEVICE_3TX if tx_en >> 2 & 1 else DEFAULT_DEVICE], True
     if name not in DEVICES:
         raise TiCfgError(f"device: {name!r} is not one of {', '.join(DEVICES)}")
     device = DEVICES[name]
     extra = [t for t in _bits(tx_en) if t >= len(device.tx_positions_wl)]
     if extra:
         raise TiCfgError(f"{where}: txChannelEn: {tx_en} enables TX{extra[0] + 1}; the {name} has "
-                         f"{len(device.tx_positions_wl)} transmitters" + (" (assumed: no device read here has "
-                                                                          "more)" if assumed else ""))
-    return device, assumed
+                         f"{len(device.tx_positions_wl)} transmitters")
+    return device, False
 
 
 def _frame_chirps(commands: dict[str, list[Command]], frame: Command, source: str) -> list[Command]:
@@ -265,6 +264,10 @@ def profile_from_cfg(text: str, source: str = "profile.cfg", device: str | None 
     scene["description"] = f"TI profile {Path(source).name}: " + activation
     if profile.mimo:
         fired = sorted(set(schedule))
+        if fired[-1] >= len(radar.tx_positions_wl):
+            raise TiCfgError(f"{source}:{frame.line}: frameCfg: the frame's chirps fire TX{fired[-1] + 1}; the "
+                             f"{radar.name} (assumed) has {len(radar.tx_positions_wl)} transmitters, and no device "
+                             "read here has more")
         scene["description"] = (f"TI profile {Path(source).name}, {radar.name}: TDM over "
                                 f"{', '.join(f'TX{t + 1}' for t in schedule)} x {len(rx)} RX; {activation}")
         scene["tx_positions_wl"] = [radar.tx_positions_wl[t] for t in fired]

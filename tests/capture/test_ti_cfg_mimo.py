@@ -105,6 +105,9 @@ def test_transmitters_fired_together_in_every_chirp_are_one_transmitter_for_the_
     profile, scene = loaded(ONE_TX.replace("0 0 0 0 0 1\n", "0 0 0 0 0 3\n"))
     assert profile.together == (0, 1) and not profile.mimo and scene.n_slots == 1 and profile.pattern == "10" * 64
     assert "TX1+TX2 fire together" in scene_toml(profile)
+    # a single transmitter's scene needs no positions: a transmitter beyond the assumed device's is no matter
+    profile, scene = loaded(ONE_TX.replace("channelCfg 15 3 0", "channelCfg 15 15 0"))
+    assert not profile.mimo and profile.pattern == "10" * 64 and scene.n_slots == 1
 
 
 @pytest.mark.parametrize("change, device, message", [
@@ -115,8 +118,8 @@ def test_transmitters_fired_together_in_every_chirp_are_one_transmitter_for_the_
      "p.cfg:8: frameCfg: the frame's chirps fire TX1\\+TX2, TX2: several transmitters together"),
     ((("channelCfg 15 3 0", "channelCfg 15 7 0"),), "awr1642",
      "p.cfg:3: channelCfg: txChannelEn: 7 enables TX3; the awr1642 has 2 transmitters"),
-    ((("channelCfg 15 3 0", "channelCfg 15 15 0"),), None,
-     "p.cfg:3: channelCfg: txChannelEn: 15 enables TX4; the iwr6843 has 3 transmitters"),
+    ((("channelCfg 15 3 0", "channelCfg 15 15 0"), ("0 0 0 0 0 2\n", "0 0 0 0 0 8\n")), None,
+     r"p.cfg:8: frameCfg: the frame's chirps fire TX4; the iwr6843 \(assumed\) has 3 transmitters"),
 ])
 def test_a_profile_that_is_not_tdm_over_the_device_s_transmitters_is_refused_naming_the_line(change, device, message):
     text = TDM_2TX
