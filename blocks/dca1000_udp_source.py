@@ -5,20 +5,22 @@
 
 Receives the datagrams the DCA1000 sends in raw mode (a 4-byte sequence number, a 6-byte byte count, up to 1456
 bytes of the capture's words) on `address`:`port`, reassembles cycles of the scene's chirps in the layout of
-dca1000_source (lanes, encoding, real or complex: carav_stream/capture/dca1000.py), keeps receiver `rx`, and
-sends them with their activation sequences (from exactly one of `activation` and `pattern`, as for
-dca1000_source). Every cycle touched by a lost, truncated, duplicated, reordered or
-overlapping packet, and the cycle the sender stops within, is sent with per_cycle `nonfinite` = its sample count
-(none of its samples is trusted: rms_detector judges it invalid, gate refuses it, never judged clean) and its
-reasons in `damage`. The stream ends when no packet has come for idle_timeout_s (and none waits in the socket).
+dca1000_source (lanes, encoding, real or complex: carav_stream/capture/dca1000.py), keeps receiver `rx` or the
+scene's receivers (`receivers`, as for dca1000_source), and sends them with their activation sequences (from
+exactly one of `activation` and `pattern`, as for dca1000_source). Every cycle touched by a lost, truncated,
+duplicated, reordered or overlapping packet, and the cycle the sender stops within, is sent with per_cycle
+`nonfinite` = its sample count (none of its samples is trusted: rms_detector judges it invalid, gate refuses it,
+never judged clean) and its reasons in `damage`. The stream ends when no packet has come for idle_timeout_s (and
+none waits in the socket).
 
 The socket: blocks never touch the runtime's sockets, files or processes; this one is the radar's data, as
 dca1000_source's .bin file is. It is opened in start(), inside the block's own process, by a capture-side helper
 (carav_stream/capture/dca1000_udp.py: UdpReceiver, whose thread drains the socket so that the kernel's buffer only
 has to cover its pauses), and all the stream logic is the helper's pure Reassembler, tested without sockets.
 
-Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's codes; per_cycle nonfinite and damage
-                     (its reasons, comma-separated; "" for a whole, clean cycle)
+Ports   out frames   int16 (cycles, n_chirps, n_samples[, 2]): receiver rx's codes; (cycles, receivers, n_chirps,
+                     n_samples[, 2]) for a scene with several receivers; per_cycle nonfinite (every receiver's
+                     samples) and damage (its reasons, comma-separated; "" for a whole, clean cycle)
         out rho      bool (cycles, n_chirps): the activation sequences (private edge to the detector)
 Summary run.live_capture: packets, bytes, cycles, damaged_cycles, late_packets, bytes_before_first_cycle, a count
         per reason, sender_stopped; dropped_by_host, the datagrams this host's kernel dropped because the receiver did
@@ -32,14 +34,22 @@ import ipaddress
 import numpy as np
 
 from carav_stream.capture.activation_log import capture_activation
-from carav_stream.capture.dca1000 import CAPTURE_PARAMS, capture_layout, decode
+from carav_stream.capture.dca1000 import (
+    CAPTURE_PARAMS,
+    capture_layout,
+    capture_receivers,
+    check_loops,
+    decode,
+    receiver_frames,
+)
 from carav_stream.capture.dca1000_udp import DATA_PORT, REASONS, Reassembler, UdpReceiver
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, BlockError, Frame, Out, Param
 
 
 class Dca1000UdpSource(Block):
-    outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="one receiver's ADC codes per cycle"),
+    outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="ADC codes per cycle: rx's, or the scene's "
+                                                                       "receivers'"),
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
     params = (Param("address", str, "127.0.0.1", "address to receive on (the host's address on the card's link)"),
               Param("port", int, DATA_PORT, "UDP data port", low=1, high=65535),
@@ -51,12 +61,15 @@ class Dca1000UdpSource(Block):
 
     def check_params(self) -> None:
         scene = scene_of(self.scene)
-        self.layout = capture_layout(scene, self.n_rx, self.rx, self.lanes, self.encoding)
+        self.layout = capture_layout(scene, self.n_rx, self.lanes, self.encoding)
+        self.chosen = capture_receivers(scene, self.n_rx, self.rx, self.receivers)
         try:
             ipaddress.ip_address(self.address)
         except ValueError:
             raise ValueError(f"address: {self.address!r} is not an IP address") from None
         self.fixed, cycles, self.log_rho = capture_activation(self.activation, self.pattern, scene.n_chirps)
+        check_loops(self.fixed[None] if self.fixed is not None else self.log_rho, scene.n_slots,
+                    "pattern" if self.fixed is not None else f"activation: {self.activation}")
         if self.fixed is not None:
             return
         if np.any(cycles != np.arange(len(cycles))):
@@ -71,7 +84,7 @@ class Dca1000UdpSource(Block):
         if got is None:
             return None
         n = len(got.damage)
-        codes = np.ascontiguousarray(decode(np.frombuffer(got.data, "<i2"), self.layout)[:, :, self.rx])
+        codes = receiver_frames(decode(np.frombuffer(got.data, "<i2"), self.layout), self.chosen)
         cycles = np.arange(got.first_cycle, got.first_cycle + n)
         if self.fixed is not None:
             rho = np.tile(self.fixed, (n, 1))

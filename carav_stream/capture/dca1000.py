@@ -21,9 +21,12 @@ Encodings. Two's complement: a 12- or 14-bit ADC delivers its codes without sign
 tools write): the code plus 2^(b-1), i.e. the top bit of the b-bit code inverted; it is inverted back, then the
 code is read as two's complement.
 
-A cycle (a radar frame in TI's words) is `n_chirps` consecutive chirps; the detector and the estimator read one
-receiver's samples of every cycle, shaped like this project's ADC frames: int16 (cycles, n_chirps, n_samples) for
-real data, (cycles, n_chirps, n_samples, 2) with I then Q for complex data.
+A cycle (a radar frame in TI's words) is `n_chirps` consecutive chirps, in the order the radar fired them (a TDM
+MIMO profile's chirps alternate transmitters within the cycle: the scene's tdm_schedule says which fired each).
+The blocks send the cycles shaped like this project's ADC frames (capture_receivers, receiver_frames): for a scene
+with one receiver, one receiver's samples, int16 (cycles, n_chirps, n_samples) for real data, (cycles, n_chirps,
+n_samples, 2) with I then Q for complex data; for a scene with several receivers (rx_positions_wl), that many of
+the capture's, with a receiver axis: int16 (cycles, receivers, n_chirps, n_samples[, 2]).
 
 Cost: decoding is a few numpy passes over the words (reshape, transpose, one copy); the sign and offset fixes of
 12/14-bit or offset-binary codes add one int32 pass.
@@ -46,7 +49,9 @@ CAPTURE_PARAMS = (
     Param("activation", str, "", "activation log of the capture ('' = use pattern)", file=True),
     Param("pattern", str, "", "fixed activation pattern of every cycle, n_chirps digits 0 | 1"),
     Param("n_rx", int, 4, "receivers enabled in the capture", low=1, high=4),
-    Param("rx", int, 0, "receiver to process", low=0, high=3),
+    Param("rx", int, 0, "receiver to process, for a scene with one receiver", low=0, high=3),
+    Param("receivers", str, "", "receivers to send with a receiver axis: 'all' or a list such as '0,2' ('': all the "
+                                "capture's for a scene with several receivers, else rx alone)"),
     Param("lanes", int, 2, "LVDS lanes: 2 (xWR16xx/18xx/68xx) or 4 (xWR12xx/14xx)", choices=(2, 4)),
     Param("encoding", str, "twos_complement", "how the words hold the codes", choices=ENCODINGS),
 )
@@ -94,13 +99,64 @@ class Layout:
                 f"{self.encoding.replace('_', ' ')}")
 
 
-def capture_layout(scene, n_rx: int, rx: int, lanes: int, encoding: str) -> Layout:
-    """The Layout of a scene's capture with the CAPTURE_PARAMS values; ValueError when receiver `rx` is not among
-    the capture's n_rx. Codes wider than 14 bits are read as 16."""
-    if rx >= n_rx:
-        raise ValueError(f"rx: receiver {rx} is not among the capture's n_rx = {n_rx}")
+def capture_layout(scene, n_rx: int, lanes: int, encoding: str) -> Layout:
+    """The Layout of a scene's capture with the CAPTURE_PARAMS values. Codes wider than 14 bits are read as 16."""
     return Layout(n_rx, scene.n_samples, scene.n_chirps, scene.iq,
                   scene.adc_bits if scene.adc_bits in (12, 14) else 16, lanes, encoding)
+
+
+def capture_receivers(scene, n_rx: int, rx: int, receivers: str) -> int | tuple[int, ...]:
+    """Which of the capture's n_rx receivers the blocks send (CAPTURE_PARAMS): an index for a scene with one receiver
+    (frames without a receiver axis), a tuple of scene.n_rx indices for a scene with several. ValueError in one line,
+    naming the parameter, when they contradict the scene or the capture."""
+    text = receivers.strip()
+    if text and rx:
+        raise ValueError(f"rx, receivers: give one of them, got rx = {rx} and receivers = {receivers!r}")
+    if text == "all" or not text and scene.n_rx > 1:
+        chosen = tuple(range(n_rx))
+    elif text:
+        try:
+            chosen = tuple(int(r) for r in text.split(","))
+        except ValueError:
+            raise ValueError(f"receivers: expected 'all' or receivers such as '0,2', got {receivers!r}") from None
+        if len(set(chosen)) < len(chosen) or not all(0 <= r < n_rx for r in chosen):
+            raise ValueError(f"receivers: {receivers!r}: expected distinct receivers 0..{n_rx - 1} of the capture's "
+                             f"n_rx = {n_rx}")
+    else:
+        if rx >= n_rx:
+            raise ValueError(f"rx: receiver {rx} is not among the capture's n_rx = {n_rx}")
+        return rx
+    if scene.n_rx == 1:
+        if len(chosen) == 1:
+            return chosen[0]
+        raise ValueError(f"receivers: {receivers!r} sends {len(chosen)} receivers, but the scene {scene.name} has one "
+                         "(no rx_positions_wl): give it its receivers' positions, or send one receiver with rx")
+    if len(chosen) != scene.n_rx:
+        raise ValueError(f"n_rx, receivers: the capture's receivers {list(chosen)} (n_rx = {n_rx}) contradict the "
+                         f"scene {scene.name}'s {scene.n_rx} receivers (rx_positions_wl)")
+    return chosen
+
+
+def receiver_frames(codes: np.ndarray, chosen: int | tuple[int, ...]) -> np.ndarray:
+    """Decoded codes (cycles, n_chirps, n_rx, n_samples[, 2]) -> the frames capture_receivers chose: int16 (cycles,
+    n_chirps, n_samples[, 2]) for one receiver, (cycles, len(chosen), n_chirps, n_samples[, 2]) for several."""
+    if isinstance(chosen, int):
+        return np.ascontiguousarray(codes[:, :, chosen])
+    return np.ascontiguousarray(np.moveaxis(codes, 2, 1)[:, list(chosen)])
+
+
+def check_loops(rho: np.ndarray, n_slots: int, where: str) -> None:
+    """ValueError naming `where` (the pattern: one row, or the activation log: a row per cycle, in capture order)
+    when a row of rho (rows, n_chirps) mixes active and silent chirps within one of the scene's TDM loops."""
+    if n_slots == 1 or rho.size == 0:
+        return
+    loops = rho.reshape(rho.shape[0], -1, n_slots)
+    mixed = np.argwhere(loops.any(axis=2) != loops.all(axis=2))
+    if mixed.size:
+        row, loop = (int(v) for v in mixed[0])
+        cycle = f"cycle {row}, " if rho.shape[0] > 1 else ""
+        raise ValueError(f"{where}: {cycle}chirps {loop * n_slots}..{loop * n_slots + n_slots - 1} mix active and "
+                         f"silent chirps; the scene's TDM loops of {n_slots} slots are active or silent as a whole")
 
 
 def signed_codes(words: np.ndarray, adc_bits: int, encoding: str) -> np.ndarray:
@@ -142,10 +198,11 @@ def complete_cycles(path: str | Path, layout: Layout) -> tuple[int, int]:
     return size // layout.bytes_per_cycle, size % layout.bytes_per_cycle
 
 
-def read_cycles(path: str | Path, layout: Layout, first: int, count: int, rx: int | None) -> np.ndarray:
-    """Receiver `rx`'s samples of cycles [first, first + count): int16 (count, n_chirps, n_samples[, 2]);
-    rx None: every receiver, int16 (count, n_chirps, n_rx, n_samples[, 2])."""
+def read_cycles(path: str | Path, layout: Layout, first: int, count: int,
+                rx: int | tuple[int, ...] | None) -> np.ndarray:
+    """Cycles [first, first + count) of the capture: receiver_frames(codes, rx), or with rx None every receiver as
+    decoded, int16 (count, n_chirps, n_rx, n_samples[, 2])."""
     words = np.fromfile(path, dtype="<i2", count=count * layout.bytes_per_cycle // 2,
                         offset=first * layout.bytes_per_cycle)
     codes = decode(words, layout)
-    return codes if rx is None else np.ascontiguousarray(codes[:, :, rx])
+    return codes if rx is None else receiver_frames(codes, rx)

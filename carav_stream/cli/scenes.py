@@ -10,8 +10,9 @@ warnings, among them any echo that leaks enough into the silent slots to raise C
 designed for 1e-6 (carav_stream/firmware/leak.py).
 With no argument: every preset.
 
-`carav scenes --from-ti-cfg FILE.cfg [--out SCENE.toml] [--noise-codes X]`: the scene of a TI mmWave CLI profile
-(carav_stream/capture/ti_cfg.py), checked by the scene loader, written to --out (or printed), then its table.
+`carav scenes --from-ti-cfg FILE.cfg [--device NAME] [--out SCENE.toml] [--noise-codes X]`: the scene of a TI mmWave
+CLI profile (carav_stream/capture/ti_cfg.py), checked by the scene loader, written to --out (or printed), then the
+device (given or assumed), for a TDM MIMO profile the unambiguous velocity per transmitter repetition, and its table.
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from carav_stream.capture.ti_cfg import TiCfgError, profile_from_cfg, scene_toml
+from carav_stream.capture.ti_devices import DEFAULT_DEVICE, DEFAULT_DEVICE_3TX, DEVICES
 from carav_stream.console.errors import CommandError, Exit
 from carav_stream.firmware.design import PF_WARN, scene_law
 from carav_stream.firmware.leak import leak_warnings
@@ -35,6 +37,9 @@ __all__ = ["configure", "run", "scene_table"]
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scenes", nargs="*", metavar="NAME|FILE", help="presets or scene files (default: every preset)")
     parser.add_argument("--from-ti-cfg", type=Path, metavar="FILE.cfg", help="the scene of a TI mmWave CLI profile")
+    parser.add_argument("--device", choices=sorted(DEVICES), help=f"with --from-ti-cfg: the radar, for its antenna "
+                        f"layout and LVDS lanes (default {DEFAULT_DEVICE}, or {DEFAULT_DEVICE_3TX} when the profile "
+                        "enables TX3)")
     parser.add_argument("--out", type=Path, metavar="SCENE.toml", help="with --from-ti-cfg: write the scene here")
     parser.add_argument("--noise-codes", type=float, help="with --from-ti-cfg: the capture's noise RMS in codes "
                                                           "(carav capture inspect) for the scene's sigma_n")
@@ -128,7 +133,7 @@ def from_ti_cfg(args: argparse.Namespace) -> int:
     except (OSError, UnicodeDecodeError) as exc:
         raise CommandError(f"--from-ti-cfg: {args.from_ti_cfg}: cannot be read: {exc}") from None
     try:
-        profile = profile_from_cfg(text, str(args.from_ti_cfg))
+        profile = profile_from_cfg(text, str(args.from_ti_cfg), args.device)
         bits = profile.scene["adc_bits"]
         toml = scene_toml(profile, None if args.noise_codes is None else args.noise_codes / 2 ** (bits - 1))
         scene = scene_from_dict(tomllib.loads(toml), args.from_ti_cfg.name)
@@ -142,6 +147,9 @@ def from_ti_cfg(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise CommandError(f"--out: {args.out}: {exc.strerror}") from None
     print(f"wrote {args.out}: {profile.n_rx} receivers, activation pattern {profile.pattern}")
+    print(profile.device_line())
+    if profile.mimo:
+        print(profile.velocity_line())
     print("\n".join(scene_table([scene])))
     return 0
 
@@ -149,8 +157,8 @@ def from_ti_cfg(args: argparse.Namespace) -> int:
 def run(args: argparse.Namespace) -> int:
     if args.from_ti_cfg is not None:
         return from_ti_cfg(args)
-    if args.out is not None or args.noise_codes is not None:
-        raise CommandError("--out and --noise-codes go with --from-ti-cfg")
+    if args.out is not None or args.noise_codes is not None or args.device is not None:
+        raise CommandError("--out, --noise-codes and --device go with --from-ti-cfg")
     names = args.scenes or preset_names()
     try:
         scenes = [load_scene(n) for n in names]

@@ -306,3 +306,38 @@ def test_the_block_sends_damaged_cycles_that_the_detector_judges_invalid_and_the
     summary = block.summary()["run"]["live_capture"]
     assert summary["duplicated"] == 1 and summary["damaged_cycles"] == len(hit) and summary["cycles"] == 8
     assert summary["dropped_by_host"] == 0 and summary["rcvbuf_granted_bytes"] >= 2 * min(8 << 20, rmem_max()), summary
+
+
+def test_a_four_receiver_stream_comes_out_with_a_receiver_axis_and_its_damaged_cycles_flagged(tmp_path):
+    """A TDM scene's 4 receivers over the UDP stream (complex, 2 lanes, written from TI's layout): every receiver of
+    every clean cycle where the radar put it; a cycle a lost packet touches flagged with all its receivers' samples."""
+    from blocks.dca1000_udp_source import Dca1000UdpSource
+    from tests.capture.ti_dca1000 import capture_bytes
+
+    scene = tmp_path / "mimo.toml"
+    scene.write_text(SCENE.replace("n_samples = 64", "n_samples = 32").replace("iq = false", "iq = true")
+                     + "tx_positions_wl = [0.0, 2.0]\ntdm_schedule = [0, 1]\nrx_positions_wl = [0.0, 0.5, 1.0, 1.5]\n")
+    cycles, per_cycle = 6, 16 * 4 * 32 * 2 * 2             # 16 chirps x 4 receivers x 32 complex int16 samples
+    x = np.random.default_rng(11).integers(-3000, 3000, size=(cycles, 16, 4, 32, 2)).astype(np.int16)
+    stream = capture_bytes(x.reshape(cycles * 16, 4, 32, 2), complex_data=True)
+    assert len(stream) == cycles * per_cycle
+    port = free_port()
+    block = Dca1000UdpSource(port=port, n_rx=4, pattern="1100" * 4, scene=str(scene), batch=cycles,
+                             idle_timeout_s=0.5)
+    block.start()
+    tx = Replayer("127.0.0.1", port)
+    try:
+        tx.send(apply_faults(ti_packets(stream), Faults(lose=frozenset({9}))))
+        out = block.generate(0)
+        assert block.generate(1) is None
+    finally:
+        tx.close()
+        block.finish()
+    frames = out["frames"]
+    assert frames.payload.shape == (cycles, 4, 16, 32, 2) and out["rho"].payload.shape == (cycles, 16)
+    hit = set(range(9 * PAYLOAD // per_cycle, ((9 + 1) * PAYLOAD - 1) // per_cycle + 1))
+    per = frames.header["per_cycle"]
+    assert [c for c in range(cycles) if per["nonfinite"][c]] == sorted(hit)
+    assert all(per["nonfinite"][c] == 4 * 16 * 32 for c in hit) and all(per["damage"][c] == "lost" for c in hit)
+    for c in set(range(cycles)) - hit:
+        np.testing.assert_array_equal(frames.payload[c], np.moveaxis(x[c], 1, 0))   # (receiver, chirp, sample, I|Q)
