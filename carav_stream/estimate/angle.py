@@ -18,7 +18,7 @@ nu [cycles/chirp] (nu = 2 v T_c / lambda, Geometry's sign: positive receding) an
 The TDM step: between slot 0 and slot j of one loop a target's Doppler phase advances by 2 pi f_D j T_c
 (f_D = nu / T_c = 2 v / lambda), which would add to the angle phase of slot j's channels; at Doppler bin d it is
 removed for the velocity of that bin, wrap(d / L) in [-1/2, 1/2) cycles per loop, i.e. |v| < lambda / (4 T_c S)
-(an off-bin target keeps a residue of at most pi / (L S) rad on the last slot: the refinement removes it,
+(an off-bin target keeps a residue of at most pi (S - 1) / (L S) rad on the last slot: the refinement removes it,
 angle_refine.py). Then the angle spectrum over the V virtual channels (angle_spectrum).
 
 Range bin b of the cube is FFT bin b (I/Q) or b + 1 (I-only), as in carav_stream.detect.rdmap and the CFAR lists.

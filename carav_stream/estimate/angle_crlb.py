@@ -24,8 +24,9 @@ SNR_eff. A tone of amplitude a over N samples and L active loops, per-sample noi
 sum_{l,n} x exp(-j ..) holds a N L against noise of variance N L sigma_n^2 for I/Q samples, SNR_eff = SNR N L
 (SNR = a^2 / sigma_n^2); a real tone a cos(.) in real noise has SNR = a^2 / (2 sigma_n^2) (the scene's per-sample
 SNR) and the LS amplitude of its positive-frequency part (angle_refine.py) SNR_eff = SNR N L / 2, the bound twice the
-I/Q one, as crlb.py's. Estimating the Doppler too leaves the bound unchanged to within the squared correlation of
-the slots' times with the positions over the loops' spread (1.4e-4 for 64 loops of 2 TDM slots).
+I/Q one, as crlb.py's. Estimating the Doppler too couples it to u through the slots' times, which correlate with the
+positions; the slots span one loop and the Doppler's information the L loops, so the bound grows by a fraction of
+order 1 / L^2.
 
 Attacker. T snapshots y_t = a(u) s_t + w_t over m receivers at positions p, s_t circular with power P, noise sigma^2;
 INR = P / sigma^2. The stochastic bound for one source (Stoica and Nehorai 1990),

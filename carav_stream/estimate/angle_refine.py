@@ -13,7 +13,8 @@ list's bins) and the coarse s0 of the cell's angle spectrum:
               I/Q; for I-only x = (c e^{j w n} + conj(c) e^{-j w n}) / 2, w = 2 pi f, and with g that sum (times N),
               p = N and q = sum_n exp(2 j w n) the normal equations 2 g = c p + conj(c q) give
               c = 2 (g p - conj(g) conj(q)) / (p^2 - |q|^2): the image at -f removed exactly, which a plain
-              DFT leaves at |q| / N of the tone (-48 dB at 83 bins away, far above a 66 dB snapshot's noise).
+              DFT leaves at |q| / N <= 1 / (N |sin(2 pi f)|) of the tone, with a phase of its own on every channel
+              (the image's azimuth is -theta): far above the noise of a snapshot summed over N L samples.
     Doppler   Newton steps (spectral.newton_refine) on the periodogram of y[k] = rho_k sum_r conj(a_v(s)) c[r, k]
               over the chirps, from the parabolic vertex of its 4x padded FFT within a bin of nu0: the transmitters'
               angle phases removed, a slot's Doppler phase is part of the chirp-to-chirp progression. An error here
@@ -33,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft
 
 from carav_stream.estimate import spectral
 from carav_stream.estimate.angle import angle_spectrum, check_frames, sin_grid
@@ -153,7 +155,7 @@ def _doppler(c, array, rho, nu0, s):
     n_chirps = c.shape[-1]
     y = (c * _channel_weights(array, s, n_chirps)).sum(axis=-2) * rho[:, None, :]    # (C, K, M)
     n_pad = DOPPLER_PAD * n_chirps
-    p = np.abs(np.fft.fft(y, n=n_pad, axis=-1)) ** 2
+    p = np.abs(scipy.fft.fft(y, n=n_pad, axis=-1)) ** 2
     win = (np.rint(nu0 * n_pad).astype(np.int64)[..., None] + np.arange(-DOPPLER_PAD, DOPPLER_PAD + 1)) % n_pad
     j = np.take_along_axis(win, np.argmax(np.take_along_axis(p, win, axis=-1), axis=-1)[..., None], axis=-1)[..., 0]
     three = np.take_along_axis(p, (j[..., None] + np.arange(-1, 2)) % n_pad, axis=-1)
@@ -182,14 +184,18 @@ def refine_cells(frames, array: VirtualArray, f0, nu0, rho=None, *, n_iter: int 
                  n_angle: int = 64) -> Cells:
     """Every listed cell refined (module docstring). frames (C, R, M, N) float32 | complex64; f0, nu0 float (C, K):
     the cells' beats [cycles/sample] and Doppler progressions [cycles/chirp], NaN for none; rho bool (C, M) or
-    None (all active). Returns Cells."""
+    None (all active). Returns Cells; NaN for the cells of a cycle without an active loop or with a non-finite
+    sample."""
     x, rho = check_frames(frames, array, rho)
     f0, nu0 = np.asarray(f0, dtype=float), np.asarray(nu0, dtype=float)
     if f0.ndim != 2 or f0.shape != nu0.shape or f0.shape[0] != x.shape[0]:
         raise ValueError(f"refine_cells: f0 {f0.shape} and nu0 {nu0.shape} must be (n_cycles, K) for {x.shape[0]} "
                          "cycles")
     iq = np.iscomplexobj(x)
-    listed = np.isfinite(f0) & np.isfinite(nu0)
+    usable = rho.any(axis=1) & np.isfinite(x).all(axis=(1, 2, 3))          # an active loop, finite samples
+    listed = np.isfinite(f0) & np.isfinite(nu0) & usable[:, None]
+    if not usable.all():
+        x = np.where(usable[:, None, None, None], x, 0).astype(x.dtype, copy=False)
     f, nu = np.where(listed, f0 % 1.0, 0.0), np.where(listed, nu0, 0.0)
     act = rho.astype(float)
     z, _ = _snapshots(chirp_amplitudes(x, f, iq=iq), array, rho, nu, tdm)
