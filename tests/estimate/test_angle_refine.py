@@ -29,6 +29,7 @@ def _balanced_loops(rng, n_cycles, n_loops=64, n_slots=2):
     return np.repeat(loops, n_slots, axis=1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("iq", [True, False])
 def test_the_tdm_compensation_removes_the_bias_a_fast_target_puts_on_the_angle(iq):
     # nu = 0.2 cycles/chirp (0.8 of the TDM's unambiguous velocity): the second slot's Doppler phase, 2 pi nu =
@@ -53,6 +54,7 @@ def _truth(g, range_m, velocity_mps, azimuth_deg, amplitude=1.0):
     return mt.Tone(f, nu, azimuth_deg, amplitude)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("iq", [True, False])
 def test_the_point_cloud_of_a_cfar_list_holds_each_targets_range_velocity_and_azimuth(iq):
     g = replace(Geometry.from_scene(SCENE), iq=iq)
