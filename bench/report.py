@@ -445,9 +445,10 @@ def soak_rows(doc: dict) -> list[Row]:
             rows.append((f"{p['node']}: heap, most in the second half, against what its buffers can hold",
                          f"{p['anon_mb_max']:.1f} MB", f"<= {p['heap_bound_mb']:.0f} MB (its lowest heap + buffers x "
                          "largest frames)", _met(p["anon_mb_max"] <= p["heap_bound_mb"])))
-        rows.append((f"{p['node']}: shared memory resident, most in the second half",
-                     f"{p['shmem_mb_max']:.1f} MB", f"<= the segments it maps, {p['shm_mapped_mb']:.0f} MB",
-                     _met(p["shmem_mb_max"] <= p["shm_mapped_mb"] + 1.0)))
+        if p["shm_mapped_mb"] > 0:         # the shm data plane: segments mapped (the zmq plane maps none)
+            rows.append((f"{p['node']}: shared memory resident, most in the second half",
+                         f"{p['shmem_mb_max']:.1f} MB", f"<= the segments it maps, {p['shm_mapped_mb']:.0f} MB",
+                         _met(p["shmem_mb_max"] <= p["shm_mapped_mb"] + 1.0)))
         rows.append((f"{p['node']}: open file descriptors, second half", f"{p['fds_start']} -> {p['fds_end']}",
                      "no growth", _met(p["fds_end"] <= p["fds_start"])))
     return rows
