@@ -1,11 +1,12 @@
-"""carav and GNU Radio 3.10 itself, both ways, over gr-zeromq: a headless flowgraph (tests/integration/gnuradio/,
-run by the system's Python) sends a known signal tagged packet_len, rx_rate and rx_time through a ZMQ PUSH Sink
-into gr_zmq_source, and the cycles carav records are the very items the flowgraph's File Sink wrote; and
-gr_zmq_sink's stream reaches a flowgraph's ZMQ PULL Source as the very samples carav recorded, with every tag on
-the item it was put on. The examples' flowgraphs compile with grcc, and the one that feeds carav, run headless,
-gives graphs/gnuradio.toml a stream it judges clean and ranges to the millimetre. gr-radar's own FMCW radar,
-run headless from its example flowgraph, is framed, judged and ranged by graphs/gr_radar.toml. CI installs GNU
-Radio and gr-radar (.ci/run); a local run without them skips these tests and says why."""
+"""carav and GNU Radio 3.10 itself, both ways, over gr-zeromq: a headless flowgraph (tests/integration/gnuradio/, run
+by the system's Python) sends a known signal tagged packet_len, rx_rate and rx_time through a ZMQ PUSH Sink (or a
+REP Sink, answering gr_zmq_source's requests) into gr_zmq_source, and the cycles carav records are the very items
+the flowgraph's File Sink wrote; and gr_zmq_sink's stream reaches a flowgraph's ZMQ PULL Source (or its REQ Source,
+asking) as the very samples carav recorded, with every tag on the item it was put on. The examples' flowgraphs
+compile with grcc, and the one that feeds carav, run headless, gives graphs/gnuradio.toml a stream it judges clean
+and ranges to the millimetre. gr-radar's own FMCW radar, run headless from its example flowgraph, is framed, judged
+and ranged by graphs/gr_radar.toml. CI installs GNU Radio and gr-radar (.ci/run); a local run without them skips
+these tests and says why."""
 from __future__ import annotations
 
 import json
@@ -90,21 +91,24 @@ def flowgraph():
         p.wait()
 
 
-def test_a_gnu_radio_stream_is_recorded_by_carav_as_the_items_gnu_radio_wrote_to_a_file(carav, flowgraph, tmp_path):
+@pytest.mark.parametrize("gr_sink, socket", [("push", "pull"), ("rep", "req")])
+def test_a_gnu_radio_stream_is_recorded_by_carav_as_the_items_gnu_radio_wrote_to_a_file(carav, flowgraph, tmp_path,
+                                                                                        gr_sink, socket):
     address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
     (tmp_path / "gr_ideal.toml").write_text(IDEAL)
     (tmp_path / "rec").mkdir()
     cycles, n = 9, 8 * 64
+    where = f'address = "{address}", socket = "{socket}"'
     graph = carav.graph(f"""
 scene = "gr_ideal.toml"
 batch = 4
 connections = ["source.frames -> rec.frames", "source.rho -> rec.rho"]
 [blocks]
-source = {{ type = "gr_zmq_source", address = "{address}", pass_tags = true, pattern = "10101010" }}
+source = {{ type = "gr_zmq_source", {where}, pass_tags = true, pattern = "10101010" }}
 rec = {{ type = "sigmf_sink", path = "rec/received" }}
 """, "received.toml")
     sent = tmp_path / "sent.cf32"
-    sender = flowgraph("gr_send.py", address, sent, cycles * n + 100, 64, 150e6)   # and a part of a cycle
+    sender = flowgraph("gr_send.py", address, sent, cycles * n + 100, 64, 150e6, gr_sink)   # and a part of a cycle
     run = carav.run(graph)
     said: list[str] = []
     wait_until(lambda: printed(sender, said) or sender.poll() is not None or run.proc.poll() is not None,
@@ -123,13 +127,15 @@ rec = {{ type = "sigmf_sink", path = "rec/received" }}
     assert live["tags"] == -(-(cycles * n + 100) // 64) + 2           # packet_len on every chirp, rx_rate, rx_time
 
 
-def test_carav_s_stream_reaches_gnu_radio_as_the_samples_carav_recorded_with_its_tags(carav, flowgraph, tmp_path):
+@pytest.mark.parametrize("socket, gr_source", [("push", "pull"), ("rep", "req")])
+def test_carav_s_stream_reaches_gnu_radio_as_the_samples_carav_recorded_with_its_tags(carav, flowgraph, tmp_path,
+                                                                                      socket, gr_source):
     address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
     (tmp_path / "rec").mkdir()
     cycles, n = 12, 4 * 256
     scene = load_scene(str(ADC_SCENE))
     got, tags_path = tmp_path / "got.cf32", tmp_path / "tags.json"
-    receiver = flowgraph("gr_receive.py", address, got, tags_path, cycles * n)
+    receiver = flowgraph("gr_receive.py", address, got, tags_path, cycles * n, gr_source)
     graph = carav.graph(f"""
 scene = "{ADC_SCENE}"
 seed = 5
@@ -142,7 +148,7 @@ cycles = {cycles}
 source = {{ type = "chirp_source" }}
 channel = {{ type = "channel" }}
 adc = {{ type = "adc_framer" }}
-gr = {{ type = "gr_zmq_sink", address = "{address}", pass_tags = true }}
+gr = {{ type = "gr_zmq_sink", address = "{address}", socket = "{socket}", pass_tags = true }}
 rec = {{ type = "sigmf_sink", path = "rec/sent" }}
 """, "sending.toml")
     run = carav.run(graph)
