@@ -11,6 +11,8 @@ pipeline     the multi-process radar graph against the same chain in one process
 study        carav study on 1 and 2 local Dask workers; the scheduler's cost per task
 view         what the live view costs the radar chain, with and without a browser
 dca1000_udp  the live DCA1000 UDP receiver fed by the project's replayer, against the AWR1642's data rate
+gr_bridge    the GNU Radio bridge each way (gr_zmq_sink, gr_zmq_source) with GNU Radio and pyzmq peers, beside raw pyzmq
+gr_peer      the GNU Radio flowgraphs the gr_bridge benchmark runs under the system's Python (never imported)
 soak         the demo graph for minutes with live swaps: memory and descriptor growth, lost cycles
 startup      a graph's start with its nodes forked from the zygote and as fresh interpreters: wall, restart, memory
 compare      one benchmark on an older revision and on this tree, alternated round by round: medians and ratios
@@ -34,6 +36,7 @@ BENCHES = {
     "study": ("bench.study", "carav study on 1 and 2 local Dask workers; scheduler cost per task"),
     "view": ("bench.view", "what the live view costs the radar chain, with and without a browser"),
     "dca1000-udp": ("bench.dca1000_udp", "the live DCA1000 receiver against the AWR1642's data rate"),
+    "gr-bridge": ("bench.gr_bridge", "the GNU Radio bridge's items/s each way, beside raw pyzmq"),
     "chaos": ("bench.chaos", "SIGKILL a random node every 2 s on both planes: nothing judged twice, counts right"),
     "soak": ("bench.soak", "the demo graph for N minutes with live swaps: memory, descriptors, losses"),
     "startup": ("bench.startup", "a graph's start, nodes forked from the zygote or fresh: wall, restart, memory"),

@@ -23,6 +23,8 @@ from bench import records as bench_records
 from bench.chaos import met as chaos_met
 from bench.compiled import KERNELS, choice
 from bench.estimators import LISTS, TARGET_RATIO, TARGET_TIME_FACTOR, pareto, scores, where
+from bench.gr_bridge import rows as gr_bridge_rows
+from bench.gr_bridge import table as gr_bridge_table
 from bench.pipeline import ceiling
 from bench.soak import SOAK_RSS_MB_PER_H, no_growth
 from bench.startup import rows as startup_rows
@@ -584,6 +586,8 @@ BENCHMARKS: dict[str, tuple[str, Callable[[dict], list[Row]], Callable[[dict], l
     "study": ("Studies on Dask: scaling over local workers", study_rows, study_table),
     "view": ("Live view: what watching costs the chain", view_rows, view_table),
     "dca1000_udp": ("Live capture: the DCA1000 UDP receiver against the AWR1642's data rate", udp_rows, udp_table),
+    "gr_bridge": ("GNU Radio bridge: gr_zmq_sink and gr_zmq_source each way, beside raw pyzmq", gr_bridge_rows,
+                  gr_bridge_table),
 }
 # Evaluations whose benchmark is not in the tree: their records stay, rendered with this note beside the command.
 RECORDED_ONLY = {"zerocopy": "a recorded evaluation (iceoryx2 against the standard library's shared memory); its "

@@ -1,9 +1,11 @@
-"""GNU Radio ZMQ sink: carav's cycles as a GNU Radio stream, for a flowgraph's ZMQ PULL or SUB Source.
+"""GNU Radio ZMQ sink: carav's cycles as a GNU Radio stream, for a flowgraph's ZMQ PULL, SUB or REQ Source.
 
-    item (c N_r + k) M + m  =  sample m of chirp k of cycle c        one gr-zeromq message per cycle
+    item (c N_r + k) M + m  =  sample m of chirp k of cycle c        one gr-zeromq message per cycle (PUSH, PUB)
 
-Binds a PUSH socket (GNU Radio's ZMQ PULL Source connects to it) or a PUB socket (a ZMQ SUB Source; `key`, if
-set, goes first in a part of its own) on `address`, and sends every cycle of the frames it gets as the scene's
+Binds a PUSH socket (GNU Radio's ZMQ PULL Source connects to it), a PUB socket (a ZMQ SUB Source; `key`, if
+set, goes first in a part of its own) or a REP socket (a ZMQ REQ Source, which asks for up to n items at a time:
+each cycle goes out in replies of at most what was asked, never two cycles in one) on `address`, and sends every
+cycle of the frames it gets as the scene's
 samples in sqrt(W): complex64 items for an I/Q scene, float32 for an I-only one (ADC codes are turned into samples
 with the scene's lsb; float frames go as they are). With pass_tags, each message starts with gr-zeromq's tag
 header (carav_stream/capture/gr_zmq.py) holding the tags named in `tags` (carav_stream/capture/gr_stream.py:
@@ -12,9 +14,9 @@ sequences of the rho input, goes only when named, and only to this host (ipc:// 
 detector's secret, and whoever reads the stream may be the attacker. GNU Radio's source must be set to match:
 IO type, Pass Tags, key; the stream says none of them.
 
-A PUSH waits up to timeout_s for a receiver to take each message, then the node fails naming the address; a PUB
-never waits: it sends to the subscribers it has and drops the rest (a subscriber misses what was sent before it
-connected). When the stream ends, queued messages have up to timeout_s to reach their receiver.
+A PUSH waits up to timeout_s for a receiver to take each message, a REP for each request, then the node fails naming
+the address; a PUB never waits: it sends to the subscribers it has and drops the rest (a subscriber misses what was
+sent before it connected). When the stream ends, queued messages have up to timeout_s to reach their receiver.
 
 Ports   in  frames   ADC frames (int16 codes, float32 | complex64 samples) or the channel's rx (float32 |
                      complex64), (cycles, n_chirps, n_samples[, 2])
@@ -35,13 +37,13 @@ class GrZmqSink(Block):
     inputs = (In("frames", dtypes=("int16", "float32", "complex64"), doc="ADC frames or the channel's rx"),
               In("rho", kind="rho", dtypes=("bool",), required=False, doc="activation sequences (carav_rho only)"))
     params = (Param("address", str, "tcp://127.0.0.1:5556", "where to bind (GNU Radio's ZMQ source connects)"),
-              Param("socket", str, "push", "push: for a ZMQ PULL Source; pub: for a ZMQ SUB Source",
-                    choices=("push", "pub")),
+              Param("socket", str, "push", "push: for a ZMQ PULL Source; pub: for a ZMQ SUB Source; rep: for a "
+                    "ZMQ REQ Source", choices=("push", "pub", "rep")),
               Param("pass_tags", bool, False, "send gr-zeromq's tag header (the source's Pass Tags must match)"),
               Param("tags", list, list(DEFAULT_TAGS), f"tags sent with pass_tags, of {', '.join(TAG_NAMES)}"),
               Param("key", str, "", "the PUB key (pub only; empty: none)"),
-              Param("timeout_s", float, 10.0, "the longest a PUSH waits for a receiver", unit="s", low=0.0,
-                    strict=True),
+              Param("timeout_s", float, 10.0, "the longest a PUSH waits for a receiver, a REP for a request",
+                    unit="s", low=0.0, strict=True),
               SCENE)
 
     def check_params(self) -> None:
@@ -81,15 +83,31 @@ class GrZmqSink(Block):
         for i, c in enumerate(cycle_indices(frames)):
             tags = cycle_tags(lay, self.offset, c, self.names, seq=frames.seq if i == 0 else None,
                               rate=self.messages == 0, rho=None if r is None else r[i]) if self.names else []
-            parts = encode(x[i].ravel(), offset=self.offset if self.pass_tags else None, tags=tags,
-                           key=self.key.encode())
-            if not self.sender.send(parts, self.timeout_s):
-                raise BlockError(f"{self.sender.address}: no receiver took cycle {c} within {self.timeout_s:g} s "
-                                 "(is GNU Radio's ZMQ PULL Source connected to this address?)")
+            self._send(x[i].ravel(), tags, c)
             self.offset += lay.items_per_cycle
-            self.messages += 1
             self.n_tags += len(tags)
         self.cycles += shape[0]
+
+    def _send(self, items: np.ndarray, tags: list, cycle: int) -> None:
+        """One cycle's items from stream offset self.offset: one message, or (REP) a reply to each request."""
+        if self.socket != "rep":
+            parts = encode(items, offset=self.offset if self.pass_tags else None, tags=tags, key=self.key.encode())
+            if not self.sender.send(parts, self.timeout_s):
+                raise BlockError(f"{self.sender.address}: no receiver took cycle {cycle} within {self.timeout_s:g} "
+                                 "s (is GNU Radio's ZMQ PULL Source connected to this address?)")
+            self.messages += 1
+            return
+        pos = 0
+        while pos < len(items):
+            n = self.sender.wait_request(self.timeout_s)
+            if n is None:
+                raise BlockError(f"{self.sender.address}: no request for cycle {cycle} within {self.timeout_s:g} s "
+                                 "(is GNU Radio's ZMQ REQ Source connected to this address?)")
+            first, k = self.offset + pos, min(n, len(items) - pos)
+            self.sender.send(encode(items[pos:pos + k], offset=first if self.pass_tags else None,
+                                    tags=[t for t in tags if first <= t.offset < first + k]), self.timeout_s)
+            pos += k
+            self.messages += 1
 
     def unpaired(self, port: str, frame: Frame) -> None:
         if port == "frames":     # no sequence for these cycles: sent without one, or refused if carav_rho is asked

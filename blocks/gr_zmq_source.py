@@ -1,17 +1,18 @@
-"""GNU Radio ZMQ source: a GNU Radio flowgraph's stream, from its ZMQ PUSH or PUB Sink, as the scene's cycles.
+"""GNU Radio ZMQ source: a GNU Radio flowgraph's stream, from its ZMQ PUSH, PUB or REP Sink, as the scene's cycles.
 Fail closed.
 
     cycle g = items [g N, (g + 1) N) of the sender's stream (N = n_chirps n_samples);   damaged(g) => nonfinite(g) > 0
 
-Connects a PULL socket (to a ZMQ PUSH Sink) or a SUB socket (to a ZMQ PUB Sink; `key` is the sink's key) to
-`address`, where the GNU Radio sink is bound, and reads gr-zeromq messages: items only, or with pass_tags (set as
-the sink's) a header with the items' offset and the tags (carav_stream/capture/gr_zmq.py). The items are the
-scene's samples in its unit, sqrt(W): complex64 for an I/Q scene, float32 for an I-only one; they are cut into
-cycles (carav_stream/capture/gr_stream.py: untagged, the first item received starts cycle 0), put through the
-scene's ADC as adc_framer does (int16 codes, clipped and non-finite samples counted; a scene with an ideal ADC
-keeps the samples) and sent with their activation sequences, from exactly one of `activation` (a log of cycles 0,
-1, 2, ...), `pattern` (the same every cycle) and `rho_from_tags` (the carav_rho tags a gr_zmq_sink sends when
-asked to).
+Connects a PULL socket (to a ZMQ PUSH Sink), a SUB socket (to a ZMQ PUB Sink; `key` is the sink's key) or a REQ
+socket (to a ZMQ REP Sink: it asks for a cycle's items at a time, and the sink replies with at most as many as its
+flowgraph has ready) to `address`, where the GNU Radio sink is bound, and reads gr-zeromq messages: items only, or
+with pass_tags (set as the sink's) a header with the items' offset and the tags (carav_stream/capture/gr_zmq.py).
+The items are the scene's samples in its unit, sqrt(W): complex64 for an I/Q scene, float32 for an I-only one; they
+are cut into cycles (carav_stream/capture/gr_stream.py: untagged, the first item received starts cycle 0), put
+through the scene's ADC as adc_framer does (int16 codes, clipped and non-finite samples counted; a scene with an
+ideal ADC keeps the samples) and sent with their activation sequences, from exactly one of `activation` (a log of
+cycles 0, 1, 2, ...), `pattern` (the same every cycle) and `rho_from_tags` (the carav_rho tags a gr_zmq_sink sends
+when asked to).
 
 A cycle touched by dropped messages (a gap in the offsets) or repeated ones, one without its carav_rho tag
 (rho_from_tags), and the cycle the sender stops within are sent with per_cycle nonfinite = their sample count and
@@ -50,7 +51,8 @@ class GrZmqSource(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64"), doc="the stream's cycles"),
                Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
     params = (Param("address", str, "tcp://127.0.0.1:5555", "the GNU Radio ZMQ sink's address (it binds)"),
-              Param("socket", str, "pull", "pull: a ZMQ PUSH Sink; sub: a ZMQ PUB Sink", choices=("pull", "sub")),
+              Param("socket", str, "pull", "pull: a ZMQ PUSH Sink; sub: a ZMQ PUB Sink; req: a ZMQ REP Sink",
+                    choices=("pull", "sub", "req")),
               Param("pass_tags", bool, False, "the sink's Pass Tags: a header with offsets and tags"),
               Param("key", str, "", "the PUB sink's key (sub only; empty: none)"),
               Param("activation", str, "", "activation log of the stream's cycles 0, 1, 2, ...", file=True),
@@ -80,7 +82,7 @@ class GrZmqSource(Block):
             raise ValueError(f"activation: {self.activation}: the log must list cycles 0, 1, 2, ... in order")
 
     def start(self) -> None:
-        self.receiver = Receiver(self.address, self.socket, self.key.encode())
+        self.receiver = Receiver(self.address, self.socket, self.key.encode(), self.layout.items_per_cycle)
         self.framer = StreamFramer(self.layout)
         self.last_message = time.monotonic()
         self.stopped = False

@@ -12,15 +12,19 @@ One message per scheduler call of the GNU Radio sink, in one part (two with a PU
     items        raw items in the sender's byte order: complex64 (gr_complex), float32, int32, int16 or bytes;
                  nothing says which, nor the rate, nor any shape: both ends must agree on them
 
+REQ/REP: the REQ source asks for items with a request of its own, a uint32 in its host's byte order (4 bytes): the
+number of items it has room for; the REP sink replies with one message as above holding at most that many (a
+request shorter than 4 bytes sets no limit), and waits for the next request.
+
 Without pass_tags nothing but the items travels: a receiver cannot tell where the stream began (a SUB that joins
 late), nor whether messages were dropped (a PUB over its high-water mark). With it, the offsets show both.
 
-Receiver and Sender are the sockets (a PULL or SUB connected to a GNU Radio sink; a PUSH or PUB bound for a GNU
-Radio source); encode and decode are pure. decode refuses every malformed message with a GrZmqError naming what is
-wrong: a bad magic (a hint when it is 0x5FF0 byte-swapped, or when an untagged stream's items start with a header),
-an unknown version, a header or tag cut short, a PMT that cannot be read, a tag outside its message's items, a
-payload that is not a whole number of items, a part count or key that does not fit the sender's settings.
-"""
+Receiver and Sender are the sockets (a PULL, SUB or REQ connected to a GNU Radio sink; a PUSH, PUB or REP bound for
+a GNU Radio source); encode, decode, request and requested are pure. decode refuses every malformed message with a
+GrZmqError naming what is wrong: a bad magic (a hint when it is 0x5FF0 byte-swapped, or when an untagged stream's
+items start with a header), an unknown version, a header or tag cut short, a PMT that cannot be read, a tag outside
+its message's items, a payload that is not a whole number of items, a part count or key that does not fit the
+sender's settings."""
 from __future__ import annotations
 
 import ipaddress
@@ -164,10 +168,24 @@ def decode(parts: Sequence[bytes], item: np.dtype | str, *, tagged: bool, key: b
     return Message(items, offset, tags)
 
 
+def request(n_items: int, byteorder: str = HOST) -> bytes:
+    """A REQ source's request for up to n_items items."""
+    if not 0 <= n_items < 2 ** 32:
+        raise GrZmqError(f"a request is a uint32: {n_items} items cannot be asked for")
+    return struct.pack(f"{_order(byteorder)}I", n_items)
+
+
+def requested(buf: bytes | memoryview, byteorder: str = HOST) -> int | None:
+    """The number of items a request asks for; None (no limit) for one shorter than 4 bytes, as GNU Radio's REP
+    sink reads it."""
+    view = memoryview(buf).cast("B")
+    return struct.unpack_from(f"{_order(byteorder)}I", view)[0] if len(view) >= 4 else None
+
+
 # ------------------------------------------------------------------ sockets (the GNU Radio sink binds, the source
 # connects; carav's sink binds the same way, so GNU Radio's source connects to it)
 
-SOCKETS = {"pull": zmq.PULL, "sub": zmq.SUB, "push": zmq.PUSH, "pub": zmq.PUB}
+SOCKETS = {"pull": zmq.PULL, "sub": zmq.SUB, "req": zmq.REQ, "push": zmq.PUSH, "pub": zmq.PUB, "rep": zmq.REP}
 
 
 def check_address(address: str) -> str:
@@ -197,20 +215,28 @@ def is_local(address: str) -> bool:
 
 
 class Receiver:
-    """A PULL or SUB socket connected to a GNU Radio sink's address; `key` is the SUB subscription."""
+    """A PULL, SUB or REQ socket connected to a GNU Radio sink's address; `key` is the SUB subscription,
+    `request_items` what a REQ asks for each time."""
 
-    def __init__(self, address: str, kind: str, key: bytes = b"") -> None:
+    def __init__(self, address: str, kind: str, key: bytes = b"", request_items: int = 0) -> None:
         self.context = zmq.Context()
         self.socket = self.context.socket(SOCKETS[kind])
         self.socket.setsockopt(zmq.LINGER, 0)
         if kind == "sub":
             self.socket.setsockopt(zmq.SUBSCRIBE, key)
         self.socket.connect(address)
+        self.request = request(request_items) if kind == "req" else None
+        self.asked = False                        # a REQ's request is out and its reply not yet in
 
     def receive(self, timeout_s: float) -> list[bytes] | None:
-        """The next message's parts, or None when none comes within timeout_s."""
+        """The next message's parts, or None when none comes within timeout_s (a REQ asks first, once per
+        reply: the request waits in the socket's queue until the REP sink is there)."""
+        if self.request is not None and not self.asked:
+            self.socket.send(self.request)
+            self.asked = True
         if not self.socket.poll(max(int(timeout_s * 1000), 0), zmq.POLLIN):
             return None
+        self.asked = False
         return self.socket.recv_multipart()
 
     def close(self) -> None:
@@ -219,8 +245,8 @@ class Receiver:
 
 
 class Sender:
-    """A PUSH or PUB socket bound where GNU Radio's source connects. `address` is where it is bound (the port
-    the system chose for tcp://HOST:0)."""
+    """A PUSH, PUB or REP socket bound where GNU Radio's source connects. `address` is where it is bound (the port
+    the system chose for tcp://HOST:0). A REP sends only in reply: `wait_request` first, then one `send`."""
 
     def __init__(self, address: str, kind: str) -> None:
         self.context = zmq.Context()
@@ -228,6 +254,14 @@ class Sender:
         self.socket.setsockopt(zmq.LINGER, 0)     # a process that ends without close() is not held by its queue
         self.socket.bind(address)
         self.address = self.socket.getsockopt_string(zmq.LAST_ENDPOINT)
+
+    def wait_request(self, timeout_s: float) -> int | None:
+        """A REP's next request: the items it asks for (2^32 - 1 for a request without a number); None when none
+        comes within timeout_s."""
+        if not self.socket.poll(max(int(timeout_s * 1000), 0), zmq.POLLIN):
+            return None
+        n = requested(self.socket.recv())
+        return 2 ** 32 - 1 if n is None else n
 
     def send(self, parts: list[bytes], timeout_s: float) -> bool:
         """Send the message once the socket takes it (a PUSH waits for a receiver); False after timeout_s."""

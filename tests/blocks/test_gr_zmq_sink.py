@@ -1,10 +1,11 @@
 """gr_zmq_sink: the ADC's cycles, in frames cut anywhere, reach a plain ZeroMQ receiver (what GNU Radio's ZMQ PULL
 Source is) as one gr-zeromq message per cycle: the samples the codes stand for, offsets that follow one another,
 the tags on the items the stream's description names, and the activation sequence only when asked for and only
-to this host; a frame that is not the scene's, a receiver that never comes, and settings that do not fit are
-refused naming them."""
+to this host; as a REP, each cycle in replies of at most what each request asks for; a frame that is not the
+scene's, a receiver or request that never comes, and settings that do not fit are refused naming them."""
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -90,6 +91,46 @@ def test_a_push_that_no_receiver_takes_fails_naming_its_address():
     h.block.finish()
 
 
+def test_a_rep_answers_each_request_with_at_most_the_items_asked_for_and_never_two_cycles_in_one():
+    address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
+    req = Receiver(address, "req", request_items=300)      # what GNU Radio's ZMQ REQ Source is, asking for 300
+    x, failed = codes(), []
+    h = BlockHarness(GrZmqSink, scene=SCENE, address=address, socket="rep", pass_tags=True)
+
+    def serve() -> None:
+        try:
+            h.run({"frames": x}, bounds=random_bounds(N_CYCLES, "rep"))
+        except BaseException as exc:                           # noqa: BLE001 - reported by the test's thread
+            failed.append(exc)
+    server = threading.Thread(target=serve)
+    server.start()
+    got = []
+    while sum(len(m.items) for m in got) < N_CYCLES * 1024 and not failed:
+        parts = req.receive(10.0)
+        assert parts is not None, "no reply"
+        got.append(decode(parts, "complex64", tagged=True))
+    server.join(30)
+    req.close()
+    assert not failed and not server.is_alive()
+    sizes = [len(m.items) for m in got]
+    assert sizes == [300, 300, 300, 124] * N_CYCLES
+    assert [m.offset for m in got] == [sum(sizes[:i]) for i in range(len(sizes))]
+    lsb = np.float32(adc_step(load_scene(SCENE)))
+    want = (x.astype(np.float32) * lsb).view(np.complex64)[..., 0].ravel()
+    assert np.array_equal(np.concatenate([m.items for m in got]), want)
+    assert [t.offset for m in got for t in m.tags if t.key == "packet_len"] == list(range(0, N_CYCLES * 1024, 256))
+    assert [t.offset for m in got for t in m.tags if t.key == "carav_cycle"] == list(range(0, N_CYCLES * 1024, 1024))
+    assert h.block.summary()["run"]["gr_stream_sent"]["messages"] == 4 * N_CYCLES
+
+
+def test_a_rep_that_no_request_comes_to_fails_naming_its_address():
+    address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
+    h = BlockHarness(GrZmqSink, scene=SCENE, address=address, socket="rep", timeout_s=0.2)
+    with pytest.raises(BlockError, match=f"{address}: no request for cycle 0 within 0.2 s .*ZMQ REQ Source"):
+        h.run({"frames": codes()[:1]})
+    h.block.finish()
+
+
 def test_a_frame_that_is_not_the_scene_s_cycles_is_refused_naming_its_shape():
     address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
     h = BlockHarness(GrZmqSink, scene=SCENE, address=address)
@@ -125,7 +166,7 @@ def test_the_activation_is_refused_without_its_sequences_and_beyond_this_host():
     ({"tags": ["packet_len", "rho"]}, r"tags: \['rho'\] unknown"),
     ({"key": "radar"}, "key: 'radar': only a PUB socket sends a key"),
     ({"address": "udp://1.2.3.4:5"}, "address: 'udp://1.2.3.4:5' is not tcp://HOST:PORT"),
-    ({"socket": "rep"}, "socket"),
+    ({"socket": "pull"}, "socket"),
 ])
 def test_settings_that_do_not_fit_are_refused_naming_them(params, message):
     with pytest.raises(BlockError, match=message):

@@ -2,8 +2,9 @@
 the wire format) comes out as the scene's ADC frames with their activation sequences: the codes the samples stand
 for, bit for bit; a dropped message, a missing sequence and a sender that stops mid-cycle give cycles the detector
 must refuse (nonfinite = their samples), never clean ones; a stream that cannot be this scene's, or messages that
-do not fit the settings, end the node in one line naming the address and the message; and gr_zmq_sink's stream,
-activation included, comes back as it left."""
+do not fit the settings, end the node in one line naming the address and the message; a REQ asks for a cycle at
+a time and frames replies of any length; and gr_zmq_sink's stream, activation included, comes back as it left,
+pushed or served to requests."""
 from __future__ import annotations
 
 import threading
@@ -191,14 +192,47 @@ def test_a_subscriber_takes_its_key_s_stream_from_where_it_joined_and_counts_the
     assert s["other_key"] >= len(index) and s["damaged_cycles"] == 0
 
 
-def test_gr_zmq_sink_s_stream_with_its_activation_comes_back_as_it_left():
+def test_a_req_asks_for_a_cycle_s_items_at_a_time_and_frames_the_replies_however_short():
+    rep = Sender(f"tcp://127.0.0.1:{free_port('127.0.0.1')}", "rep")     # what GNU Radio's ZMQ REP Sink is
+    source = GrZmqSource(scene=SCENE, address=rep.address, socket="req", pass_tags=True, pattern="1010",
+                         idle_timeout_s=0.5, batch=3)
+    source.start()
+    x = codes(5, seed=3)
+    stream, asked = samples(x), []
+    tags = [t for c in range(5) for t in cycle_tags(LAY, c * N, c, frozenset(TAG_NAMES[:-1]), rate=c == 0)]
+
+    def serve() -> None:                    # a flowgraph replies with what it has ready: here at most 700 items
+        pos = 0
+        while pos < len(stream) and (n := rep.wait_request(10.0)) is not None:
+            asked.append(n)
+            k = min(n, 700)
+            rep.send(encode(stream[pos:pos + k], offset=pos, tags=[t for t in tags if pos <= t.offset < pos + k]),
+                     5.0)
+            pos += k
+    server = threading.Thread(target=serve)
+    server.start()
+    frames = run_source(source)
+    server.join(30)
+    rep.close(0)
+    assert asked == [N] * -(-5 * N // 700)
+    assert np.array_equal(joined(frames, "frames"), x) and joined(frames, "frames", "damage") == [""] * 5
+    assert source.summary()["run"]["gr_stream"]["messages"] == len(asked)
+
+
+@pytest.mark.parametrize("sink, source_socket", [("push", "pull"), ("rep", "req")])
+def test_gr_zmq_sink_s_stream_with_its_activation_comes_back_as_it_left(sink, source_socket):
     address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
-    source = GrZmqSource(scene=SCENE, address=address, pass_tags=True, rho_from_tags=True, idle_timeout_s=0.5)
+    source = GrZmqSource(scene=SCENE, address=address, socket=source_socket, pass_tags=True, rho_from_tags=True,
+                         idle_timeout_s=0.5)
     source.start()
     x, rho = codes(6, seed=5), np.random.default_rng(6).random((6, 4)) < 0.5
-    BlockHarness(GrZmqSink, scene=SCENE, address=address, pass_tags=True,
-                 tags=[*TAG_NAMES]).run({"frames": x, "rho": rho}, bounds=[(0, 4), (4, 6)], cycle0=10)
+    harness = BlockHarness(GrZmqSink, scene=SCENE, address=address, socket=sink, pass_tags=True, tags=[*TAG_NAMES])
+    server = threading.Thread(target=harness.run, args=({"frames": x, "rho": rho},),
+                              kwargs={"bounds": [(0, 4), (4, 6)], "cycle0": 10})
+    server.start()
     frames = run_source(source)
+    server.join(30)
+    assert not server.is_alive()
     assert np.array_equal(joined(frames, "frames"), x) and np.array_equal(joined(frames, "rho"), rho)
     assert frames[0]["frames"].header["cycle"] == 10 and frames[0]["rho"].header["cycle"] == 10
     assert joined(frames, "frames", "damage") == [""] * 6

@@ -1,7 +1,7 @@
 """gr-zeromq's stream messages: the bytes GNU Radio 3.10 itself sent (tests/golden/gr_zmq.json, captured by
 tests/golden/make_gr_zmq.py) read back as the items and tags its flowgraphs were given and written again byte for
 byte; messages built here with struct from the format's description (not with the encoder) read back; every
-malformed message refused naming what is wrong; and the sockets, over loopback."""
+malformed message refused naming what is wrong; a REQ source's request; and the sockets, over loopback."""
 from __future__ import annotations
 
 import json
@@ -23,6 +23,8 @@ from carav_stream.capture.gr_zmq import (
     decode,
     encode,
     is_local,
+    request,
+    requested,
 )
 from carav_stream.capture.pmt import Pair, UInt64
 
@@ -208,3 +210,24 @@ def test_push_to_pull_and_pub_to_sub_with_a_key_over_loopback():
     assert np.array_equal(decode(got, "complex64", tagged=False, key=b"radar").items, np.ones(2, np.complex64))
     sub.close()
     pub.close(0)
+
+
+def test_a_request_is_a_uint32_in_the_host_s_byte_order_and_a_short_one_sets_no_limit():
+    assert request(4096, "little") == struct.pack("<I", 4096) and request(4096, "big") == struct.pack(">I", 4096)
+    assert requested(struct.pack("<I", 70) + b"rest", "little") == 70 and requested(b"abc") is None
+    with pytest.raises(GrZmqError, match="a request is a uint32: 4294967296 items"):
+        request(2 ** 32)
+
+
+def test_a_req_asks_once_per_reply_and_a_rep_replies_to_what_it_was_asked():
+    rep = Sender("tcp://127.0.0.1:0", "rep")
+    req = Receiver(rep.address, "req", request_items=300)
+    assert req.receive(0.05) is None and rep.wait_request(5.0) == 300      # the request went out, once
+    assert req.receive(0.05) is None and rep.wait_request(0.05) is None   # no second request before the reply
+    reply = encode(np.arange(300, dtype=np.float32), offset=0)
+    assert rep.send(reply, 5.0)
+    assert req.receive(5.0) == reply
+    assert req.receive(0.05) is None and rep.wait_request(5.0) == 300      # the next one
+    assert rep.send(encode(np.zeros(0, np.float32)), 5.0) and req.receive(5.0) == [b""]
+    req.close()
+    rep.close(0)

@@ -95,7 +95,8 @@ def test_a_relative_block_folder_stays_relative_to_the_file_that_wrote_it(tmp_pa
                                                                                      'block_paths = ["nope", ')))
 
 
-PLAYERS = ("replay.toml", "gnuradio.toml")      # graphs whose ADC frames come from outside: the chain after the ADC
+PLAYERS = ("replay.toml", "gnuradio.toml", "gr_radar.toml")   # graphs whose ADC frames come from outside: the chain
+                                                              # after the ADC
 
 
 @pytest.mark.parametrize("graph", sorted(p.name for p in GRAPHS.glob("*.toml") if p.name not in PLAYERS))
@@ -121,12 +122,15 @@ def test_the_replay_graph_asks_for_its_recording_and_keeps_detection_ahead_of_ra
     assert '"source.rho -> detector.rho"' in replay
 
 
-def test_the_gnu_radio_graph_keeps_the_chain_after_the_adc_with_its_source_in_the_adc_s_place():
-    chain, g = load_graph(GRAPHS / "radar_chain.toml"), load_graph(GRAPHS / "gnuradio.toml")
+@pytest.mark.parametrize("graph, scene", [("gnuradio.toml", "table1"),
+                                          ("gr_radar.toml", str(GRAPHS.parent / "examples" / "gnuradio" /
+                                                                "gr_radar_fmcw.toml"))])
+def test_the_gnu_radio_graphs_keep_the_chain_after_the_adc_with_their_source_in_the_adc_s_place(graph, scene):
+    chain, g = load_graph(GRAPHS / "radar_chain.toml"), load_graph(GRAPHS / graph)
     after_adc = {str(e).replace("adc.frames", "source.frames") for e in chain.edges
                  if e.src not in ("source", "channel", "attacker")}
     assert after_adc | {"source.rho -> detector.rho"} == {str(e) for e in g.edges}
-    assert g.nodes["source"].type == "gr_zmq_source" and g.params["scene"] == "table1"
+    assert g.nodes["source"].type == "gr_zmq_source" and g.params["scene"] == scene
 
 
 def test_graph_wide_radar_parameters_are_checked_once_and_must_agree_across_blocks():

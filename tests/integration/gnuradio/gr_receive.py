@@ -1,8 +1,9 @@
 """A headless GNU Radio flowgraph for tests/integration/test_gnuradio.py, run by the system's Python (where GNU
-Radio is installed), not by pytest: a ZMQ PULL Source with Pass Tags connected to carav's gr_zmq_sink, N_ITEMS of
-its complex items into a File Sink, and every tag GNU Radio attached to them into a JSON file.
+Radio is installed), not by pytest: a ZMQ PULL Source (or, with SOCKET req, a ZMQ REQ Source, which asks for
+the items it has room for) with Pass Tags connected to carav's gr_zmq_sink, N_ITEMS of its complex items into a
+File Sink, and every tag GNU Radio attached to them into a JSON file.
 
-    /usr/bin/python3 gr_receive.py ADDRESS FILE TAGS_JSON N_ITEMS
+    /usr/bin/python3 gr_receive.py ADDRESS FILE TAGS_JSON N_ITEMS [pull | req]
 
 Each tag is written as [offset, key, value, srcid], PMT values through pmt.to_python (a tuple as a list, a uniform
 vector as a list). Ends when N_ITEMS have passed (a ZMQ source never ends by itself).
@@ -31,11 +32,12 @@ class TagCollector(gr.sync_block):
         return len(input_items[0])
 
 
-def main(address: str, path: str, tags_path: str, n_items: int) -> None:
+def main(address: str, path: str, tags_path: str, n_items: int, socket: str = "pull") -> None:
     tb = gr.top_block()
     head = blocks.head(gr.sizeof_gr_complex, n_items)
     collector = TagCollector()
-    tb.connect(zeromq.pull_source(gr.sizeof_gr_complex, 1, address, 100, True, -1), head)
+    source = zeromq.req_source if socket == "req" else zeromq.pull_source
+    tb.connect(source(gr.sizeof_gr_complex, 1, address, 100, True, -1), head)
     tb.connect(head, blocks.file_sink(gr.sizeof_gr_complex, path, False))
     tb.connect(head, collector)
     tb.start()
@@ -48,4 +50,4 @@ def main(address: str, path: str, tags_path: str, n_items: int) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4]))
+    main(sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4]), *sys.argv[5:])

@@ -1,8 +1,9 @@
 """A headless GNU Radio flowgraph for tests/integration/test_gnuradio.py, run by the system's Python (where GNU
 Radio is installed), not by pytest: a known complex signal with tags, through Stream to Tagged Stream
-(packet_len every n_samples items), into a ZMQ PUSH Sink with Pass Tags and, the same items, into a File Sink.
+(packet_len every n_samples items), into a ZMQ PUSH Sink (or, with SOCKET rep, a ZMQ REP Sink, which sends only
+what its REQ Source asks for) with Pass Tags and, the same items, into a File Sink.
 
-    /usr/bin/python3 gr_send.py ADDRESS FILE N_ITEMS N_SAMPLES RATE_HZ
+    /usr/bin/python3 gr_send.py ADDRESS FILE N_ITEMS N_SAMPLES RATE_HZ [push | rep]
 
 The signal: a tone at RATE_HZ / 8 plus Gaussian noise of RMS 0.1 (numpy, seed 1); tags rx_rate = RATE_HZ and
 rx_time = (7, 0.5) on item 0. Prints "sent" once the flowgraph has run, then holds its sockets open until its
@@ -15,7 +16,7 @@ import pmt
 from gnuradio import blocks, gr, zeromq
 
 
-def main(address: str, path: str, n_items: int, n_samples: int, rate_hz: float) -> None:
+def main(address: str, path: str, n_items: int, n_samples: int, rate_hz: float, socket: str = "push") -> None:
     rng = np.random.default_rng(1)
     t = np.arange(n_items)
     x = (np.exp(2j * np.pi * t / 8) + 0.1 * (rng.standard_normal(n_items) + 1j * rng.standard_normal(n_items))
@@ -28,7 +29,8 @@ def main(address: str, path: str, n_items: int, n_samples: int, rate_hz: float) 
     source = blocks.vector_source_c(x.tolist(), False, 1, tags)
     tagged = blocks.stream_to_tagged_stream(gr.sizeof_gr_complex, 1, n_samples, "packet_len")
     tb.connect(source, tagged)
-    tb.connect(tagged, zeromq.push_sink(gr.sizeof_gr_complex, 1, address, 100, True, -1))
+    sink = zeromq.rep_sink if socket == "rep" else zeromq.push_sink
+    tb.connect(tagged, sink(gr.sizeof_gr_complex, 1, address, 100, True, -1))
     tb.connect(tagged, blocks.file_sink(gr.sizeof_gr_complex, path, False))
     tb.run()
     print("sent", flush=True)
@@ -36,4 +38,4 @@ def main(address: str, path: str, n_items: int, n_samples: int, rate_hz: float) 
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]))
+    main(sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]), *sys.argv[6:])
