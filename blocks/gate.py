@@ -4,7 +4,8 @@
 
 A frame carries several cycles: the clean ones go on together, the others each get an alarm record.
 
-Ports   in  frames    ADC frames of the cycles (int16 codes or float32 | complex64 samples)
+Ports   in  frames    ADC frames of the cycles (int16 codes or float32 | complex64 samples), one receiver's
+                      (cycles, chirps, ...) or a receiver array's (cycles, n_rx, chirps, ...)
         in  verdict   rms_detector's verdicts for the same seq (payload: rho)
         out clean     the clean cycles' frames plus their rho (array "rho"), header verdict = "clean",
                       per_cycle cycle_index, q and the frame's own per-cycle fields
@@ -17,6 +18,17 @@ Graph   gate = { type = "gate" }
 import numpy as np
 
 from carav_stream.runtime import Block, Frame, In, Out, n_cycles, pick
+
+
+def _chirp_counts(data) -> tuple[int, ...]:
+    """The chirps per cycle the frames may hold: axis 1 of one receiver's (cycles, chirps, samples[, 2]), axis 2 of
+    a receiver array's (cycles, n_rx, chirps, samples[, 2]); 4-D int16 codes may be either (I/Q of one receiver,
+    I-only of an array: the gate does not know the scene)."""
+    if data.ndim == 3:
+        return (data.shape[1],)
+    if data.ndim == 4 and data.dtype == np.int16:
+        return (data.shape[1], data.shape[2])
+    return (data.shape[2],)
 
 
 def _column(per: object, name: str, n: int) -> list | None:
@@ -46,7 +58,8 @@ class Gate(Block):
         try:
             pick(frames, [])   # the frame's own per-cycle fields are well formed
             usable = (alarm is not None and invalid is not None and n_cycles(verdict) == n and data is not None
-                      and rho is not None and data.ndim >= 3 and rho.shape == data.shape[:2] == (n, rho.shape[1]))
+                      and rho is not None and data.ndim >= 3 and rho.ndim == 2 and rho.shape[0] == data.shape[0] == n
+                      and rho.shape[1] in _chirp_counts(data))
         except ValueError:
             usable = False
         if not usable:

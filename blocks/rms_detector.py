@@ -5,7 +5,8 @@
     Q = max_k D(k),   C(eta) = Q / eta,   alarm  <=>  C(eta) >= 1  or a NaN/Inf sample (invalid frame)
 
 Ports   in  frames    ADC frames of the cycles: int16 codes (the scene's lsb makes them sqrt(W)), or float32 |
-                      complex64 samples
+                      complex64 samples; a receiver array's (cycles, n_rx, n_chirps, ...) are judged on each
+                      chirp's RMS over all its receivers' samples
         in  rho       bool (cycles, n_chirps)    activation sequences (private edge)
         out verdict   bool (cycles, n_chirps) = rho, for target processing; header eta, per_cycle q, c, alarm,
                       invalid, raised_by ("D0" | "D1" | "invalid" | "no_rho" | "bad_rho"), k_max, rbar; frames
@@ -50,17 +51,24 @@ class RmsDetector(Block):
         leaks = leak_warnings(self.scene_obj, self.eta, sigma_det=self.sigma, who="rms_detector")
         return ([text] if text else []) + leaks
 
+    def _receivers(self, x: np.ndarray) -> tuple[int, bool]:
+        """(axes of one receiver's frames: cycles, chirps, samples[, 2 for int16 I/Q codes]; whether these frames
+        hold one axis more, the receivers', after the cycles')."""
+        base = 4 if x.dtype == np.int16 and self.scene_obj.iq else 3
+        return base, x.ndim == base + 1
+
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)
         x = frames.payload
-        if r.ndim != 2 or x.ndim != (4 if x.dtype == np.int16 and self.scene_obj.iq else 3) or x.shape[:2] != r.shape:
+        base, rx = self._receivers(x)
+        if r.ndim != 2 or x.ndim != base + rx or (x.shape[0], x.shape[1 + rx]) != r.shape:
             raise ValueError(f"frame seq {frames.seq}: frames {x.dtype} {x.shape} and rho {r.shape} do not describe "
                              "the same cycles and chirps")
         nonfinite = per_cycle(frames).get("nonfinite")   # the ADC's count of NaN/Inf input samples
         if nonfinite is not None and not (isinstance(nonfinite, list) and len(nonfinite) == r.shape[0]
                                           and all(type(v) is int for v in nonfinite)):
             nonfinite = [1] * r.shape[0]                  # malformed: every cycle is judged invalid (fail closed)
-        rms = adc_chirp_rms(x, self.lsb, self.scene_obj.iq, nonfinite)
+        rms = adc_chirp_rms(x, self.lsb, self.scene_obj.iq, nonfinite, receivers=rx)
         # a sequence without exactly half its chirps active was not made by the source: invalid, alarm
         n, balanced = r.shape[0], r.sum(axis=1) == r.shape[1] // 2
         fields = {"q": np.full(n, np.inf), "c": np.full(n, np.inf), "alarm": np.ones(n, bool),
@@ -78,8 +86,9 @@ class RmsDetector(Block):
         if port == "rho":
             return None   # sequences whose frame was lost upstream: counted by the runtime as unpaired
         # frames without their activation sequences cannot be judged: explicit alarms, never clean verdicts
-        n = n_cycles(frame)
-        return frame.derive(np.zeros(frame.payload.shape[:2], dtype=bool), eta=self.eta, reason="no_rho",
+        n, x = n_cycles(frame), frame.payload
+        shape = (x.shape[0], x.shape[2]) if self._receivers(x)[1] else x.shape[:2]
+        return frame.derive(np.zeros(shape, dtype=bool), eta=self.eta, reason="no_rho",
                             per_cycle={"q": [float("inf")] * n, "c": [float("inf")] * n, "alarm": [True] * n,
                                        "invalid": [True] * n, "raised_by": ["no_rho"] * n, "k_max": [-1] * n,
                                        "rbar": [float("nan")] * n})

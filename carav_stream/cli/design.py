@@ -1,8 +1,8 @@
 """`carav design`: the threshold of every detector for a target false-alarm rate per cycle on one scene.
 
     carav design --preset NAME | --scene FILE [--pf 1e-6] [--nr N] [--ns N] [--iq] [--snr-db DB] [--ideal-adc]
-                 [--rarms LIST] [--trials N] [--seed S] [--fidelity beat|waveform] [--benign-trials N] [--json FILE]
-                 [--quiet]
+                 [--receivers N] [--rarms LIST] [--trials N] [--seed S] [--fidelity beat|waveform]
+                 [--benign-trials N] [--json FILE] [--quiet]
 
 Thresholds (closed forms; model and limits: carav_stream/firmware/design.py):
 - C(eta), the RMS detector (D0 on the silent chirps, D1 on the active ones): eta with PF(eta) = pf per cycle, and PF
@@ -17,6 +17,12 @@ and a warning when even the interval's lower end exceeds the target PF (the scen
 the false-alarm rate: at waveform fidelity a strong near echo leaks into the silent slots' first samples).
 The weakest ghost (a false target at 25 m, carav_stream/firmware/blind_zone.py) each detector catches in 9
 cycles of 10 or more, from a grid of RARMS, --ghost-trials cycles each: the scene's blind zone for that attack.
+--receivers N (default the scene's own count, `getattr(scene, "n_rx", 1)`): C judges each chirp's RMS over all N
+receivers, so its law is the one receiver's with N times the samples (carav_stream/detect/receivers.py); the
+`random` misses are one attacker's signal on every receiver (at broadside). The opt-in tests' thresholds stay per
+receiver. With N other than the scene's own count the radar chain cannot render the cycles: the smart attack's are
+then the array paper model's (the scene's beat echo on N receivers, ideal ADC), and the benign cycles, the ghost and
+the leaks are left out (a line says so).
 Two SNRs are printed, each named: the echo's power averaged over a slot (what the detector's law sees, counting
 the samples before the echo arrives) and per sample once it has arrived (what `carav scenes` and `carav sweep`
 print).
@@ -41,6 +47,7 @@ from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
 from carav_stream.firmware.design import QUANTISED_BELOW, pf_per_cycle, pm_random, rms_threshold, scene_law
 from carav_stream.firmware.leak import scene_leaks
+from carav_stream.montecarlo.array_source import ArraySource
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
 from carav_stream.radar.scene import SceneError
@@ -63,6 +70,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--iq", action="store_true", help="complex I/Q samples instead of the scene's I only")
     parser.add_argument("--snr-db", type=float, default=None, help="per-sample echo SNR of the first target, dB")
     parser.add_argument("--ideal-adc", action="store_true", help="no quantisation (adc_bits = 0)")
+    parser.add_argument("--receivers", type=count(1), default=None, metavar="N",
+                        help="receivers whose samples C combines per chirp (default the scene's own, else 1)")
     parser.add_argument("--rarms", type=float_list(0.0), default=[0.5, 1.0, 1.5, 2.0, 3.0, 5.0],
                         help="attack strengths for the miss rates (default 0.5,1,1.5,2,3,5)")
     parser.add_argument("--trials", type=count(1), default=2000, help="Monte Carlo cycles per smart-attack point")
@@ -98,18 +107,26 @@ def _scene(args: argparse.Namespace):
 
 
 def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelity: str = "beat",
-           benign_trials: int = 0, ghost_trials: int = 0, progress: Callable[[int, int], None] | None = None) -> dict:
+           benign_trials: int = 0, ghost_trials: int = 0, progress: Callable[[int, int], None] | None = None,
+           n_rx: int | None = None) -> dict:
     """Every number `carav design` prints, as a dict (JSON-ready); progress(cycles done, cycles in all) as the
-    benign, smart and ghost cycles are simulated."""
+    benign, smart and ghost cycles are simulated; n_rx receivers (default the scene's own)."""
 
     if not 0 < pf < 1:
         raise CommandError(f"--pf: must be in (0, 1), got {pf:g}", Exit.USAGE)
-    law = scene_law(scene)
+    own = getattr(scene, "n_rx", 1)
+    n_rx = own if n_rx is None else n_rx
+    law = scene_law(scene, n_rx)
     eta = rms_threshold(law, pf)
     m = scene.n_chirps // 2
     bins = exact_bins(scene.n_samples, scene.iq)                          # the spectral test's bins per chirp
     spectral = spectral_threshold(pf, m * bins) if bins else None
-    source = RadarSource(scene, fidelity=fidelity)
+    chain = n_rx == own                             # the radar chain renders the scene's own receivers only
+    if chain:
+        source = RadarSource(scene, fidelity=fidelity)
+    else:
+        source = ArraySource(RadarSource(scene).paper_equivalent(), n_rx)
+        benign_trials = ghost_trials = 0
     seeds = np.random.SeedSequence(seed).spawn(len(rarms) + 1)
     tally = Tally(benign_trials + trials * len(rarms) + ghost_trials * len(GHOST_RARMS), progress)
     benign = None
@@ -143,7 +160,8 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
                   "echo_snr_per_sample_db": float(scene.snr_db(0)) if scene.targets else None,
                   "fidelity": fidelity,
                   "adc_bits": scene.adc_bits, "noise_inflation_by_adc": law.sigma_eff / law.sigma_n,
-                  "noise_in_adc_steps": law.steps(), "quantised_law": law.steps() < QUANTISED_BELOW},
+                  "noise_in_adc_steps": law.steps(), "quantised_law": law.steps() < QUANTISED_BELOW,
+                  "n_rx": n_rx, "scene_n_rx": own, "array_paper_model": not chain},
         "pf": pf,
         "rms_detector": {"eta": eta, "pf_at_eta": float(pf_per_cycle(law, eta)),
                          "paper_eta": PAPER_ETA, "pf_at_paper_eta": float(pf_per_cycle(law, PAPER_ETA))},
@@ -151,7 +169,8 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
                                  "threshold_db": None if spectral is None else float(10 * np.log10(spectral))},
         "cusum_silent_power": {"k": 0.5, "h": cusum_threshold(1 / pf, 0.5), "arl0_cycles": 1 / pf},
         "benign": benign, "misses": misses, "smart_trials": trials, "seed": seed,
-        "leaks": [dataclasses.asdict(k) for k in scene_leaks(scene, eta, pf_design=pf)], "ghost": ghost,
+        "leaks": [dataclasses.asdict(k) for k in scene_leaks(scene, eta, pf_design=pf)] if chain else [],
+        "ghost": ghost,
     }
 
 
@@ -163,9 +182,16 @@ def _print(d: dict, stream=None) -> None:
            f"{s['echo_snr_per_sample_db']:+.1f} dB per sample once its echo has arrived)")
     adc = (f"noise {s['noise_in_adc_steps']:.3g} steps: most silent samples quantise to 0, D0's law is the "
            "quantised noise's" if s["quantised_law"] else f"noise x{s['noise_inflation_by_adc']:.6f}")
+    nu = (f"nu = {s['dof']}" if s["n_rx"] == 1 else
+          f"nu = {s['dof']} per receiver, {s['n_rx']} receivers: {s['n_rx'] * s['dof']} per chirp")
     print(f"scene {s['name']}: N_r = {s['n_chirps']}, N_s = {s['n_samples']}, {'I/Q' if s['iq'] else 'I only'} "
-          f"(nu = {s['dof']}), {snr}, {s['adc_bits']}-bit ADC ({adc}); "
+          f"({nu}), {snr}, {s['adc_bits']}-bit ADC ({adc}); "
           f"target PF {d['pf']:g} per cycle", file=stream)
+    if s["array_paper_model"]:
+        print(f"  the scene has {s['scene_n_rx']} receiver{'s' * (s['scene_n_rx'] != 1)}, the radar chain renders "
+              f"no other count: no benign cycles, ghost or leaks; the smart attack's cycles are the array paper "
+              f"model's (the scene's beat echo on {s['n_rx']} receivers, ideal ADC, the attacker at broadside)",
+              file=stream)
     print(f"  C(eta), RMS detector (D0 + D1)   eta = {rd['eta']:.4f}    PF per cycle {rd['pf_at_eta']:.3g} "
           f"(at the paper's eta = {rd['paper_eta']:g}: {rd['pf_at_paper_eta']:.3g})", file=stream)
     sp = d["spectral_silent_test"]
@@ -174,7 +200,8 @@ def _print(d: dict, stream=None) -> None:
               "an exact law (the opt-in tests take N_s >= 3, or --iq)", file=stream)
     else:
         print(f"  spectral silent-chirp test       {sp['threshold']:.2f} x noise power per bin "
-              f"({sp['threshold_db']:.1f} dB) over {sp['bins_tested']} bins", file=stream)
+              f"({sp['threshold_db']:.1f} dB) over {sp['bins_tested']} bins"
+              + (" of each receiver" if s["n_rx"] > 1 else ""), file=stream)
     cu = d["cusum_silent_power"]
     print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
           f"{cu['arl0_cycles']:.3g} cycles", file=stream)
@@ -215,8 +242,9 @@ def _print(d: dict, stream=None) -> None:
               f"cycles each at {s['fidelity']} fidelity; C at eta, the opt-in tests at PF 1e-6): "
               + ", ".join(f"{k} {'none' if v is None else f'{v:g}'}" for k, v in w.items())
               + ("" if len(w) > 1 else " (the opt-in tests are not defined here)"), file=stream)
-    print(f"misses of C per attacked cycle (random: closed form; smart: {d['smart_trials']} cycles per RARMS at "
-          f"{s['fidelity']} fidelity, seed {d['seed']}, 95 % interval)", file=stream)
+    where = "in the array paper model" if s["array_paper_model"] else f"at {s['fidelity']} fidelity"
+    print(f"misses of C per attacked cycle (random: closed form; smart: {d['smart_trials']} cycles per RARMS "
+          f"{where}, seed {d['seed']}, 95 % interval)", file=stream)
     print(f"  {'RARMS':>6}  {'random @ eta':>12}  {'smart @ eta':>22}  {'random @ 1.5':>12}  {'smart @ 1.5':>22}",
           file=stream)
     for row in d["misses"]:
@@ -232,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(f"--pf: must be in (0, 1), got {args.pf:g}", Exit.USAGE)
     bar = ProgressBar("design") if ProgressBar.wanted(args.quiet) else None
     result = design(_scene(args), args.pf, args.rarms, args.trials, args.seed, args.fidelity, args.benign_trials,
-                    args.ghost_trials, progress=bar)
+                    args.ghost_trials, progress=bar, n_rx=args.receivers)
     _print(result)
     if args.json:
         jsonout.write(args.json, result, indent=1)

@@ -1,11 +1,14 @@
 """`carav sweep`: Monte Carlo PF(eta) and PM(eta) curves of the CARAV detector, thresholds, JSON and a plot.
 
-    carav sweep [--preset NAME | --scene FILE] [--nr N --ns N --iq] --attack KIND[,KIND] --rarms LIST
-                --trials N --eta START:STOP:STEP [--seed S] [--json FILE] [--plot FILE.png]
+    carav sweep [--preset NAME | --scene FILE] [--nr N --ns N --iq] [--receivers N] --attack KIND[,KIND]
+                --rarms LIST --trials N --eta START:STOP:STEP [--seed S] [--json FILE] [--plot FILE.png]
 
 The scene comes from the radar signal chain (`carav_stream.radar`, every attacker model); `--model paper` uses the
 paper's own model instead (attacks none, random, smart). `--method auto` draws per-chirp energies from their exact
-laws where the scene allows it and simulates every sample otherwise.
+laws where the scene allows it and simulates every sample otherwise. `--receivers N` (default the scene's own count,
+else 1): C on each chirp's RMS over N receivers; the paper model takes any N (independent noise per receiver, one
+attacker's signal on all of them at broadside, every sample simulated: carav_stream/montecarlo/array_source.py), the
+radar model the scene's own.
 """
 from __future__ import annotations
 
@@ -45,6 +48,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="per-sample echo SNR of the first target, dB (default: the scene's own, e.g. +2.2 dB "
                              "for table1 from MATLAB's radar equation; the paper's runs: 0)")
     parser.add_argument("--ideal-adc", action="store_true", help="no quantisation (adc_bits = 0)")
+    parser.add_argument("--receivers", type=count(1), default=None, metavar="N",
+                        help="receivers whose samples C combines per chirp (default the scene's own, else 1; the "
+                             "paper model takes any N, the radar model the scene's own)")
     parser.add_argument("--fidelity", choices=FIDELITIES, default="auto",
                         help="signal model of the radar chain: beat (fast, analytic beat tones), waveform (the "
                              "IF filter and each slot's start as the receiver sees them, sample by sample), auto "
@@ -108,7 +114,7 @@ def sweep_spec(args: argparse.Namespace) -> dict:
         raise CommandError("--fidelity is the radar chain's signal model; --model paper has none")
     return {"model": args.model, "preset": args.preset, "scene": args.scene, "nr": args.nr, "ns": args.ns,
             "iq": args.iq, "snr_db": args.snr_db, "ideal_adc": args.ideal_adc, "activation": args.activation,
-            "fidelity": args.fidelity, "attack_params": params}
+            "fidelity": args.fidelity, "attack_params": params, "receivers": args.receivers}
 
 
 def design_hint(args: argparse.Namespace) -> str:
@@ -117,8 +123,8 @@ def design_hint(args: argparse.Namespace) -> str:
     paper = args.model == "paper"
     snr_db = args.snr_db if args.snr_db is not None or not paper else 0.0
     hint = "carav design " + (f"--scene {args.scene}" if args.scene else f"--preset {args.preset or 'table1'}")
-    hint += "".join(f" --{k} {v:g}" for k, v in (("nr", args.nr), ("ns", args.ns), ("snr-db", snr_db))
-                    if v is not None)
+    hint += "".join(f" --{k} {v:g}" for k, v in (("nr", args.nr), ("ns", args.ns), ("snr-db", snr_db),
+                                                  ("receivers", args.receivers)) if v is not None)
     return hint + (" --iq" if args.iq else "") + (" --ideal-adc" if args.ideal_adc or paper else "")
 
 
@@ -143,6 +149,8 @@ def _print_table(result: dict, stream=None) -> None:
     fidelity = {"auto": "beat fidelity, waveform for an attacker that transmits its own"}.get(
         scene.get("fidelity"), f"{scene.get('fidelity')} fidelity")
     model = scene["model"] + (f", {fidelity}" if scene.get("fidelity") else "")
+    if scene.get("n_rx", 1) > 1:
+        model += f", {scene['n_rx']} receivers"
     print(f"scene {scene['name']} ({model}){snr}, {what}, {result['trials']} cycles per curve, "
           f"PF from {result['pf_method']}", file=stream)
     at = f"@{ref:g}"
@@ -215,7 +223,8 @@ def run(args: argparse.Namespace) -> int:
         raise CommandError(str(exc), Exit.INVALID) from None
 
     hint = design_hint(args)
-    warning = threshold_warning(scene_law(source.scene), PAPER_ETA, source.sigma_n, who="the paper's", design_hint=hint)
+    warning = threshold_warning(scene_law(source.scene, getattr(source, "n_rx", 1)), PAPER_ETA, source.sigma_n,
+                                who="the paper's", design_hint=hint)
     if warning:
         print(f"carav sweep: warning: {warning}", file=sys.stderr)
     t0 = time.perf_counter()

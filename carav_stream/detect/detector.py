@@ -1,4 +1,5 @@
-"""CARAV cyberattack detector of Section V.A of the paper, as pure vectorised kernels.
+"""CARAV cyberattack detector of Section V.A of the paper, as pure vectorised kernels (one module past 400 lines:
+the kernels share the conventions stated here).
 
 For one measurement cycle with received chirps R_k (k = 0..N_r-1, N_s samples each) and a balanced activation
 sequence rho (exactly N_r/2 ones):
@@ -11,6 +12,10 @@ sequence rho (exactly N_r/2 ones):
     Q         = max_k D(k),   C(eta) = Q / eta,   alarm  <=>  C(eta) >= 1
 
 The detector sees a cycle only through its per-chirp RMS, so `detect` is `chirp_rms` followed by `detect_from_rms`.
+
+A receiver array (`receivers=True`: frames (n_cycles, n_rx, n_chirps, n_samples)) gives one RMS per chirp over all
+its receivers' samples, ||R_k||_r = sqrt(mean over (r, m) of |R_{k,r}[m]|^2): the RMS of the receivers' samples of
+chirp k laid side by side, with every convention below unchanged (its law: carav_stream/detect/receivers.py).
 
 A blind side of D1: an active chirp weaker than the mean gives D1 = (Rbar - ||R_k||_r) / (Rbar + sigma_n)
 <= Rbar / (Rbar + sigma_n) < 1, so for eta >= 1 only an active chirp *above* the mean can raise an alarm. An attack
@@ -114,14 +119,30 @@ def _sum_squares(xr: np.ndarray) -> np.ndarray:
     return out.reshape(lead)
 
 
-def chirp_rms(frames) -> np.ndarray:
+def _side_by_side(x: np.ndarray, trailing: int = 1) -> np.ndarray:
+    """(..., n_rx, n_chirps, n_samples[, 2]) -> (..., n_chirps, n_rx * n_samples[, 2]): each chirp's samples of
+    every receiver in a row, receiver 0 first (a copy, unless n_rx = 1): one chirp, one sum, so the overflow and
+    NaN conventions hold for the array's RMS as they do for one receiver's. `trailing`: axes after the chirps'."""
+    if x.ndim < 2 + trailing:
+        raise ValueError(f"frames: receivers=True needs a receiver axis before the chirps', shape (..., n_rx, "
+                         f"n_chirps, n_samples{', 2' if trailing == 2 else ''}), got {x.shape}")
+    ax = x.ndim - 2 - trailing                          # the receiver axis
+    y = np.moveaxis(x, ax, ax + 1)                      # (..., n_chirps, n_rx, n_samples[, 2])
+    return y.reshape(*y.shape[:ax + 1], y.shape[ax + 1] * y.shape[ax + 2], *y.shape[ax + 3:])
+
+
+def chirp_rms(frames, *, receivers: bool = False) -> np.ndarray:
     """RMS of every chirp, sqrt(mean |s|^2) over the last (samples) axis, free of overflow and underflow.
 
     frames  float32 | float64 (I only) or complex64 | complex128 (I/Q), shape (..., n_samples)
     returns float64, shape (...); NaN where the chirp holds a NaN or Inf sample; 0 for an all-zero chirp.
     For I/Q, |s|^2 = I^2 + Q^2 and the mean is over the n_samples complex samples.
+    receivers  frames (..., n_rx, n_chirps, n_samples): one RMS per chirp over all its receivers' samples, shape
+               (..., n_chirps); NaN when any receiver's sample is NaN or Inf
     """
     x = _check_frames(frames)
+    if receivers:
+        x = _side_by_side(x)
     n_samples = x.shape[-1]
     if np.iscomplexobj(x):
         x = np.ascontiguousarray(x)
@@ -144,17 +165,21 @@ def chirp_rms(frames) -> np.ndarray:
     return rms if rms.ndim else rms[()]
 
 
-def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
+def chirp_rms_codes(codes, lsb: float, iq: bool = False, *, receivers: bool = False) -> np.ndarray:
     """RMS of every chirp, lsb * sqrt(mean code^2), from an ADC's integer codes: the sums are exact.
 
     codes  integer (..., n_samples) for I only, or (..., n_samples, 2) with I and Q for iq=True; every
            |code| <= 2^15 (any ADC up to 16 bits): squares summed in float64 are exact up to 2^23 samples
     lsb    the ADC's step in the unit of the result
     returns float64, shape (...) = the chirps; for I/Q, |s|^2 = I^2 + Q^2 averaged over the n_samples.
+    receivers  codes (..., n_rx, n_chirps, n_samples[, 2]): one RMS per chirp over all its receivers' codes
+               (exact up to 2^23 codes per chirp in all), shape (..., n_chirps)
     """
     c = np.asarray(codes)
     if not np.issubdtype(c.dtype, np.integer):
         raise TypeError(f"codes: expected an integer dtype, got {c.dtype}")
+    if receivers:
+        c = _side_by_side(c, 2 if iq else 1)
     lead = c.shape[:-2] if iq else c.shape[:-1]
     if iq and c.shape[-1:] != (2,):
         raise ValueError(f"codes: I/Q codes need a last axis of 2 (I, Q), got shape {c.shape}")
@@ -200,18 +225,19 @@ def chirp_rms_codes(codes, lsb: float, iq: bool = False) -> np.ndarray:
     return float(lsb) * np.sqrt(sumsq / max(n_samples, 1)).reshape(lead)
 
 
-def adc_chirp_rms(codes, lsb: float | None, iq: bool, nonfinite=None) -> np.ndarray:
+def adc_chirp_rms(codes, lsb: float | None, iq: bool, nonfinite=None, *, receivers: bool = False) -> np.ndarray:
     """RMS of every chirp (n_cycles, n_chirps) from what an ADC delivered: exact sums over int16 codes times the
     ADC step `lsb` (the receiver's, carav_stream.radar.adc.adc_step), or `chirp_rms` of an ideal ADC's float
     samples (lsb None; NaN for a chirp with a NaN/Inf sample). `nonfinite` (one count per cycle of NaN/Inf samples
-    the ADC met): the cycles with a count above 0 get NaN rows, so the detector judges them invalid."""
+    the ADC met): the cycles with a count above 0 get NaN rows, so the detector judges them invalid.
+    `receivers`: a receiver axis before the chirps' (n_cycles, n_rx, n_chirps, ...), combined per chirp."""
     c = np.asarray(codes)
     if c.dtype != np.int16:
-        rms = chirp_rms(c)
+        rms = chirp_rms(c, receivers=receivers)
     elif lsb is None:
         raise ValueError("codes: int16 ADC codes need the ADC step lsb")
     else:
-        rms = chirp_rms_codes(c, lsb, iq)
+        rms = chirp_rms_codes(c, lsb, iq, receivers=receivers)
     if nonfinite is not None:
         rms[np.asarray(nonfinite) > 0] = np.nan
     return rms
@@ -320,24 +346,28 @@ def detect_from_rms(rms, rho, sigma_n, eta: float = PAPER_ETA) -> Detection:
     return Detection(r2, d0, d1, d, rbar, q, c, alarm, invalid, k_max, by_d1, e)
 
 
-def detect(frames, rho, sigma_n, eta: float = PAPER_ETA) -> Detection:
+def detect(frames, rho, sigma_n, eta: float = PAPER_ETA, *, receivers: bool = False) -> Detection:
     """CARAV detector C(eta) on raw ADC frames (Algorithm 1, steps 3-5).
 
-    frames   float32 | float64 | complex64 | complex128, (n_chirps, n_samples) for one cycle or
-             (n_cycles, n_chirps, n_samples) for a batch
-    rho      (n_chirps,) or (n_cycles, n_chirps) balanced activation sequence(s)
-    sigma_n  noise RMS per sample, same unit as the samples (scalar or (n_cycles,))
-    eta      threshold > 0
+    frames     float32 | float64 | complex64 | complex128, (n_chirps, n_samples) for one cycle or
+               (n_cycles, n_chirps, n_samples) for a batch; with receivers=True a receiver axis before the chirps':
+               (n_rx, n_chirps, n_samples) or (n_cycles, n_rx, n_chirps, n_samples), judged on the RMS of each
+               chirp over all its receivers' samples
+    rho        (n_chirps,) or (n_cycles, n_chirps) balanced activation sequence(s)
+    sigma_n    noise RMS per sample (of every receiver), same unit as the samples (scalar or (n_cycles,))
+    eta        threshold > 0
     """
     x = _check_frames(frames)
-    if x.ndim not in (2, 3):
-        raise ValueError(f"frames: expected shape (n_chirps, n_samples) or (n_cycles, n_chirps, n_samples), "
+    lead = 1 if receivers else 0
+    if x.ndim not in (2 + lead, 3 + lead):
+        rx = "n_rx, " if receivers else ""
+        raise ValueError(f"frames: expected shape ({rx}n_chirps, n_samples) or (n_cycles, {rx}n_chirps, n_samples), "
                          f"got {x.shape}")
     rho_arr = np.asarray(rho)
-    if x.ndim == 2 and rho_arr.ndim == 2:
+    if x.ndim == 2 + lead and rho_arr.ndim == 2:
         raise ValueError(f"rho: got shape {rho_arr.shape} (a batch) for a single cycle of shape {x.shape}")
-    check_rho(rho_arr, x.shape[-2], x.shape[0] if x.ndim == 3 else None)
-    return detect_from_rms(chirp_rms(x), rho_arr, sigma_n, eta)
+    check_rho(rho_arr, x.shape[-2], x.shape[0] if x.ndim == 3 + lead else None)
+    return detect_from_rms(chirp_rms(x, receivers=receivers), rho_arr, sigma_n, eta)
 
 
 def estimate_sigma_n(calibration_frames, rho, *, confidence: float | None = None):

@@ -19,6 +19,13 @@ D1 part (APPROXIMATE, numerical integration): with S the mean RMS of the other M
   With M = 1 (N_r = 2) the one active chirp is its own mean: D1 = 0 on every cycle, so the D1 part is quiet for
   every eta > 0 and alarms for eta <= 0 (as Q >= eta always does), EXACTLY; Q is then D0 of the one silent chirp.
 PF(eta) = 1 - P(Q < eta) with t = 1; PM(eta) = P(Q < eta) under the attack.
+
+A receiver array (n_rx receivers, the detector on each chirp's RMS over all of them, independent noise per
+receiver, unit-modulus steering of the echo): the same laws with nu -> n_rx nu (`carav_stream.detect.receivers`
+gives the argument). One attacker's signal on every receiver is not independent across them: with its steering's
+gains (`receivers.steering_gains`) D0's part is that of a generalised chi-square, exactly (`receivers.
+silent_log_cdf`); D1's part keeps the independent law's approximation there (it only counts where eta is so low
+that D0's part already alarms on every attacked cycle: an attack adds about the same power to every chirp).
 """
 from __future__ import annotations
 
@@ -28,6 +35,7 @@ import numpy as np
 from scipy import integrate, special, stats
 
 from carav_stream.detect.detector import detect_from_rms
+from carav_stream.detect.receivers import silent_log_cdf
 
 __all__ = ["clopper_pearson", "pf_pm_closed_form", "rms_moments", "cfar_eta_closed_form",
            "pf_importance_sampling"]
@@ -102,41 +110,54 @@ def _half(n_chirps: int) -> int:
     return n_chirps // 2
 
 
-def pf_pm_closed_form(eta, *, n_chirps: int, dof: int, snr: float = 1.0, rarms: float = 0.0) -> dict:
+def pf_pm_closed_form(eta, *, n_chirps: int, dof: int, snr: float = 1.0, rarms: float = 0.0, n_rx: int = 1,
+                      attack_gains=None) -> dict:
     """P(alarm) (PF when rarms = 0) and P(no alarm) (PM when rarms > 0, `random` attack) over an eta grid.
 
     eta       thresholds, any shape
-    n_chirps  N_r;  dof  nu (N_s I-only, 2 N_s I/Q);  snr  echo power / noise power;  rarms  sigma_a / sigma_n
+    n_chirps  N_r;  dof  nu (N_s I-only, 2 N_s I/Q) per receiver;  snr  echo power / noise power;
+    rarms     sigma_a / sigma_n;  n_rx  receivers, the detector on each chirp's RMS over all of them
+    attack_gains  None: the attack independent on every receiver (as the noise: nu -> n_rx nu); or the gains of one
+              attacker's steering (`receivers.steering_gains`), the law of D0's part then a generalised chi-square
     returns   dict of float64 arrays like eta:
               quiet_d0 (exact), quiet_d1 (approximate), p_alarm = 1 - quiet_d0 * quiet_d1,
               p_alarm_d0 = 1 - quiet_d0 (exact), p_quiet = quiet_d0 * quiet_d1;
-              computed through logs so that probabilities down to 1e-300 are resolved.
+              computed through logs so that probabilities down to 1e-300 are resolved (1e-12 absolute on Imhof's
+              path, for steering gains other than ones under an attack).
     """
     eta = np.asarray(eta, dtype=np.float64)
     m = _half(n_chirps)
+    n_rx = _receivers(n_rx)
+    nu = dof * n_rx
     t = 1.0 + rarms ** 2
     # log F^M with F = cdf; 1 - F^M = -expm1(M log F) keeps tiny PF accurate (log F = log1p(-sf))
-    sf0 = stats.chi2.sf(dof * eta ** 2 / t, dof)
-    with np.errstate(divide="ignore"):
-        log_cdf0 = np.where(sf0 < 0.5, np.log1p(-np.minimum(sf0, 0.5)), stats.chi2.logcdf(dof * eta ** 2 / t, dof))
+    log_cdf0 = silent_log_cdf(nu * eta ** 2, dof=dof, n_rx=n_rx, rarms=rarms, gains=attack_gains)
     quiet_d0 = np.exp(m * log_cdf0)
-    quiet_d1 = _d1_quiet(eta, dof, m, snr, t)
+    quiet_d1 = _d1_quiet(eta, nu, m, snr, t)
     p_alarm_d0 = np.maximum(-np.expm1(m * log_cdf0), 0.0)
     log_quiet = m * log_cdf0 + np.log(np.maximum(quiet_d1, 1e-300))
     return {"quiet_d0": quiet_d0, "quiet_d1": quiet_d1, "p_quiet": np.exp(log_quiet),
             "p_alarm": np.maximum(-np.expm1(log_quiet), 0.0), "p_alarm_d0": p_alarm_d0}
 
 
-def cfar_eta_closed_form(target_pf: float, *, n_chirps: int, dof: int) -> float:
-    """Threshold eta with PF = target_pf for the D0 part, exactly:  F_chi2(nu)(nu eta^2)^M = 1 - target_pf.
+def _receivers(n_rx) -> int:
+    if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
+        raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
+    return int(n_rx)
+
+
+def cfar_eta_closed_form(target_pf: float, *, n_chirps: int, dof: int, n_rx: int = 1) -> float:
+    """Threshold eta with PF = target_pf for the D0 part, exactly:  F_chi2(nu)(nu eta^2)^M = 1 - target_pf, with
+    nu = n_rx dof for n_rx receivers.
 
     The D1 part of PF is negligible at such thresholds (check it with `pf_pm_closed_form`).
     """
     if not 0 < target_pf < 1:
         raise ValueError(f"target_pf: must be in (0, 1), got {target_pf!r}")
     m = _half(n_chirps)
+    nu = dof * _receivers(n_rx)
     per_chirp_sf = -np.expm1(np.log1p(-target_pf) / m)
-    return float(np.sqrt(stats.chi2.isf(per_chirp_sf, dof) / dof))
+    return float(np.sqrt(stats.chi2.isf(per_chirp_sf, nu) / nu))
 
 
 def pf_importance_sampling(eta, *, n_chirps: int, dof: int, snr: float, n_trials: int,

@@ -6,8 +6,8 @@ reproduction       `carav reproduce`: the paper's figures and claims beside ours
 beyond_paper       the tables beyond the paper that `carav reproduce` adds (every attacker, nuisances, ghosts, ...)
 doc_outputs        command outputs quoted in the documents, regenerated and checked (`carav reproduce --check`)
 secondary_antenna  `carav experiment secondary-antenna`: the paper's Figures 6-8
-matlab_table1, interference, cfar_experiment, clutter, latency, near_echoes, blind_zones, fidelities, tracks
-                   the other `carav experiment` studies
+matlab_table1, interference, cfar_experiment, clutter, latency, near_echoes, blind_zones, fidelities, tracks,
+receivers          the other `carav experiment` studies
 reporting          small helpers shared by the above, and the settings of a reproduction
 errors             ExperimentError: a setting refused, or a quoted command that failed
 """

@@ -19,6 +19,11 @@ keeps the uniform model (the echo, many steps high, dithers its quantisation). B
 steps of the chirp's energy in codes: a threshold is where PF jumps past the target.
 ADC clipping and fluctuating targets are not in the law: see the nuisance table of docs/REPRODUCTION.md for what
 they do.
+A receiver array (`getattr(scene, "n_rx", 1)` receivers, or the n_rx given to `scene_law`): the detector judges each
+chirp's RMS over all its receivers' samples, whose law is the one receiver's with N_s -> n_rx N_s (independent
+noise per receiver, the echo steered with unit modulus: carav_stream/detect/receivers.py), so PF and the threshold
+are those of n_rx times the samples. The `random` attack of `pm_random` is one attacker's signal on every receiver,
+steered with unit modulus: its law is the one receiver's only for n_rx = 1 (`SceneLaw.attack_gains`).
 """
 from __future__ import annotations
 
@@ -48,6 +53,7 @@ class SceneLaw:
     sigma_n   the scene's analogue noise RMS per sample (what the detector is calibrated with by default)
     sigma_eff noise RMS at the ADC output: sqrt(sigma_n^2 + lsb^2 / 12) (= sigma_n for an ideal ADC)
     lsb       the ADC's step (0: an ideal ADC);  iq  I/Q samples (nu = 2 N_s components of sigma_n / sqrt(2))
+    n_rx      receivers, the detector on each chirp's RMS over all of them (nu per receiver, n_rx nu in all)
     """
 
     name: str
@@ -58,6 +64,14 @@ class SceneLaw:
     sigma_eff: float
     lsb: float = 0.0
     iq: bool = False
+    n_rx: int = 1
+
+    @property
+    def attack_gains(self) -> tuple[float, ...] | None:
+        """The steering gains of the `random` attack's law (carav_stream/detect/receivers.py): None for one receiver;
+        one attacker on n_rx receivers at broadside otherwise, (n_rx,): the law of I/Q at every angle, and of I-only
+        where the receivers' phases agree modulo pi."""
+        return None if self.n_rx == 1 else (float(self.n_rx),)
 
     def steps(self, rarms: float = 0.0) -> float:
         """sigma_c / lsb: a silent component's noise (under the `random` attack of RARMS) in ADC steps (inf: ideal)."""
@@ -66,16 +80,21 @@ class SceneLaw:
         return self.sigma_n * math.sqrt((1.0 + rarms ** 2) / (2.0 if self.iq else 1.0)) / self.lsb
 
 
-def scene_law(scene) -> SceneLaw:
-    """The law of a radar Scene (beat-fidelity echo, its ADC) or of a paper-model PaperScene (no ADC)."""
+def scene_law(scene, n_rx: int | None = None) -> SceneLaw:
+    """The law of a radar Scene (beat-fidelity echo, its ADC) or of a paper-model PaperScene (no ADC), for n_rx
+    receivers (default the scene's own: `getattr(scene, "n_rx", 1)`)."""
 
+    n_rx = getattr(scene, "n_rx", 1) if n_rx is None else n_rx
+    if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
+        raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
     if isinstance(scene, PaperScene):
-        return SceneLaw(scene.name, scene.n_chirps, scene.dof, scene.echo_snr, scene.sigma_n, scene.sigma_n)
+        return SceneLaw(scene.name, scene.n_chirps, scene.dof, scene.echo_snr, scene.sigma_n, scene.sigma_n,
+                        n_rx=int(n_rx))
     pm = RadarSource(scene).paper_equivalent()      # the echo template and nu, as the closed form sees them
     sigma_eff = output_noise_rms(scene)
     snr = pm.echo_snr * (scene.sigma_n / sigma_eff) ** 2
     return SceneLaw(scene.name, scene.n_chirps, pm.dof, float(snr), float(scene.sigma_n), sigma_eff,
-                    float(adc_step(scene) or 0.0), bool(scene.iq))
+                    float(adc_step(scene) or 0.0), bool(scene.iq), int(n_rx))
 
 
 def _gauss(law: SceneLaw, eta, sigma_det: float | None, rarms: float = 0.0) -> dict:
@@ -84,14 +103,15 @@ def _gauss(law: SceneLaw, eta, sigma_det: float | None, rarms: float = 0.0) -> d
     eta = np.asarray(eta, dtype=np.float64)
     scale = (sigma_det or law.sigma_n) / law.sigma_eff
     out = pf_pm_closed_form(eta * scale, n_chirps=law.n_chirps, dof=law.dof, snr=law.snr,
-                            rarms=rarms * law.sigma_n / law.sigma_eff)
+                            rarms=rarms * law.sigma_n / law.sigma_eff, n_rx=law.n_rx, attack_gains=law.attack_gains)
     r = law.steps(rarms)
     if r >= QUANTISED_BELOW:
         return out
-    # D0 >= eta  <=>  the chirp's energy in codes S >= s* = N_s eta^2 sigma_det^2 / lsb^2
-    n_s = law.dof // 2 if law.iq else law.dof
-    log_sf = np.minimum(quantised_energy_logsf(n_s * (eta * (sigma_det or law.sigma_n) / law.lsb) ** 2, law.dof, r),
-                        0.0)
+    # D0 >= eta  <=>  the chirp's energy in codes S >= s* = N_s eta^2 sigma_det^2 / lsb^2, over every receiver's
+    # N_s samples (the quantised law takes the components as independent: exact without an attack)
+    n_s = law.n_rx * (law.dof // 2 if law.iq else law.dof)
+    log_sf = np.minimum(quantised_energy_logsf(n_s * (eta * (sigma_det or law.sigma_n) / law.lsb) ** 2,
+                                               law.n_rx * law.dof, r), 0.0)
     with np.errstate(divide="ignore"):
         log_cdf = np.where(log_sf < -0.7, np.log1p(-np.exp(log_sf)), np.log(-np.expm1(np.minimum(log_sf, -1e-300))))
         m = law.n_chirps // 2
@@ -135,6 +155,7 @@ def threshold_warning(law: SceneLaw, eta: float, sigma_det: float | None = None,
     pf = float(pf_per_cycle(law, eta, sigma_det))
     if pf <= PF_WARN:
         return None
+    nu = f"nu = {law.dof}" if law.n_rx == 1 else f"nu = {law.dof} per receiver, {law.n_rx} receivers"
     return (f"{who} eta = {eta:g} raises false alarms on {pf:.2g} of attack-free cycles of scene {law.name} "
-            f"(N_r = {law.n_chirps}, nu = {law.dof}; above {PF_WARN:g}); `{design_hint}` gives "
+            f"(N_r = {law.n_chirps}, {nu}; above {PF_WARN:g}); `{design_hint}` gives "
             f"eta = {rms_threshold(law, PF_WARN, sigma_det):.4g} for {PF_WARN:g}")

@@ -230,7 +230,7 @@ def scene_leaks(scene: Scene, eta: float | None = None, *, pf_design: float = PF
         lam = float(lams[fidelity].max())
         fraction = lam / noncentrality(law, scene, amp ** 2 * full_slot) if lam > 0 else 0.0
         if coarse:              # no sample of a tail exceeds the square root of its energy
-            peak = math.sqrt(lam * law.sigma_eff ** 2 * scene.n_samples / law.dof) / law.lsb
+            peak = math.sqrt(lam * law.sigma_eff ** 2 * scene.n_samples / (law.n_rx * law.dof)) / law.lsb
             leaks.append(Leak(i, target.range_m, target.rcs_m2, fidelity, float(fraction), lam, eta, math.nan,
                               pf_free, judge.limit, math.nan, None, False, peak))
             continue

@@ -65,19 +65,21 @@ def slot_energies(scene: Scene, tau0_s: float, alpha: float, fidelity: str, ampl
 
 
 def noncentrality(law, scene: Scene, energies) -> np.ndarray:
-    """lambda_k = (nu / N_s) E_k / sigma_eff^2 for the tail energies E_k (any shape)."""
-    return (law.dof / scene.n_samples) * np.asarray(energies, dtype=np.float64) / law.sigma_eff ** 2
+    """lambda_k = n_rx (nu / N_s) E_k / sigma_eff^2 for the tail energies E_k of one receiver (any shape): the tail
+    reaches each of the law's n_rx receivers with the same energy (unit-modulus steering)."""
+    return law.n_rx * (law.dof / scene.n_samples) * np.asarray(energies, dtype=np.float64) / law.sigma_eff ** 2
 
 
 def slot_deficits(law, eta: float, lam, sigma_det: float | None = None) -> np.ndarray:
     """q_k = 1 - F_lambda_k(x) / F_0(x): how much less likely a silent slot with noncentrality lambda_k stays quiet
     at eta than a slot of noise alone (any shape; 0 where lambda = 0)."""
-    x = law.dof * (eta * (sigma_det or law.sigma_n) / law.sigma_eff) ** 2
+    nu = law.n_rx * law.dof                                  # every receiver's components of the chirp
+    x = nu * (eta * (sigma_det or law.sigma_n) / law.sigma_eff) ** 2
     lam = np.asarray(lam, dtype=np.float64)
-    sf0 = stats.chi2.sf(x, law.dof)
+    sf0 = stats.chi2.sf(x, nu)
     if sf0 >= 1.0:
         return np.zeros_like(lam)
-    sf = np.where(lam > 0, stats.ncx2.sf(x, law.dof, np.maximum(lam, 1e-300)), sf0)
+    sf = np.where(lam > 0, stats.ncx2.sf(x, nu, np.maximum(lam, 1e-300)), sf0)
     return np.clip((sf - sf0) / (1.0 - sf0), 0.0, 1.0)
 
 

@@ -6,6 +6,7 @@ A *cycle source* draws cycles of a scene under an attack and returns their per-c
     source.draw_q(n_cycles, attack, rarms, rng, method) -> (q float64 (n_cycles,), by_d1 bool (n_cycles,))
     source.energy_exact(attack) -> bool       an exact sufficient-statistic path exists for this attack
     source.closed_form(attack) -> dict|None   parameters for stats.pf_pm_closed_form, or None
+    source.n_rx (optional, default 1)         receivers: the detector on each chirp's RMS over all of them
 
 method "samples" simulates every sample, "energy" draws the per-chirp energies from their exact laws, "auto" takes
 "energy" where it is exact and falls back to "samples" otherwise. Q does not depend on eta, so one draw of Q per
@@ -132,7 +133,7 @@ def batch_plan(source: CycleSource, attack: str, n_trials: int, *, method: str =
     else:
         used = resolve_method(source, attack, method)
     per = (ENERGY_CYCLES_PER_BATCH if used == "energy"
-           else max(1, SAMPLES_PER_BATCH // (source.n_chirps * source.n_samples)))
+           else max(1, SAMPLES_PER_BATCH // (source.n_chirps * source.n_samples * getattr(source, "n_rx", 1))))
     return used, [min(per, n_trials - i) for i in range(0, n_trials, per)]
 
 
@@ -293,6 +294,7 @@ def assemble(source: CycleSource, draws: dict, *, pairs, n_trials: int, eta, see
         result["closed_form"] = {
             "pf": _as_lists(pf_cf["p_alarm"]), "pf_d0_exact": _as_lists(pf_cf["p_alarm_d0"]),
             "pf_at_eta_1_5": float(pf_pm_closed_form(PAPER_ETA, **cf)["p_alarm"]),
-            "cfar_eta_pf_1e-6": cfar_eta_closed_form(1e-6, n_chirps=cf["n_chirps"], dof=cf["dof"]),
+            "cfar_eta_pf_1e-6": cfar_eta_closed_form(1e-6, n_chirps=cf["n_chirps"], dof=cf["dof"],
+                                                     n_rx=cf.get("n_rx", 1)),
             "note": "Gaussian noise; D0 part exact, D1 part approximate"}
     return result

@@ -36,7 +36,7 @@ from carav_stream.montecarlo.samplers import balanced_mask, chi2_and_normal
 from carav_stream.radar.scene_loader import load_scene
 
 __all__ = ["PaperScene", "paper_scene", "simulate_frames", "sample_rms", "sample_q_fast", "sample_q_smart",
-           "exchangeable", "ATTACKS"]
+           "exchangeable", "check_attack", "gaussian", "ATTACKS"]
 
 ATTACKS = ("none", "random", "smart")
 
@@ -120,14 +120,17 @@ def paper_scene(preset: str = "table1", *, n_chirps: int | None = None, n_sample
     return PaperScene(preset, n_r, n_s, bool(iq), float(sigma_n), echo)
 
 
-def _check_attack(attack: str, rarms: float) -> None:
+def check_attack(attack: str, rarms: float) -> None:
+    """ValueError naming the attack or RARMS unless the paper model has that attack and RARMS is finite and >= 0."""
     if attack not in ATTACKS:
         raise ValueError(f"attack: unknown {attack!r} for the paper model, expected one of {ATTACKS}")
     if not (np.isfinite(rarms) and rarms >= 0):
         raise ValueError(f"rarms: must be finite and >= 0, got {rarms!r}")
 
 
-def _gauss(rng: np.random.Generator, shape, rms: float, iq: bool, dtype) -> np.ndarray:
+def gaussian(rng: np.random.Generator, shape, rms: float, iq: bool, dtype) -> np.ndarray:
+    """White Gaussian samples of RMS rms per sample, shape `shape`: real of dtype, or complex of dtype with rms^2 / 2
+    per component (drawn as interleaved real pairs)."""
     if iq:
         z = rng.standard_normal((*shape, 2), dtype=np.float32 if dtype == np.complex64 else np.float64)
         z *= rms / np.sqrt(2.0)
@@ -144,18 +147,18 @@ def simulate_frames(scene: PaperScene, rho: np.ndarray, rng: np.random.Generator
     rho      bool (n_cycles, n_chirps), balanced
     returns  (n_cycles, n_chirps, n_samples) float32 (I-only) or complex64 (I/Q) unless dtype says otherwise
     """
-    _check_attack(attack, rarms)
+    check_attack(attack, rarms)
     rho = np.asarray(rho, dtype=bool)
     n_cycles = rho.shape[0]
     dtype = np.dtype(dtype or (np.complex64 if scene.iq else np.float32))
     shape = (n_cycles, scene.n_chirps, scene.n_samples)
-    frames = _gauss(rng, shape, scene.sigma_n, scene.iq, dtype)
+    frames = gaussian(rng, shape, scene.sigma_n, scene.iq, dtype)
     np.add(frames, scene.echo.astype(dtype)[None], out=frames, where=rho[..., None])
     sigma_a = rarms * scene.sigma_n
     if attack == "random" and sigma_a > 0:
-        frames += _gauss(rng, shape, sigma_a, scene.iq, dtype)
+        frames += gaussian(rng, shape, sigma_a, scene.iq, dtype)
     elif attack == "smart" and sigma_a > 0:
-        frames += _gauss(rng, (n_cycles, 1, scene.n_samples), sigma_a, scene.iq, dtype)
+        frames += gaussian(rng, (n_cycles, 1, scene.n_samples), sigma_a, scene.iq, dtype)
     return frames
 
 
@@ -193,7 +196,7 @@ def sample_rms(scene: PaperScene, rho: np.ndarray, rng: np.random.Generator, att
     into the returned array; every other step works on the chunk in place, which costs less than whole-array
     temporaries (the draws themselves are most of the time).
     """
-    _check_attack(attack, rarms)
+    check_attack(attack, rarms)
     rho = np.asarray(rho, dtype=bool)
     n_cycles, n_r = rho.shape
     nu = scene.dof
@@ -283,7 +286,7 @@ def sample_q_fast(scene: PaperScene, n_cycles: int, rng: np.random.Generator, at
     chi2(nu - 1) + (Z + sqrt(lam))^2 in float32 (rounding 6e-8 relative).
     returns q float64 (n_cycles,), by_d1 bool (n_cycles,).
     """
-    _check_attack(attack, rarms)
+    check_attack(attack, rarms)
     if not exchangeable(scene, attack):
         raise ValueError(f"sample_q_fast: scene {scene.name!r} with attack {attack!r} is not exchangeable")
     nu, m = scene.dof, scene.n_chirps // 2
@@ -331,7 +334,7 @@ def sample_q_smart(scene: PaperScene, n_cycles: int, rng: np.random.Generator,
     path under the smart attack).
     returns q float64 (n_cycles,), by_d1 bool (n_cycles,) (the largest ratio came from an active chirp).
     """
-    _check_attack("smart", rarms)
+    check_attack("smart", rarms)
     if rarms > 1e15:
         raise ValueError(f"rarms: {rarms!r} is beyond the float32 energies of sample_q_smart (at most 1e15); "
                          "use sample_rms")

@@ -10,6 +10,10 @@ Activation: "seeded" (default, simulation) draws uniformly random balanced rows 
 law as the firmware's secure source; "lfsr" and "secure" use `ActivationSource` (needed against lfsr_predictor).
 Attackers are stateful (they listen to past cycles), so one attacker object serves a whole (attack, RARMS) job and
 its batches run in order.
+A scene with a receiver array (`getattr(scene, "n_rx", 1)` > 1: frames (n_cycles, n_rx, n_chirps, n_samples)) is
+judged on each chirp's RMS over all its receivers; every sample is simulated, the closed form is the attack-free one
+(nu -> n_rx nu; the chain steers the attack as its channel does), and the opt-in detectors, which take one
+receiver's frames, are refused.
 """
 from __future__ import annotations
 
@@ -50,6 +54,7 @@ class RadarSource:
         self.scene = scene
         self.name = scene.name
         self.n_chirps, self.n_samples, self.iq = scene.n_chirps, scene.n_samples, scene.iq
+        self.n_rx = int(getattr(scene, "n_rx", 1))
         # sigma_n the detector was calibrated with; differs from the scene's true noise to model a drift
         self.sigma_n = scene.sigma_n if detector_sigma_n is None else float(detector_sigma_n)
         # the opt-in tests' fixed PF 1e-6 thresholds hold for the noise the ADC delivers: calibrated to it (C's
@@ -93,16 +98,20 @@ class RadarSource:
     def energy_exact(self, attack: str) -> bool:
         s = self.scene
         return (attack in ENERGY_ATTACKS and s.adc_bits == 0 and all(t.swerling == 0 for t in s.targets)
-                and not s.attackers and self.sigma_n == s.sigma_n and self.fidelity != "waveform")
+                and not s.attackers and self.sigma_n == s.sigma_n and self.fidelity != "waveform" and self.n_rx == 1)
 
     def closed_form(self, attack: str) -> dict | None:
         if self.sigma_n != self.scene.sigma_n or self.fidelity == "waveform":
             return None
         if attack not in ("none", "random") or self.scene.adc_bits != 0 or any(t.swerling for t in self.scene.targets):
             return None
+        if self.n_rx > 1 and attack != "none":
+            return None
         pm = self.paper_equivalent()
         if not paper_model.exchangeable(pm, "none"):
             return None
+        if self.n_rx > 1:
+            return {"n_chirps": self.n_chirps, "dof": pm.dof, "snr": pm.echo_snr, "n_rx": self.n_rx}
         return {"n_chirps": self.n_chirps, "dof": pm.dof, "snr": pm.echo_snr}
 
     def begin_job(self, attack: str, rarms: float) -> None:
@@ -122,11 +131,14 @@ class RadarSource:
             rho = balanced_rows(rng, n_cycles, self.n_chirps)
             return paper_model.sample_rms(pm, rho, rng, attack, rarms), rho
         frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
-        return chirp_rms(frames), rho
+        return chirp_rms(frames, receivers=self.n_rx > 1), rho
 
     def draw_stat(self, n_cycles, attack, rarms, rng, detector: str):
         """An opt-in detector's statistic (carav_stream.montecarlo.detectors) on n_cycles full-sample cycles."""
 
+        if self.n_rx > 1:
+            raise ValueError(f"detector {detector!r} takes one receiver's frames; scene {self.name} has "
+                             f"{self.n_rx} receivers")
         frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
         return statistic(detector, frames, rho, self.opt_in_sigma, self.scene)
 
@@ -161,6 +173,8 @@ class RadarSource:
         out = {"model": "radar", "name": s.name, "n_chirps": s.n_chirps, "n_samples": s.n_samples, "iq": s.iq,
                "sigma_n": s.sigma_n, "adc_bits": s.adc_bits, "activation": self.activation,
                "fidelity": self.fidelity}
+        if self.n_rx > 1:
+            out["n_rx"] = self.n_rx
         if s.targets:
             out["snr_db"] = s.snr_db(0)
         return out

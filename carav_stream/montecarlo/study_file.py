@@ -83,6 +83,8 @@ SCENE = (
     Param("ideal_adc", bool, False, "no quantisation"),
     Param("activation", str, "seeded", "activation sequence", choices=("seeded", "lfsr", "secure")),
     Param("fidelity", str, "auto", "signal model of the radar chain", choices=FIDELITIES),
+    Param("receivers", int, None, "receivers C combines per chirp (default the scene's own; the paper model takes "
+          "any count)", low=1, optional=True),
 )
 ATTACK = (
     Param("kind", str, REQUIRED, "attacker model"),
@@ -212,7 +214,7 @@ def _scene_spec(p: list[str], where: str, sc: dict, folder: Path, presets: list[
             p.append(f"{where}.file: {f} not found")
             return None
         spec["scene"] = str(f)
-    for key in ("nr", "ns", "snr_db"):
+    for key in ("nr", "ns", "snr_db", "receivers"):
         if sc[key] is not None:
             spec[key] = sc[key]
     for key in ("iq", "ideal_adc", "activation"):

@@ -144,3 +144,30 @@ def test_detector_judges_invalid_a_cycle_with_nonfinite_adc_input_or_an_unbalanc
     out = Gate().process(frame, wire(Frame.of(rho, cycles=4, per_cycle=per), 5))
     assert out["clean"].header["per_cycle"]["cycle_index"] == [5, 7]
     assert out["alarms"].header["per_cycle"]["reason"] == ["invalid", "invalid"]
+
+
+@pytest.mark.parametrize("codes", [False, True])
+def test_detector_judges_a_receiver_arrays_frames_on_each_chirps_rms_over_all_receivers(codes):
+    """Frames (cycles, n_rx, chirps, samples), float32 samples or int16 codes: the verdict is detect(receivers=True)
+    on the same numbers; the gate passes the clean cycles' 4-D frames whole; a lone frame gets its cycles' rho."""
+    from carav_stream.detect.detector import detect
+    from carav_stream.radar.adc import adc_codes
+    det = RmsDetector(scene=SCENE, eta=1.5)
+    rng = np.random.default_rng(7)
+    rho = np.zeros((3, 64), bool)
+    rho[:, ::2] = True
+    rx = rng.normal(0, det.sigma, (3, 4, 64, 1100)).astype(np.float32)
+    rx[1, 2, 5] *= 4                                           # one receiver of a silent chirp: cycle 1 alarms
+    x = adc_codes(TABLE1, rx)[0] if codes else rx
+    out = det.process(wire(Frame.of(x, cycles=3), 1), wire(Frame.of(rho, cycles=3), 1))
+    per = out.header["per_cycle"]
+    samples = x.astype(np.float64) * LSB if codes else x
+    exact = detect(samples, rho, det.sigma, 1.5, receivers=True)
+    np.testing.assert_allclose(per["q"], exact.q, rtol=1e-6)
+    assert per["alarm"] == exact.alarm.tolist() == [False, True, False] and per["raised_by"][1] == "D0"
+    assert np.array_equal(out.payload, rho)
+    gated = Gate().process(wire(Frame.of(x, cycles=3), 1), wire(out, 1))
+    assert gated["clean"].payload.shape == (2, 4, 64, 1100) and np.array_equal(gated["clean"].payload, x[[0, 2]])
+    assert gated["alarms"].header["per_cycle"]["reason"] == ["attack"]
+    lone = det.unpaired("frames", wire(Frame.of(x, cycles=3), 2))
+    assert lone.payload.shape == (3, 64) and lone.header["per_cycle"]["invalid"] == [True] * 3

@@ -10,6 +10,7 @@ import pytest
 import carav_stream.radar
 from carav_stream.cli import main as carav
 from carav_stream.cli import sweep as sweep_cli
+from carav_stream.detect.stats import cfar_eta_closed_form
 
 
 def _run(argv):
@@ -153,3 +154,22 @@ def test_sweep_refuses_an_opt_in_detector_it_cannot_serve(capsys):
     assert carav(["sweep", "--detector", "nope", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "--detector: unknown 'nope'; expected carav, spectral, integrated, coherent, spill" in err
+
+
+def test_sweep_cli_models_receivers_on_the_paper_model_and_refuses_other_counts_on_the_radar_chain(tmp_path, capsys):
+    out = tmp_path / "rx.json"
+    code = _run(["--model", "paper", "--nr", "8", "--ns", "16", "--iq", "--receivers", "4", "--rarms", "1",
+                 "--trials", "40", "--eta", "1:2:0.5", "--seed", "3", "--quiet", "--json", str(out)])
+    assert code == 0
+    res = json.loads(out.read_text())
+    assert res["scene"]["n_rx"] == 4 and res["pf_method"] == "samples"
+    # 4 x 32 real components per chirp: the one-receiver threshold of 128
+    assert res["closed_form"]["cfar_eta_pf_1e-6"] == cfar_eta_closed_form(1e-6, n_chirps=8, dof=128)
+    assert len(res["curves"][0]["closed_form"]["pm"]) == 3
+    assert "(paper, 4 receivers)" in capsys.readouterr().out
+    assert carav(["sweep", "--preset", "table1", "--receivers", "2", "--quiet"]) == 3
+    err = capsys.readouterr().err
+    assert err == ("carav sweep: receivers: scene table1 has 1 receiver and the radar model renders the scene's "
+                   "own, not 2 (the paper model takes any count)\n")
+    assert carav(["sweep", "--model", "paper", "--receivers", "0"]) == 2
+    assert "argument --receivers: must be >= 1, got 0" in capsys.readouterr().err

@@ -11,7 +11,7 @@ from scipy import stats
 
 from carav_stream.cli import main as carav
 from carav_stream.console.errors import Exit
-from carav_stream.detect.stats import clopper_pearson
+from carav_stream.detect.stats import clopper_pearson, pf_pm_closed_form
 from carav_stream.firmware.design import SceneLaw, pf_per_cycle, rms_threshold, scene_law, threshold_warning
 from carav_stream.montecarlo.engine import simulate_q
 from carav_stream.montecarlo.radar_source import RadarSource
@@ -169,3 +169,45 @@ def test_the_quantised_law_meets_the_uniform_one_where_it_takes_over():
     assert rms_threshold(_laws(0.6499)[0], 1e-6) == pytest.approx(rms_threshold(_laws(0.6501)[0], 1e-6), rel=1e-3)
     quantised, uniform = _laws(0.5)
     assert rms_threshold(uniform, 1e-6) / rms_threshold(quantised, 1e-6) - 1 == pytest.approx(0.006, abs=0.002)
+
+
+def _design_json(tmp_path, name: str, *extra: str) -> dict:
+    out = tmp_path / f"{name}.json"
+    assert carav(["design", "--preset", "awr1642", "--rarms", "0.5", "--trials", "20", "--benign-trials", "0",
+                  "--ghost-trials", "0", "--seed", "3", "--quiet", "--json", str(out), *extra]) == Exit.OK
+    return json.loads(out.read_text())
+
+
+@pytest.mark.slow
+def test_design_for_four_receivers_is_the_one_receiver_design_with_four_times_the_samples(tmp_path, capsys):
+    """C combines the receivers' samples per chirp: its threshold is that of 4 x 256 samples, and both are the
+    chi-square law of their 1024 degrees of freedom (scipy, directly) to four digits."""
+    four = _design_json(tmp_path, "four", "--receivers", "4")
+    text = capsys.readouterr().out
+    long = _design_json(tmp_path, "long", "--ns", "1024")
+    eta4, eta_long = four["rms_detector"]["eta"], long["rms_detector"]["eta"]
+    assert f"{eta4:.4g}" == f"{eta_long:.4g}"
+    assert four["rms_detector"]["pf_at_paper_eta"] == pytest.approx(long["rms_detector"]["pf_at_paper_eta"], rel=1e-4)
+    m, nu, infl = 64, 4 * 256, four["scene"]["noise_inflation_by_adc"]
+    per_chirp = -np.expm1(np.log1p(-1e-6) / m)                         # D1 adds nothing at this eta
+    eta_chi2 = infl * np.sqrt(stats.chi2.isf(per_chirp, nu) / nu)
+    assert f"{eta4:.4g}" == f"{eta_chi2:.4g}"
+    assert four["scene"]["n_rx"] == 4 and four["scene"]["array_paper_model"] and four["leaks"] == []
+    assert "nu = 256 per receiver, 4 receivers: 1024 per chirp" in text
+    assert "the scene has 1 receiver, the radar chain renders no other count" in text
+    # the random attack: one attacker on the four receivers, not an attack independent on each
+    law = scene_law(load_scene("awr1642"), 4)
+    cf = pf_pm_closed_form(eta4 / infl, n_chirps=128, dof=256, snr=law.snr, rarms=0.5 / infl, n_rx=4,
+                           attack_gains=(4.0,))
+    assert four["misses"][0]["design"]["random"] == pytest.approx(float(cf["p_quiet"]), rel=1e-6)
+
+
+def test_the_scene_law_takes_the_receivers_from_the_scene_or_the_caller():
+    scene = load_scene("awr1642")
+    assert scene_law(scene).n_rx == getattr(scene, "n_rx", 1)
+    law = scene_law(scene, 8)
+    assert law.n_rx == 8 and law.attack_gains == (8.0,) and law.dof == scene_law(scene).dof
+    assert threshold_warning(law, 1.01).startswith("C(eta) eta = 1.01 raises") and "nu = 256 per receiver, 8" in \
+        threshold_warning(law, 1.01)
+    with pytest.raises(ValueError, match="n_rx: must be an integer >= 1, got 0"):
+        scene_law(scene, 0)

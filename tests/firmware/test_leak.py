@@ -13,7 +13,7 @@ from carav_stream.core.units import C_MPS
 from carav_stream.detect.detector import detect
 from carav_stream.firmware.design import rms_threshold, scene_law
 from carav_stream.firmware.leak import _turned, leak_warnings, scene_leaks, scene_rate
-from carav_stream.firmware.silent_slots import mean_deficit, slot_energies
+from carav_stream.firmware.silent_slots import mean_deficit, noncentrality, slot_deficits, slot_energies
 from carav_stream.radar import physics
 from carav_stream.radar.activation import balanced_rows
 from carav_stream.radar.scene_loader import load_scene, scene_from_dict
@@ -203,3 +203,20 @@ def test_a_scene_written_as_matlabs_example_gives_the_near_car_no_false_alarms(r
     assert leak_warnings(s) == [] and leak_warnings(s, 1.5) == []
     reset = scene_from_dict({**written, "t_adc_start_s": 0.0}, "reset.toml")
     assert scene_rate(reset, rms_threshold(scene_law(reset), 1e-6), "waveform") > 0.1 and leak_warnings(reset)
+
+
+def test_a_leak_on_a_receiver_array_is_judged_on_every_receivers_components():
+    """The tail reaches each of n_rx receivers with the same energy: the noncentrality and the degrees of freedom of
+    the combined statistic are n_rx times one receiver's, whose chi-square law scipy gives directly."""
+    scene = load_scene("awr1642")
+    one, four = scene_law(scene, 1), scene_law(scene, 4)
+    energies = np.array([0.0, 1e-3, 4e-3]) * scene.sigma_n ** 2 * scene.n_samples
+    lam = noncentrality(four, scene, energies)
+    np.testing.assert_allclose(lam, 4 * noncentrality(one, scene, energies), rtol=1e-15)
+    eta = rms_threshold(four, 1e-6)
+    nu = 4 * four.dof
+    x = nu * (eta * four.sigma_n / four.sigma_eff) ** 2
+    sf0 = stats.chi2.sf(x, nu)
+    want = (stats.ncx2.sf(x, nu, lam[1:]) - sf0) / (1 - sf0)
+    np.testing.assert_allclose(slot_deficits(four, eta, lam)[1:], want, rtol=1e-9)
+    assert slot_deficits(four, eta, lam)[0] == 0.0
