@@ -2,9 +2,11 @@
 
     pass(cycle)  <=>  a verdict for the same cycle exists  and  C(eta) < 1  and  the frame was valid
 
-A frame carries several cycles: the clean ones go on together, the others each get an alarm record.
+A frame carries several cycles: the clean ones go on together, the others each get an alarm record. Frames of
+several receivers (a receiver axis after the cycles, the chirps after it) go through the same way.
 
-Ports   in  frames    ADC frames of the cycles (int16 codes or float32 | complex64 samples)
+Ports   in  frames    ADC frames of the cycles (int16 codes or float32 | complex64 samples; (cycles, [n_rx,]
+                      n_chirps, ...))
         in  verdict   rms_detector's verdicts for the same seq (payload: rho)
         out clean     the clean cycles' frames plus their rho (array "rho"), header verdict = "clean",
                       per_cycle cycle_index, q and the frame's own per-cycle fields
@@ -46,7 +48,9 @@ class Gate(Block):
         try:
             pick(frames, [])   # the frame's own per-cycle fields are well formed
             usable = (alarm is not None and invalid is not None and n_cycles(verdict) == n and data is not None
-                      and rho is not None and data.ndim >= 3 and rho.shape == data.shape[:2] == (n, rho.shape[1]))
+                      and rho is not None and data.ndim >= 3 and rho.ndim == 2 and rho.shape[0] == data.shape[0] == n
+                      and (rho.shape[1] == data.shape[1]       # the chirps after the cycles, or after the receivers
+                           or data.ndim >= 4 and rho.shape[1] == data.shape[2]))
         except ValueError:
             usable = False
         if not usable:

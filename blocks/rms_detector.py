@@ -53,14 +53,22 @@ class RmsDetector(Block):
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)
         x = frames.payload
-        if r.ndim != 2 or x.ndim != (4 if x.dtype == np.int16 and self.scene_obj.iq else 3) or x.shape[:2] != r.shape:
+        n_rx = self.scene_obj.n_rx      # several: frames (cycles, n_rx, n_chirps, ...)
+        ndim = (4 if x.dtype == np.int16 and self.scene_obj.iq else 3) + (n_rx > 1)
+        if r.ndim != 2 or x.ndim != ndim or (x.shape[0], x.shape[1 + (n_rx > 1)]) != r.shape or (
+                n_rx > 1 and x.shape[1] != n_rx):
             raise ValueError(f"frame seq {frames.seq}: frames {x.dtype} {x.shape} and rho {r.shape} do not describe "
                              "the same cycles and chirps")
         nonfinite = per_cycle(frames).get("nonfinite")   # the ADC's count of NaN/Inf input samples
         if nonfinite is not None and not (isinstance(nonfinite, list) and len(nonfinite) == r.shape[0]
                                           and all(type(v) is int for v in nonfinite)):
             nonfinite = [1] * r.shape[0]                  # malformed: every cycle is judged invalid (fail closed)
-        rms = adc_chirp_rms(x, self.lsb, self.scene_obj.iq, nonfinite)
+        if n_rx > 1:   # receivers folded into the cycles; a chirp's RMS over all its receivers' samples (combined)
+            per_rx = adc_chirp_rms(x.reshape((-1,) + x.shape[2:]), self.lsb, self.scene_obj.iq,
+                                   None if nonfinite is None else np.repeat(nonfinite, n_rx))
+            rms = np.sqrt(np.mean(np.square(per_rx.reshape(r.shape[0], n_rx, -1)), axis=1))
+        else:
+            rms = adc_chirp_rms(x, self.lsb, self.scene_obj.iq, nonfinite)
         # a sequence without exactly half its chirps active was not made by the source: invalid, alarm
         n, balanced = r.shape[0], r.sum(axis=1) == r.shape[1] // 2
         fields = {"q": np.full(n, np.inf), "c": np.full(n, np.inf), "alarm": np.ones(n, bool),
@@ -79,7 +87,8 @@ class RmsDetector(Block):
             return None   # sequences whose frame was lost upstream: counted by the runtime as unpaired
         # frames without their activation sequences cannot be judged: explicit alarms, never clean verdicts
         n = n_cycles(frame)
-        return frame.derive(np.zeros(frame.payload.shape[:2], dtype=bool), eta=self.eta, reason="no_rho",
+        chirps = frame.payload.shape[1 + (self.scene_obj.n_rx > 1)]
+        return frame.derive(np.zeros((n, chirps), dtype=bool), eta=self.eta, reason="no_rho",
                             per_cycle={"q": [float("inf")] * n, "c": [float("inf")] * n, "alarm": [True] * n,
                                        "invalid": [True] * n, "raised_by": ["no_rho"] * n, "k_max": [-1] * n,
                                        "rbar": [float("nan")] * n})
