@@ -17,10 +17,12 @@ positive-frequency DFT bin of a receiver's samples is the reference's turned by 
 """
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import numpy as np
 
+from carav_stream.core.allocator import scratch
 from carav_stream.radar import physics
 from carav_stream.radar.scene import Scene
 
@@ -42,21 +44,28 @@ def receiver_phases(scene: Scene, azimuth_deg: float) -> np.ndarray:
 
 
 def analytic(a: np.ndarray) -> np.ndarray:
-    """The discrete analytic signal of real samples along their last axis, a + j H{a}: complex64 for float32 (the
-    Hilbert transform H{a} = irfft(-j rfft(a)) with the DC and Nyquist bins zeroed). Complex input is returned as
-    it is (it is its own analytic signal)."""
+    """The discrete analytic signal of real samples along their last axis, a + j H{a} (:func:`hilbert`):
+    complex64 for float32. Complex input is returned as it is (it is its own analytic signal)."""
     if np.iscomplexobj(a):
         return a
+    z = np.empty(a.shape, np.complex64 if a.dtype == np.float32 else np.complex128)
+    z.real = a
+    z.imag = hilbert(a)
+    return z
+
+
+def hilbert(a: np.ndarray) -> np.ndarray:
+    """The discrete Hilbert transform of real samples along their last axis, H{a} = irfft(-j rfft(a)) with the DC and
+    Nyquist bins zeroed, a's dtype: the imaginary part of scipy.signal.hilbert(a). scipy.fft, imported here for
+    start-up time (only an array's steering of real samples needs it), transforms float32 as float32."""
+    import scipy.fft
     n = a.shape[-1]
-    spectrum = np.fft.rfft(a, axis=-1)
+    spectrum = scipy.fft.rfft(a, axis=-1)
     spectrum *= -1j
     spectrum[..., 0] = 0
     if n % 2 == 0:
         spectrum[..., -1] = 0
-    z = np.empty(a.shape, np.complex64 if a.dtype == np.float32 else np.complex128)
-    z.real = a
-    z.imag = np.fft.irfft(spectrum, n=n, axis=-1)
-    return z
+    return scipy.fft.irfft(spectrum, n=n, axis=-1).astype(a.dtype, copy=False)
 
 
 def steer(z: np.ndarray, psi: np.ndarray, iq: bool) -> np.ndarray:
@@ -77,15 +86,28 @@ def attack_at_receivers(scene: Scene, a: np.ndarray, azimuth_deg: float) -> np.n
     a is the signal at position 0: of the scene's dtype, or complex64 for an I-only scene when it is already the
     analytic signal (rendered so by the model). Returns the scene's dtype: (n_cycles, n_rx, rows, n_samples) for
     several receivers ((n_cycles, 1, rows, n_samples) when every receiver sees it at phase 0, which broadcasts),
-    (n_cycles, rows, n_samples) for one.
+    (n_cycles, rows, n_samples) for one. :func:`steer`'s arithmetic, a cycle and a receiver at a time into the
+    output (the cycle's samples stay in cache, no temporary of the output's size).
     """
     psi = receiver_phases(scene, azimuth_deg)
     dtype = np.complex64 if scene.iq else np.float32
     if not psi.any():
         a = a if a.dtype == dtype else a.real.astype(dtype)
         return a if scene.n_rx == 1 else a[:, None]
-    z = analytic(a)
-    out = steer(z[:, None], psi[None, :, None, None], scene.iq).astype(dtype, copy=False)
+    out = np.empty((a.shape[0], scene.n_rx) + a.shape[1:], dtype)
+    turn = np.exp(1j * psi).astype(np.complex64)
+    cos, sin = turn.real.copy(), turn.imag.copy()
+    # I-only: z = re + j im, the rendered analytic signal or the real samples with their Hilbert transform
+    re, im = (None, None) if scene.iq else (a.real, a.imag) if np.iscomplexobj(a) else (a, hilbert(a))
+    part = None if scene.iq else scratch("attack_at_receivers", math.prod(a.shape[1:]), np.float32).reshape(a.shape[1:])
+    for i in range(a.shape[0]):
+        for r in range(scene.n_rx):
+            if scene.iq:
+                np.multiply(a[i], turn[r], out=out[i, r])
+                continue
+            np.multiply(re[i], cos[r], out=out[i, r])        # Re z cos psi - Im z sin psi
+            np.multiply(im[i], sin[r], out=part)
+            out[i, r] -= part
     return out if scene.n_rx > 1 else out[:, 0]
 
 
