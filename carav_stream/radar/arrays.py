@@ -22,7 +22,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from carav_stream.core.allocator import scratch
 from carav_stream.radar import physics
 from carav_stream.radar.scene import Scene
 
@@ -86,29 +85,33 @@ def attack_at_receivers(scene: Scene, a: np.ndarray, azimuth_deg: float) -> np.n
     a is the signal at position 0: of the scene's dtype, or complex64 for an I-only scene when it is already the
     analytic signal (rendered so by the model). Returns the scene's dtype: (n_cycles, n_rx, rows, n_samples) for
     several receivers ((n_cycles, 1, rows, n_samples) when every receiver sees it at phase 0, which broadcasts),
-    (n_cycles, rows, n_samples) for one. :func:`steer`'s arithmetic, a cycle and a receiver at a time into the
-    output (the cycle's samples stay in cache, no temporary of the output's size).
+    (n_cycles, rows, n_samples) for one. :func:`steer`'s products a cycle at a time into the output (its samples
+    stay in cache); for I-only, every receiver's Re z cos psi - Im z sin psi of a cycle as one matrix product
+    [cos psi, -sin psi] (n_rx, 2) x [Re z; Im z] (2, samples), which costs less than the products one by one.
     """
     psi = receiver_phases(scene, azimuth_deg)
     dtype = np.complex64 if scene.iq else np.float32
     if not psi.any():
         a = a if a.dtype == dtype else a.real.astype(dtype)
         return a if scene.n_rx == 1 else a[:, None]
-    out = np.empty((a.shape[0], scene.n_rx) + a.shape[1:], dtype)
-    turn = np.exp(1j * psi).astype(np.complex64)
-    cos, sin = turn.real.copy(), turn.imag.copy()
-    # I-only: z = re + j im, the rendered analytic signal or the real samples with their Hilbert transform
-    re, im = (None, None) if scene.iq else (a.real, a.imag) if np.iscomplexobj(a) else (a, hilbert(a))
-    part = None if scene.iq else scratch("attack_at_receivers", math.prod(a.shape[1:]), np.float32).reshape(a.shape[1:])
-    for i in range(a.shape[0]):
-        for r in range(scene.n_rx):
-            if scene.iq:
+    n, n_rx, per = a.shape[0], scene.n_rx, math.prod(a.shape[1:])
+    out = np.empty((n, n_rx) + a.shape[1:], dtype)
+    if scene.iq:
+        turn = np.exp(1j * psi).astype(np.complex64)
+        for i in range(n):
+            for r in range(n_rx):
                 np.multiply(a[i], turn[r], out=out[i, r])
-                continue
-            np.multiply(re[i], cos[r], out=out[i, r])        # Re z cos psi - Im z sin psi
-            np.multiply(im[i], sin[r], out=part)
-            out[i, r] -= part
-    return out if scene.n_rx > 1 else out[:, 0]
+        return out if n_rx > 1 else out[:, 0]
+    weights = np.stack([np.cos(psi), -np.sin(psi)], axis=1).astype(np.float32)       # (n_rx, 2)
+    if np.iscomplexobj(a):          # the rendered analytic signal: (Re, Im) interleaved, read as (2, samples)
+        parts = a.reshape(n, per).view(np.float32).reshape(n, per, 2).transpose(0, 2, 1)
+    else:                           # real samples and their Hilbert transform
+        parts = np.empty((n, 2, per), np.float32)
+        parts[:, 0] = a.reshape(n, per)
+        parts[:, 1] = hilbert(a).reshape(n, per)
+    for i in range(n):
+        np.matmul(weights, parts[i], out=out[i].reshape(n_rx, per))
+    return out if n_rx > 1 else out[:, 0]
 
 
 def needs_steering(scene: Scene) -> bool:
