@@ -11,9 +11,12 @@ one way: exp(j psi(rx[r], theta_attacker)) on receiver r, whatever the slot.
 The phase multiplies complex (I/Q) samples. An I-only receiver digitises the real part of the analytic signal z
 turned by it, Re{z e^(j psi)}: for a beat A cos(phi), A cos(phi + psi), the real beat's phase shifted by psi. The
 analytic signal of a waveform rendered from its physics is that rendering in complex (physics.py, ``analytic``);
-of real samples drawn as such (a Gaussian attack) it is the discrete analytic signal along fast time
-(:func:`analytic`, scipy.signal.hilbert's: every positive DFT bin doubled, the negative ones zeroed), so that every
+of real samples drawn as such (a Gaussian attack) it is the discrete analytic signal along fast time, a + j H{a}
+(:func:`hilbert`; scipy.signal.hilbert's: every positive DFT bin doubled, the negative ones zeroed), so that every
 positive-frequency DFT bin of a receiver's samples is the reference's turned by exactly psi.
+
+An echo's templates at the receivers are built once per scene and fidelity (:func:`receiver_echoes`, cached like
+physics.echo_templates); a single antenna at position 0 keeps physics.echo_templates' own arrays.
 """
 from __future__ import annotations
 
@@ -40,17 +43,6 @@ def echo_phases(scene: Scene, azimuth_deg: float) -> np.ndarray:
 def receiver_phases(scene: Scene, azimuth_deg: float) -> np.ndarray:
     """One-way phases of a signal from ``azimuth_deg`` at each receiver: float64 (n_rx,)."""
     return far_field_phase(scene.rx_positions_wl, azimuth_deg)
-
-
-def analytic(a: np.ndarray) -> np.ndarray:
-    """The discrete analytic signal of real samples along their last axis, a + j H{a} (:func:`hilbert`):
-    complex64 for float32. Complex input is returned as it is (it is its own analytic signal)."""
-    if np.iscomplexobj(a):
-        return a
-    z = np.empty(a.shape, np.complex64 if a.dtype == np.float32 else np.complex128)
-    z.real = a
-    z.imag = hilbert(a)
-    return z
 
 
 def hilbert(a: np.ndarray) -> np.ndarray:

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+import scipy.signal
 
 from carav_stream.radar import physics, synth
 from carav_stream.radar.activation import ActivationSource, balanced_rows, lowest_half
@@ -196,10 +197,14 @@ def test_a_replica_is_silent_on_every_receiver_before_it_arrives(kind):
     assert all((a[:, r][silent] == 0).all() for r in range(4))
 
 
-def test_the_hilbert_transform_turns_a_tone_a_quarter_period():
+def test_the_hilbert_transform_turns_a_tone_a_quarter_period_and_is_scipys_analytic_signals_imaginary_part():
     n = np.arange(256)
     x = np.cos(2 * np.pi * 17 * n / 256 + 0.3)
     np.testing.assert_allclose(hilbert(x), np.sin(2 * np.pi * 17 * n / 256 + 0.3), atol=1e-12)
+    for size in (255, 256):
+        noise = np.random.default_rng(size).normal(size=(3, size))
+        np.testing.assert_allclose(hilbert(noise), scipy.signal.hilbert(noise, axis=-1).imag, atol=1e-12)
+        assert hilbert(noise.astype(np.float32)).dtype == np.float32
 
 
 def test_an_attack_at_broadside_is_one_receiver_axis_that_broadcasts_and_composites_sum_their_azimuths():

@@ -27,7 +27,7 @@ the far-field phase of that receiver (radar/arrays.py), applied here once for ev
 give the signal at the receivers. For I-only it turns the analytic signal: a model that renders a waveform from its
 physics (``analytic_rendering``, the replicas and the secondary antenna) renders it in complex when ``analytic`` asks
 (the scene is I-only and the receivers see it at different phases); of any other model's real samples the base takes
-the discrete analytic signal (arrays.analytic).
+the discrete analytic signal (arrays.hilbert).
 """
 from __future__ import annotations
 
