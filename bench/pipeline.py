@@ -1,6 +1,7 @@
 """`python3 dev.py bench pipeline`: cycles/s of the multi-process radar graph against the same chain in one process.
 
-For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mode:
+For each case (table1 at beat and at waveform fidelity, awr1642 at beat, awr1642_mimo, its 2 TX x 4 RX array, at
+waveform) and mode:
   pipeline       the 8-node graph of graphs/radar_chain.toml (smart attacker from half the run on), one process per
                  node, run by the supervisor, frames of --batch cycles; cycles/s from go to the last sink
   fused          carav_stream.firmware.algorithm1.run_algorithm1 in one fresh process started like a node (the
@@ -9,7 +10,8 @@ For each case (table1 at beat and at waveform fidelity, awr1642 at beat) and mod
                  the channel node builds them before the run starts)
 Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
 rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time. Each
-node's busy time is also given per sample (us per cycle over the cycle's real values, table1 64 x 1080), to set
+node's busy time is also given per sample (us per cycle over the cycle's real values, table1 64 x 1080, every
+receiver's for an array), to set
 beside the kernels' costs and bounds of `bench synth` and `bench detector`.
 Noise and attacks are fresh and i.i.d. in every cycle and every cycle is processed in full.
 """
@@ -33,13 +35,14 @@ from carav_stream.cli.replay import overrides_for
 from carav_stream.console.options import count, number, output_file
 from carav_stream.estimate import METHODS
 from carav_stream.firmware.algorithm1 import run_algorithm1
-from carav_stream.radar.physics import echo_templates
+from carav_stream.radar.arrays import receiver_echoes
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.graph import TRANSPORTS
 from carav_stream.runtime.loader import load_graph
 from carav_stream.runtime.supervisor import NODE_ENV, Supervisor
 
-CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000))
+CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000),
+         ("awr1642_mimo", "waveform", 1000))
 MODES = ("pipeline", "fused", "record", "replay")
 
 
@@ -146,7 +149,7 @@ def _fused(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple
 
 def _fused_worker(preset: str, fidelity: str, n: int, method: str, batch: int) -> tuple[float, float]:
     scene = scene_of(preset)
-    echo_templates(scene, fidelity)   # built once per scene, like the channel node does before the run starts
+    receiver_echoes(scene, fidelity)   # built once per scene, like the channel node does before the run starts
     t0, c0 = time.perf_counter(), time.process_time()
     run_algorithm1(scene, n, seed=5, attack="smart", attack_params={"rarms": 3.0, "start_cycle": n // 2},
                    method=method, fidelity=fidelity, batch=batch)
@@ -165,11 +168,16 @@ def run(args: argparse.Namespace) -> int:
         n = max(20, int(n * args.scale))
         scene = scene_of(preset)
         rate_radar = scene.cycles_per_s
-        samples = scene.n_chirps * scene.n_samples * (2 if scene.iq else 1)    # real values a cycle
+        samples = scene.n_rx * scene.n_chirps * scene.n_samples * (2 if scene.iq else 1)    # real values a cycle
         first = args.transport[0]
+        case_modes = modes
+        if scene.n_rx > 1 and modes & {"record", "replay"}:    # sigmf_sink records frames of one receiver
+            case_modes = modes - {"record", "replay"}
+            print(f"{preset:<8} {fidelity:<8} record and replay left out: the recorder takes one receiver's frames, "
+                  f"{preset} has {scene.n_rx}", flush=True)
         for batch in batches:
             # (mode, transport) -> rates; the fused chain has no data plane
-            runs = {(m, t): [] for m in MODES if m in modes
+            runs = {(m, t): [] for m in MODES if m in case_modes
                     for t in (args.transport if m == "pipeline" else ["none"] if m == "fused" else [first])}
             busy_runs, fused_cpu, bytes_per_cycle = {k: [] for k in runs}, [], None
             outside_runs = {t: [] for t in args.transport}
@@ -233,7 +241,8 @@ def run(args: argparse.Namespace) -> int:
                 if "busy_ns_per_sample" in rec:
                     per_node = ", ".join(f"{node} {busy[node]:.0f} ({ns:.2f})"
                                          for node, ns in rec["busy_ns_per_sample"].items())
-                    print(f"    busy us/cycle (ns/sample, {scene.n_chirps} x {scene.n_samples} a cycle): {per_node}",
+                    shape = " x ".join(str(d) for d in scene.frame_shape(1)[1:])
+                    print(f"    busy us/cycle (ns/sample, {shape} a cycle): {per_node}",
                           flush=True)
     if args.json:
         bench_records.write(args.json, args, records)

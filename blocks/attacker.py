@@ -18,17 +18,21 @@ with header gate_by_on_air = true; the receiver keeps the replies to the chirps 
 (attackers.gate_by_emission). Its per-cycle attack_active says whether the model is switched on; the receiver
 reports whether it answered a chirp.
 
+With several receivers the signal is sent as each receiver gets it from the attacker's azimuth `azimuth_deg` (one
+way: the far-field phase of each receiver's antenna, radar/arrays.py), a receiver axis after the cycles: (cycles,
+n_rx, n_chirps | 1, n_samples), or a receiver axis of 1 when every receiver sees it at phase 0 (broadside).
+
 Ports   in  air      bool (cycles, n_chirps)    row i: the emission of the cycle before cycle i
-        out attack   float32 | complex64 (cycles, n_chirps | 1, n_samples), live-chirp: (1, n_chirps, n_samples)
-                     [+ "tail"]; no payload when the model is silent for the whole frame; per_cycle
-                     attack_active, header attack_model [, gate_by_on_air]
+        out attack   float32 | complex64 (cycles, [n_rx | 1,] n_chirps | 1, n_samples), live-chirp: (1, [n_rx | 1,]
+                     n_chirps, n_samples) [+ "tail"]; no payload when the model is silent for the whole frame;
+                     per_cycle attack_active, header attack_model [, gate_by_on_air]
 Graph   attacker = { type = "attacker", model = "smart", rarms = 3.0, start_cycle = 200 }
 """
 import textwrap
 
 import numpy as np
 
-from carav_stream.radar.attackers import KINDS, LiveChirpAttacker, make_attacker
+from carav_stream.radar.attackers import AZIMUTH, KINDS, LiveChirpAttacker, make_attacker
 from carav_stream.radar.streams import FIDELITY, SCENE, SEED, scene_of, seed_streams
 from carav_stream.runtime import Block, BlockError, Frame, In, Out, Param
 
@@ -69,13 +73,13 @@ class AttackerBlock(Block):
     inputs = (In("air", kind="air", dtypes=("bool",), doc="past cycles' on-air emission"),)
     outputs = (Out("attack", kind="attack", dtypes=("float32", "complex64", "none"), doc="attack signal"),)
     variant = "model"           # another model starts from its own defaults (runtime/loader.py)
-    params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)), SCENE, SEED, FIDELITY,
+    params = (Param("model", str, "none", "attack model", choices=tuple(KINDS)), SCENE, SEED, FIDELITY, AZIMUTH,
               *MODEL_PARAMS)
 
     def check_params(self) -> None:
         self.model_params = {p.name: getattr(self, p.name) for p in MODEL_PARAMS if getattr(self, p.name) is not None}
         self.scene_obj = scene_of(self.scene)
-        self.attack = make_attacker(self.model, self.scene_obj, **self.model_params)
+        self.attack = make_attacker(self.model, self.scene_obj, azimuth_deg=self.azimuth_deg, **self.model_params)
         if self.attack.needs_waveform and self.fidelity != "waveform":
             raise BlockError(f"model {self.model!r} transmits its own waveform: set fidelity = \"waveform\" "
                              "(graph-wide, so that the channel renders the same fidelity)")
@@ -113,6 +117,6 @@ class AttackerBlock(Block):
                       cycle=c0, cycles=n)
         if not on.any():
             return Frame.of(None, **fields)
-        main, tail = self.attack.response(self.fidelity)
+        main, tail = self.attack.replies(self.fidelity)   # as the receivers get them
         out = Frame.of(main[None], **fields)
         return out if tail is None else out.derive(keep_data=True, arrays={"tail": tail[None]})

@@ -2,6 +2,9 @@
 
     rho(k) in {0, 1},  sum_k rho(k) = N_r / 2,  fresh every cycle; chirp k is transmitted iff rho(k) = 1
 
+With TDM (a scene whose transmitters fire in turn, n_slots chirps a loop) rho is drawn per loop: constant within
+each loop, half the loops active, so an active loop fires every transmitter (radar/activation.py).
+
 A frame carries `batch` consecutive cycles (header cycle = the first, cycles = how many; the last frame of a
 run is sized to the cycles asked for): the kernels downstream are vectorised over cycles, and one frame per
 batch spreads the per-frame cost of every hop over many cycles. Every cycle keeps its own fresh sequence: from
@@ -30,7 +33,7 @@ class ChirpSource(Block):
                     low=0.0))
 
     def check_params(self) -> None:
-        self.n_chirps = scene_of(self.scene).n_chirps
+        self.n_chirps, self.n_slots = scene_of(self.scene).n_chirps, scene_of(self.scene).n_slots
         seed_streams(self.seed, self.activation)
 
     def param_warnings(self) -> list[str]:
@@ -54,7 +57,7 @@ class ChirpSource(Block):
 
     def generate(self, seq: int) -> dict[str, Frame]:
         n = min(self.batch, self.cycle_budget or self.batch)
-        rho = self.streams.activation.next(n, self.n_chirps)
+        rho = self.streams.activation.next(n, self.n_chirps, self.n_slots)
         if self.cycles_per_s:
             self.release_at += n / self.cycles_per_s
         cycles = {"cycle": seq * self.batch, "cycles": n}   # only a run's last frame is short

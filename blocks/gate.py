@@ -2,7 +2,8 @@
 
     pass(cycle)  <=>  a verdict for the same cycle exists  and  C(eta) < 1  and  the frame was valid
 
-A frame carries several cycles: the clean ones go on together, the others each get an alarm record.
+A frame carries several cycles: the clean ones go on together, the others each get an alarm record. Frames of
+several receivers (a receiver axis after the cycles, the chirps after it) go through the same way.
 
 Ports   in  frames    ADC frames of the cycles (int16 codes or float32 | complex64 samples), one receiver's
                       (cycles, chirps, ...) or a receiver array's (cycles, n_rx, chirps, ...)

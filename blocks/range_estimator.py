@@ -16,8 +16,11 @@ whose walk integrates most power is kept, so velocities are unaliased and ranges
 chirp; a CFAR list then also leaves out what a stronger target's walk explains. For scenes whose targets cross
 range cells within a cycle (awr1642: 3.6 cells at 83 m/s); `method` is then not used.
 
+Antenna arrays: range and velocity come from one virtual element, receiver 0 and the chirps of each TDM loop's
+first slot (carav_stream/estimate/virtual_element.py): one transmitter's repetitions, a loop apart.
+
 Ports   in  frames      clean_frame: ADC frames (int16 codes or float32 | complex64 samples) of the clean
-                        cycles + array rho
+                        cycles, (cycles, [n_rx,] n_chirps, n_samples[, 2]), + array rho
         out estimates   header method, detection, per_cycle range_m, velocity_mps (lists, one value per target;
                         "strongest": n_targets values, None where no target was found; CFAR: the listed
                         targets only, and snr_db, amplitude beside them) beside the frame's own per-cycle fields
@@ -29,7 +32,7 @@ import math
 import numpy as np
 
 from carav_stream.estimate.estimators import METHODS, estimate
-from carav_stream.estimate.geometry import Geometry
+from carav_stream.estimate.virtual_element import element_geometry, reference_element
 from carav_stream.firmware.target_list import KINDS, target_list
 from carav_stream.radar.adc import adc_step, from_codes
 from carav_stream.radar.scene import aliased_targets, velocity_warning
@@ -58,7 +61,7 @@ class RangeEstimator(Block):
 
     def check_params(self) -> None:
         self.scene_obj = scene_of(self.scene)
-        self.geometry = Geometry.from_scene(self.scene_obj)
+        self.geometry = element_geometry(self.scene_obj)
 
     def param_warnings(self) -> list[str]:
         """A target whose Doppler aliases beyond what max_speed_mps unaliases: its velocity estimates are the alias."""
@@ -76,15 +79,16 @@ class RangeEstimator(Block):
         if frames.header.get("verdict") != "clean" or rho is None or frames.payload is None:
             self.refused += n
             return frames.derive(None, refused=True, reason="no clean verdict")
-        x, lsb = frames.payload, None
-        if x.dtype == np.int16 and self.detection == "strongest":   # the estimator reads the active chirps' codes
-            lsb = adc_step(self.scene_obj)
-        else:
-            x = from_codes(self.scene_obj, x)
-        shape = x.shape[:3] if lsb is not None and self.scene_obj.iq else x.shape
-        if len(shape) != 3 or rho.shape != shape[:2] or shape[0] != n:
+        x, lsb, sc = frames.payload, None, self.scene_obj
+        shape = x.shape[:-1] if x.dtype == np.int16 and sc.iq else x.shape      # (cycles, [n_rx,] chirps, samples)
+        if len(shape) != len(sc.frame_shape(n)) or shape[0] != n or rho.shape != (n, shape[-2]) or (
+                sc.n_rx > 1 and shape[1] != sc.n_rx):
             raise ValueError(f"frame seq {frames.seq}: {n} cycles, frames {x.shape} and rho {rho.shape} disagree")
-        rho = np.asarray(rho, dtype=bool)
+        x, rho = reference_element(x, np.asarray(rho, dtype=bool), sc)
+        if x.dtype == np.int16 and self.detection == "strongest":   # the estimator reads the active chirps' codes
+            lsb = adc_step(sc)
+        else:
+            x = from_codes(sc, x)
         if self.detection == "strongest":
             est = estimate(x, rho, self.geometry, method=self.method, n_targets=self.n_targets,
                            max_speed_mps=self.max_speed_mps, lsb=lsb)

@@ -52,16 +52,17 @@ class RmsDetector(Block):
         return ([text] if text else []) + leaks
 
     def _receivers(self, x: np.ndarray) -> tuple[int, bool]:
-        """(axes of one receiver's frames: cycles, chirps, samples[, 2 for int16 I/Q codes]; whether these frames
-        hold one axis more, the receivers', after the cycles')."""
+        """(axes of one receiver's frames: cycles, chirps, samples[, 2 for int16 I/Q codes]; whether the scene's
+        frames hold one axis more, the receivers' (n_rx of them), after the cycles')."""
         base = 4 if x.dtype == np.int16 and self.scene_obj.iq else 3
-        return base, x.ndim == base + 1
+        return base, self.scene_obj.n_rx > 1
 
     def process(self, frames: Frame, rho: Frame) -> Frame:
         r = np.asarray(rho.payload, dtype=bool)
         x = frames.payload
         base, rx = self._receivers(x)
-        if r.ndim != 2 or x.ndim != base + rx or (x.shape[0], x.shape[1 + rx]) != r.shape:
+        if r.ndim != 2 or x.ndim != base + rx or (x.shape[0], x.shape[1 + rx]) != r.shape or (
+                rx and x.shape[1] != self.scene_obj.n_rx):
             raise ValueError(f"frame seq {frames.seq}: frames {x.dtype} {x.shape} and rho {r.shape} do not describe "
                              "the same cycles and chirps")
         nonfinite = per_cycle(frames).get("nonfinite")   # the ADC's count of NaN/Inf input samples

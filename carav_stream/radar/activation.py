@@ -1,5 +1,11 @@
 """Radar activation sequences (Algorithm 1, steps 1-2): every cycle exactly n_chirps/2 active chirps.
 
+With TDM (a scene whose loop has n_slots > 1 chirp slots, one per transmitter of its schedule) the sequence is drawn
+per loop: rho is constant within each loop of n_slots consecutive slots, and exactly n_loops/2 loops are active, so
+an active loop fires the whole virtual array. ``next(n_cycles, n_chirps, n_slots)`` draws for loops what it draws
+for chirps with a single transmitter (one key or LFSR bit each), so with n_slots = 1, where a loop is a chirp, the
+rows are the single transmitter's.
+
 Sources (``ActivationSource(kind, seed, taps)``):
 
 ``secure`` (default)
@@ -52,28 +58,49 @@ class ActivationSource:
         if kind == "seeded":
             self._rng = np.random.Generator(np.random.PCG64(seed))
 
-    def next(self, n_cycles: int, n_chirps: int) -> np.ndarray:
-        """The next ``n_cycles`` activation rows: bool (n_cycles, n_chirps), n_chirps/2 True per row."""
-        if n_chirps < 2 or n_chirps % 2:
-            raise ValueError(f"n_chirps must be even and >= 2, got {n_chirps}")
+    def next(self, n_cycles: int, n_chirps: int, n_slots: int = 1) -> np.ndarray:
+        """The next ``n_cycles`` activation rows: bool (n_cycles, n_chirps), n_chirps/2 True per row, constant within
+        each TDM loop of ``n_slots`` chirps (module docstring)."""
+        n_loops = _loops(n_chirps, n_slots)
         if n_cycles < 0:
             raise ValueError(f"n_cycles must be >= 0, got {n_cycles}")
+        return per_loop(self._next(n_cycles, n_loops), n_slots)
+
+    def _next(self, n_cycles: int, n: int) -> np.ndarray:
+        """Balanced rows of n entries (chirps, or TDM loops): bool (n_cycles, n)."""
         if self.kind == "lfsr":
-            bits = self.lfsr_bits(n_cycles * n_chirps // 2).reshape(n_cycles, n_chirps // 2)
-            rho = np.empty((n_cycles, n_chirps), dtype=bool)
+            bits = self.lfsr_bits(n_cycles * n // 2).reshape(n_cycles, n // 2)
+            rho = np.empty((n_cycles, n), dtype=bool)
             rho[:, 0::2] = bits
             rho[:, 1::2] = ~bits
             return rho
         if self.kind == "secure":
-            keys = np.frombuffer(os.urandom(8 * n_cycles * n_chirps), dtype=np.uint64)
-            return lowest_half(keys.reshape(n_cycles, n_chirps))
-        return balanced_rows(self._rng, n_cycles, n_chirps)
+            keys = np.frombuffer(os.urandom(8 * n_cycles * n), dtype=np.uint64)
+            return lowest_half(keys.reshape(n_cycles, n))
+        return balanced_rows(self._rng, n_cycles, n)
 
     def lfsr_bits(self, n_bits: int) -> np.ndarray:
         """The next ``n_bits`` output bits of the LFSR (bool)."""
         out = lfsr_continue(self._lfsr_state, self.taps, n_bits)
         self._lfsr_state = (self._lfsr_state + [int(b) for b in out])[-max(self.taps):]
         return out
+
+
+def _loops(n_chirps: int, n_slots: int) -> int:
+    """The loops of a cycle, checked: n_slots >= 1 divides n_chirps into an even number >= 2 of loops."""
+    if n_slots < 1 or n_chirps % n_slots:
+        raise ValueError(f"n_chirps {n_chirps} is not a whole number of TDM loops of {n_slots} slots")
+    n_loops = n_chirps // n_slots
+    if n_loops < 2 or n_loops % 2:
+        what = "n_chirps" if n_slots == 1 else f"the TDM loops ({n_chirps} chirps / {n_slots} slots)"
+        raise ValueError(f"{what} must be even and >= 2, got {n_loops}")
+    return n_loops
+
+
+def per_loop(rho_loops: np.ndarray, n_slots: int) -> np.ndarray:
+    """Loop activation rows bool (n_cycles, n_loops) as chirp rows (n_cycles, n_loops * n_slots): each loop's entry
+    repeated over its slots (the rows themselves for n_slots = 1)."""
+    return rho_loops if n_slots == 1 else np.repeat(rho_loops, n_slots, axis=1)
 
 
 def lowest_half(keys: np.ndarray) -> np.ndarray:
@@ -93,10 +120,12 @@ def lowest_half(keys: np.ndarray) -> np.ndarray:
     return rho
 
 
-def balanced_rows(rng: np.random.Generator, n_cycles: int, n_chirps: int) -> np.ndarray:
+def balanced_rows(rng: np.random.Generator, n_cycles: int, n_chirps: int, n_slots: int = 1) -> np.ndarray:
     """Uniformly random balanced activation rows from a numpy generator, bool (n_cycles, n_chirps): the same law
-    as the secure source, reproducible (simulation only)."""
-    return lowest_half(rng.random((n_cycles, n_chirps)))
+    as the secure source, reproducible (simulation only); drawn per TDM loop of ``n_slots`` chirps (module
+    docstring)."""
+    n_loops = n_chirps if n_slots == 1 else _loops(n_chirps, n_slots)
+    return per_loop(lowest_half(rng.random((n_cycles, n_loops))), n_slots)
 
 
 def berlekamp_massey(bits) -> tuple[int, tuple[int, ...]]:

@@ -4,6 +4,8 @@
 
 `adc_codes` is what the ADC delivers (int16 codes, or the samples themselves for an ideal ADC), `from_codes`
 turns codes into samples in sqrt(W), `adc_step` is the lsb a detector needs to read codes (defined here once).
+Everything is elementwise after the cycle axis: frames of several receivers, (n_cycles, n_rx, n_chirps, n_samples),
+are quantised receiver by receiver alike, and a cycle's clipped and non-finite counts are over all its receivers.
 """
 from __future__ import annotations
 
@@ -56,8 +58,8 @@ CHUNK_ELEMENTS = 1 << 18   # float32 elements of rx quantised at a time (1 MiB: 
 
 def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
               add: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What the ADC delivers: integer codes, int16 (n_cycles, n_chirps, n_samples), or for I/Q
-    (n_cycles, n_chirps, n_samples, 2) with I then Q; clipped as in :func:`adc`; and nonfinite, int64
+    """What the ADC delivers: integer codes, int16 of rx's shape ((n_cycles, [n_rx,] n_chirps, n_samples)), or for
+    I/Q that shape + (2,) with I then Q; clipped as in :func:`adc`; and nonfinite, int64
     (n_cycles,): samples whose I or Q was NaN or Inf at the ADC input (a simulation fault, not a signal: their
     code is 0, they are not counted as clipped, and the detector's RMS of such a cycle is NaN, so the
     detector judges it invalid). The scaling is float32 arithmetic, ``rint(x * float32(1 / lsb))``: a value
@@ -65,8 +67,8 @@ def adc_codes(scene: Scene, rx: np.ndarray, out: np.ndarray | None = None, *,
     arithmetic would. An ideal ADC (``adc_bits = 0``) or one of more than 16 bits delivers a copy of rx
     instead (float32 | complex64; non-finite samples stay as they are and are counted). ``out``: an int16 array
     of the codes' shape to write them into (ignored for an ideal ADC). ``add``: a signal of rx's dtype that
-    broadcasts to rx (the attack, (1 | n_cycles, 1 | n_chirps, n_samples)), added at the ADC input: the codes
-    of ``rx + add`` without that sum's temporary. Work goes a few cycles at a time (``CHUNK_ELEMENTS``) in a
+    broadcasts to rx (the attack, (1 | n_cycles, [1 | n_rx,] 1 | n_chirps, n_samples)), added at the ADC input:
+    the codes of ``rx + add`` without that sum's temporary. Work goes a few cycles at a time (``CHUNK_ELEMENTS``) in a
     reused scratch buffer, so the intermediate values stay in cache: the same numbers as one pass over the
     whole batch.
 
@@ -149,7 +151,7 @@ def _fix_rails(codes: np.ndarray, lo: np.float32, hi: np.float32, iq: bool, clip
 
 def from_codes(scene: Scene, codes: np.ndarray) -> np.ndarray:
     """ADC codes (from :func:`adc_codes`) as samples in sqrt(W): float32 (I-only) or complex64 (I/Q),
-    (n_cycles, n_chirps, n_samples). Float input (an ideal ADC's) is returned as it is."""
+    (n_cycles, [n_rx,] n_chirps, n_samples). Float input (an ideal ADC's) is returned as it is."""
     if codes.dtype != np.int16:
         return codes
     lsb = np.float32(adc_step(scene))

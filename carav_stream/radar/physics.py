@@ -64,18 +64,19 @@ def echo_amplitude(scene: Scene, target: Target) -> float:
 
 
 def beat_samples(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
-                 gate_from_s: float | None = None) -> np.ndarray:
+                 gate_from_s: float | None = None, analytic: bool = False) -> np.ndarray:
     """Closed-form dechirped samples of one delayed replica of the victim's chirp, for every chirp.
 
     tau(t) = tau0_s + alpha * t, t since the cycle start. ``gate_from_s``: samples with fast time
     below it are zero (a repeater that starts late). Returns complex128 (n_chirps, n_samples), or
-    float64 Re(.) for an I-only scene (the quadrature part is never computed).
+    float64 Re(.) for an I-only scene (the quadrature part is never computed) unless ``analytic``, which
+    asks for the complex samples whatever the scene (the analytic signal an array steers, radar/arrays.py).
     """
     tf = fast_time_s(scene)[None, :]
     tau = tau0_s + alpha * (chirp_start_s(scene)[:, None] + tf)
     s = scene.slope_hz_per_s
     phase = TWO_PI * scene.fc_hz * tau + TWO_PI * s * tf * tau - np.pi * s * tau * tau
-    y = amplitude * (np.exp(1j * phase) if scene.iq else np.cos(phase))
+    y = amplitude * (np.exp(1j * phase) if scene.iq or analytic else np.cos(phase))
     if gate_from_s is not None:
         y[:, tf[0] < gate_from_s] = 0
     return y
@@ -146,7 +147,7 @@ def replica_beats_hz(scene: Scene, tau0_s: float, alpha: float) -> tuple[float, 
 
 
 def beat_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
-                 gate_from_s: float | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+                 gate_from_s: float | None = None, analytic: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
     """Time-faithful beat-fidelity samples of a delayed replica of the victim's chirp (echo or spoof).
 
     Returns (main, tail) like :func:`waveform_replica`: ``main`` (n_chirps, n_samples) is chirp k's own
@@ -154,13 +155,13 @@ def beat_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
     still arriving before tau(t) (None when its beat lies outside the IF band, as for every echo within the
     radar's range: nothing of it reaches the ADC). ``main`` is the closed form of :func:`beat_samples`, zeroed
     before the echo arrives (and before ``gate_from_s``), and zero altogether when its beat is outside the band.
-    complex128, or float64 for an I-only scene.
+    complex128, or float64 for an I-only scene unless ``analytic`` (:func:`beat_samples`).
     """
     tf = fast_time_s(scene)[None, :]
     tau = tau0_s + alpha * (chirp_start_s(scene)[:, None] + tf)
     u_main = tf - tau
     f_main, f_tail = replica_beats_hz(scene, tau0_s, alpha)
-    main = beat_samples(scene, tau0_s, alpha, amplitude)
+    main = beat_samples(scene, tau0_s, alpha, amplitude, analytic=analytic)
     if in_band(scene, f_main):
         gate = (u_main >= 0) & (u_main < scene.t_sweep_s)
         if gate_from_s is not None:
@@ -175,7 +176,7 @@ def beat_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
     s = scene.slope_hz_per_s
     ref = sweep_phase(scene, np.mod(tf, scene.t_chirp_s))
     phase = ref + TWO_PI * scene.fc_hz * tau - np.pi * s * np.clip(u_tail, 0, None) ** 2
-    tail = amplitude * (np.exp(1j * phase) if scene.iq else np.cos(phase))
+    tail = amplitude * (np.exp(1j * phase) if scene.iq or analytic else np.cos(phase))
     tail *= gate
     return main, tail
 
@@ -235,8 +236,8 @@ def filter_decimate(scene: Scene, y: np.ndarray) -> np.ndarray:
 
 
 def tone(scene: Scene, phase: np.ndarray, amplitude: np.ndarray | float, gate: np.ndarray, *,
-         out: np.ndarray | None = None) -> np.ndarray:
-    """A gate exp(j phase), or its real part A gate cos(phase) for I-only: complex128 | float64, phase's shape.
+         out: np.ndarray | None = None, analytic: bool = False) -> np.ndarray:
+    """A gate exp(j phase), or its real part A gate cos(phase) for I-only unless ``analytic``; phase's shape.
 
     The product of :func:`mix`, from the mixer phase itself; ``out``: an array of that shape and dtype to write it
     into (returned). With a finite scalar A and finite phases the cosine (or the exponential) is evaluated only
@@ -245,11 +246,11 @@ def tone(scene: Scene, phase: np.ndarray, amplitude: np.ndarray | float, gate: n
     off the gate. Otherwise every sample is evaluated, so that a NaN or an infinity spreads as in the product
     written out.
     """
-    dtype = np.complex128 if scene.iq else np.float64
-    y = np.empty(phase.shape, dtype) if out is None else out
+    complex_ = scene.iq or analytic
+    y = np.empty(phase.shape, np.complex128 if complex_ else np.float64) if out is None else out
     if not (np.ndim(amplitude) == 0 and math.isfinite(amplitude)
             and math.isfinite(np.add.reduce(phase, axis=None))):
-        if scene.iq:
+        if complex_:
             np.exp(np.multiply(1j, phase), out=y)
         else:
             np.cos(phase, out=y)
@@ -257,7 +258,7 @@ def tone(scene: Scene, phase: np.ndarray, amplitude: np.ndarray | float, gate: n
         y *= gate
         return y
     y[...] = 0
-    if scene.iq:
+    if complex_:
         np.multiply(1j, phase, out=y, where=gate)
         np.exp(y, out=y, where=gate)
     else:
@@ -267,13 +268,13 @@ def tone(scene: Scene, phase: np.ndarray, amplitude: np.ndarray | float, gate: n
 
 
 def mix(scene: Scene, emitted_phase: np.ndarray, carrier_phase: np.ndarray, amplitude: np.ndarray | float,
-        gate: np.ndarray) -> np.ndarray:
+        gate: np.ndarray, analytic: bool = False) -> np.ndarray:
     """Mixer output ref * conj(rx) on the grid: A gate exp(j (theta_ref + carrier - theta_emitted)).
 
-    ``carrier_phase`` is 2 pi fc tau (+ any carrier offset of the emitter). Real part only for I-only.
+    ``carrier_phase`` is 2 pi fc tau (+ any carrier offset of the emitter). Real part for I-only unless ``analytic``.
     """
     g = waveform_grid(scene)
-    return tone(scene, g.ref_phase + carrier_phase - emitted_phase, amplitude, gate)
+    return tone(scene, g.ref_phase + carrier_phase - emitted_phase, amplitude, gate, analytic=analytic)
 
 
 def wrap_s(x: np.ndarray, period_s: float) -> np.ndarray:
@@ -310,12 +311,13 @@ def wrap_s(x: np.ndarray, period_s: float) -> np.ndarray:
 
 
 def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float,
-                     gate_from_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                     gate_from_s: float | None = None, analytic: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Waveform-fidelity samples of a delayed replica of the victim's chirp (echo or spoof).
 
-    Returns (main, tail), each (n_chirps, n_samples) complex128 (float64 I-only): ``main`` is what
-    chirp k's own emission contributes, ``tail`` what chirp k-1's emission still contributes (its
-    end arrives at the start of chirp k). The cycle's signal is rho[k] main[k] + rho[k-1] tail[k].
+    Returns (main, tail), each (n_chirps, n_samples) complex128 (float64 I-only): ``main`` is what chirp k's own
+    emission contributes, ``tail`` what chirp k-1's emission still contributes (its end arrives at the start of
+    chirp k). The cycle's signal is rho[k] main[k] + rho[k-1] tail[k]. ``analytic``: complex for I-only too (the
+    I-only receiver's real IF filter on the complex mixer output, whose real part is the I-only samples).
     """
     g = waveform_grid(scene)
     tau = tau0_s + alpha * g.t_cycle_s
@@ -338,8 +340,8 @@ def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float
     gate_main &= np.where(after, keep_tail, keep_main)[None, :]
     gate_tail &= np.where(before, keep_main, keep_tail)[None, :]
     s = scene.slope_hz_per_s
-    main = mix(scene, np.pi * s * np.clip(u_main, 0, None) ** 2, carrier, amplitude, gate_main)
-    tail = mix(scene, np.pi * s * np.clip(u_tail, 0, None) ** 2, carrier, amplitude, gate_tail)
+    main = mix(scene, np.pi * s * np.clip(u_main, 0, None) ** 2, carrier, amplitude, gate_main, analytic)
+    tail = mix(scene, np.pi * s * np.clip(u_tail, 0, None) ** 2, carrier, amplitude, gate_tail, analytic)
     return filter_decimate(scene, main), filter_decimate(scene, tail)
 
 
@@ -350,8 +352,9 @@ def waveform_replica(scene: Scene, tau0_s: float, alpha: float, amplitude: float
 class EchoTemplates:
     """Noise-free echo of every target for a fully active cycle, at unit RCS fluctuation.
 
-    main[t], tail[t]: complex64 (n_chirps, n_samples) (float32 I-only): a target's echo of chirp k in slot k, and
-    its spill from chirp k-1 into slot k. ``tail`` is None when no target spills anything into the band (beat
+    main[t], tail[t]: complex64 (n_chirps, n_samples) (float32 I-only; at the receivers of an array,
+    arrays.receiver_echoes: (n_rx, n_chirps, n_samples)): a target's echo of chirp k in slot k, and its spill from
+    chirp k-1 into slot k. ``tail`` is None when no target spills anything into the band (beat
     fidelity: every target within the radar's range). main_sum / tail_sum: sum over targets (used when no target
     fluctuates).
     """
@@ -378,13 +381,18 @@ def echo_templates(scene: Scene, fidelity: str) -> EchoTemplates:
         m, tl = (beat_replica if fidelity == "beat" else waveform_replica)(scene, tau0, alpha, amp)
         mains.append(m.astype(dtype))
         tails.append(None if tl is None else tl.astype(dtype))
+    return assemble_templates(mains, tails, shape, dtype, fidelity)
+
+
+def assemble_templates(mains: list, tails: list, shape: tuple[int, ...], dtype, fidelity: str) -> EchoTemplates:
+    """EchoTemplates of the targets' echoes (arrays of ``shape`` and ``dtype``, a tail None where nothing spills),
+    with their sums, all read-only."""
     main_sum = np.sum(mains, axis=0, dtype=dtype) if mains else np.zeros(shape, dtype)
-    tail_sum = None
-    if fidelity == "waveform" or any(tl is not None for tl in tails):
+    if fidelity != "waveform" and all(tl is None for tl in tails):
+        tails, tail_sum = None, None
+    else:
         tails = [np.zeros(shape, dtype) if tl is None else tl for tl in tails]
         tail_sum = np.sum(tails, axis=0, dtype=dtype) if tails else np.zeros(shape, dtype)
-    else:
-        tails = None
-    for a in (*mains, *(tails or ()), main_sum) + ((tail_sum,) if tail_sum is not None else ()):
+    for a in (*mains, *(tails or ()), main_sum, *(() if tail_sum is None else (tail_sum,))):
         a.setflags(write=False)
     return EchoTemplates(tuple(mains), None if tails is None else tuple(tails), main_sum, tail_sum)

@@ -18,7 +18,7 @@ from typing import Any
 
 from carav_stream.core.params import Param, suggest
 from carav_stream.core.units import K_BOLTZMANN, KMH
-from carav_stream.radar.attackers import AttackerError, make_attacker
+from carav_stream.radar.attackers import AZIMUTH, AttackerError, make_attacker
 from carav_stream.radar.scene import IF_SETTLE_SAMPLES, AttackerSpec, Scene, SceneError, Target, target_warnings
 
 __all__ = ["ARRAY_LAYOUTS", "PRESET_DIR", "SCENE_PARAMS", "TARGET_PARAMS", "apply_overrides", "load_scene",
@@ -103,8 +103,7 @@ TARGET_PARAMS = (
     Param("azimuth_deg", float, 0.0, "azimuth from boresight, + towards larger array positions", unit="deg",
           low=-90.0, high=90.0),
 )
-ATTACKER_AZIMUTH = Param("azimuth_deg", float, 0.0, "azimuth of the attacker's antenna from boresight", unit="deg",
-                         low=-90.0, high=90.0)
+ATTACKER_AZIMUTH = AZIMUTH
 
 _RADAR = {p.name: p for p in SCENE_PARAMS}
 _TARGET = {p.name: p for p in TARGET_PARAMS}

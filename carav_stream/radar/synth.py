@@ -12,7 +12,9 @@ streaming pipeline runs the stages in separate processes, one cycle at a time):
     frames, clipped = adc(scene, rx)
 
 ``simulate_cycles`` is exactly that composition. Frames: float32 (I-only) or complex64 (I/Q), shape
-(n_cycles, n_chirps, n_samples), in sqrt(W) at the ADC (1 ohm), quantised.
+(n_cycles, n_chirps, n_samples), or (n_cycles, n_rx, n_chirps, n_samples) for a scene with several receivers
+(``Scene.frame_shape``), in sqrt(W) at the ADC (1 ohm), quantised. Echoes and attacks reach each receiver with the
+far-field phase of its antenna (radar/arrays.py); each receiver has its own noise.
 """
 from __future__ import annotations
 
@@ -21,9 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from carav_stream.radar.adc import adc_codes, from_codes, with_nonfinite
+from carav_stream.radar.arrays import receiver_echoes
 from carav_stream.radar.attackers import Observation
 from carav_stream.radar.noise import gaussian
-from carav_stream.radar.physics import echo_templates
 from carav_stream.radar.scene import Scene
 
 FIDELITIES = ("auto", "beat", "waveform")
@@ -53,12 +55,13 @@ class Transmission:
 class Cycles:
     """Result of :func:`simulate_cycles` for cycles cycle0 .. cycle0 + n_cycles - 1.
 
-    frames: float32 | complex64 (n_cycles, n_chirps, n_samples), after the ADC.
+    frames: float32 | complex64 ``scene.frame_shape(n_cycles)``, after the ADC.
     clean_echo: same dtype and shape, noise-free rho * x (ADC input, unquantised), or None.
-    clipped: int64 (n_cycles,), samples per cycle at the ADC rails (I or Q).
+    clipped: int64 (n_cycles,), samples per cycle at the ADC rails (I or Q), every receiver's.
     attack_active: bool (n_cycles,), the attacker emitted something in the cycle.
     codes: what the ADC delivered (:func:`adc_codes`): int16 codes, or the samples of an ideal ADC.
-    nonfinite: int64 (n_cycles,), samples per cycle that were NaN/Inf at the ADC input (such a cycle is invalid).
+    nonfinite: int64 (n_cycles,), samples per cycle (every receiver's) that were NaN/Inf at the ADC input (such a
+    cycle is invalid).
     """
 
     frames: np.ndarray
@@ -105,10 +108,11 @@ def observe(tx: Transmission) -> Observation:
 
 def draw_noise(scene: Scene, rng: np.random.Generator, n_cycles: int, *, out: np.ndarray | None = None) -> np.ndarray:
     """Receiver noise, i.i.d. N(0, sigma_n^2) per sample (circular complex for I/Q: sigma_n^2/2 per
-    component). float32 / complex64 (n_cycles, n_chirps, n_samples), written into ``out`` if given (a
-    C-contiguous array of that shape and dtype). One block of the generator's stream per cycle
-    (carav_stream.radar.noise), so batches equal one-cycle calls."""
-    return gaussian(rng, (n_cycles, scene.n_chirps, scene.n_samples), scene.sigma_n, scene.iq, out=out)
+    component), independent from receiver to receiver. float32 / complex64 ``scene.frame_shape(n_cycles)``, drawn
+    in C order over (cycle, [receiver,] chirp, sample), written into ``out`` if given (a C-contiguous array of that
+    shape and dtype). One block of the generator's stream per cycle (carav_stream.radar.noise), so batches equal
+    one-cycle calls."""
+    return gaussian(rng, scene.frame_shape(n_cycles), scene.sigma_n, scene.iq, out=out)
 
 
 def swerling_gains(scene: Scene, rng: np.random.Generator) -> np.ndarray:
@@ -128,8 +132,9 @@ def swerling_gains(scene: Scene, rng: np.random.Generator) -> np.ndarray:
 
 def _add_echo(scene: Scene, rx: np.ndarray, rho: np.ndarray, fidelity: str,
               gains: np.ndarray | None = None) -> None:
-    """rx += sum_t g_t[k] (rho[k] main_t[k] + rho[k-1] tail_t[k]), in place, for one or more cycles."""
-    tpl = echo_templates(scene, fidelity)
+    """rx += sum_t g_t[k] (rho[k] main_t[k] + rho[k-1] tail_t[k]), in place, for one or more cycles; rx of
+    ``scene.frame_shape``, the templates at every receiver (arrays.receiver_echoes)."""
+    tpl = receiver_echoes(scene, fidelity)
     rho_prev = np.zeros_like(rho)
     rho_prev[:, 1:] = rho[:, :-1]      # the chirp before chirp 0 (previous cycle) is taken as silent
     if gains is None:
@@ -142,16 +147,22 @@ def _add_echo(scene: Scene, rx: np.ndarray, rho: np.ndarray, fidelity: str,
                 rx += template
                 continue
             cycle, k = np.nonzero(on)
-            part = rx[cycle, k]
-            part += template[k]
-            rx[cycle, k] = part
+            if rx.ndim == 3:
+                part = rx[cycle, k]
+                part += template[k]
+                rx[cycle, k] = part
+            else:                      # every receiver of an active chirp: (n_on, n_rx, n_samples)
+                part = rx[cycle, :, k]
+                part += template.transpose(1, 0, 2)[k]
+                rx[cycle, :, k] = part
         return
+    chirps = (rho.shape[0],) + (1,) * (rx.ndim - 3) + (rho.shape[1], 1)   # weights per chirp, over receivers
     for t in range(len(scene.targets)):
         g = gains[t]
-        rx += (g * rho)[:, :, None] * tpl.main[t]
+        rx += (g * rho).reshape(chirps) * tpl.main[t]
         if tpl.tail is not None:
             g_prev = np.concatenate([np.zeros(1, np.float32), g[:-1]])
-            rx += (g_prev * rho_prev)[:, :, None] * tpl.tail[t]
+            rx += (g_prev * rho_prev).reshape(chirps) * tpl.tail[t]
 
 
 def channel(scene: Scene, tx: Transmission, rng_noise: np.random.Generator, cycle0: int = 0, *,
@@ -159,26 +170,23 @@ def channel(scene: Scene, tx: Transmission, rng_noise: np.random.Generator, cycl
     """Echoes of the transmitted chirps plus receiver noise: the signal at the ADC input.
 
     Draws from ``rng_noise``, per cycle in order: the Swerling factors of fluctuating targets, then
-    the noise. Returns rx (float32 | complex64, (n_cycles, n_chirps, n_samples)), or (rx, clean)
+    the noise. Returns rx (float32 | complex64, ``scene.frame_shape(n_cycles)``), or (rx, clean)
     with ``return_clean`` (clean = the noise-free echo part); ``out``: a C-contiguous array of rx's shape and
     dtype to compute rx into (returned). Works a few cycles at a time (noise, then echoes, while the chunk is
     still in cache).
     """
     if cycle0 != tx.cycle0:
         raise ValueError(f"channel: cycle0 {cycle0} does not match the transmission's cycle0 {tx.cycle0}")
-    if scene.has_array:
-        raise ValueError(f"channel: {scene.name} has {scene.n_tx} transmitters and {scene.n_rx} receivers; the "
-                         "channel models one antenna of each")
     n_cycles = tx.rho.shape[0]
     dtype = np.complex64 if scene.iq else np.float32
-    shape = (n_cycles, scene.n_chirps, scene.n_samples)
+    shape = scene.frame_shape(n_cycles)
     if out is not None and (out.dtype != dtype or out.shape != shape or not out.flags.c_contiguous):
         raise ValueError(f"channel: out must be a C-contiguous {np.dtype(dtype)} array of shape {shape}, got "
                          f"{out.dtype} {out.shape}")
     rx = np.empty(shape, dtype) if out is None else out
     clean = np.zeros_like(rx) if return_clean else None
     fluctuating = any(t.swerling for t in scene.targets)
-    cycle_bytes = max(1, scene.n_chirps * scene.n_samples * np.dtype(dtype).itemsize)
+    cycle_bytes = max(1, int(np.prod(shape[1:])) * np.dtype(dtype).itemsize)
     step = 1 if fluctuating else max(1, CHANNEL_CHUNK_BYTES // cycle_bytes)
     for a in range(0, n_cycles, step):
         b = min(a + step, n_cycles)
@@ -211,7 +219,7 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
     rho = transmit(scene, rho, cycle0, fid).rho
     n_cycles = rho.shape[0]
     dtype = np.complex64 if scene.iq else np.float32
-    frames = np.empty((n_cycles, scene.n_chirps, scene.n_samples), dtype)
+    frames = np.empty(scene.frame_shape(n_cycles), dtype)
     clean = np.empty_like(frames) if return_clean else None
     clipped = np.zeros(n_cycles, dtype=np.int64)
     nonfinite = np.zeros(n_cycles, dtype=np.int64)
@@ -219,7 +227,7 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
     codes = []
     # Stages run on chunks of about 2 MB: the same numbers (every stage draws cycle by cycle), but the
     # intermediate arrays stay in cache, which makes large batches as fast per cycle as small ones.
-    step = max(1, CHUNK_BYTES // (scene.n_chirps * scene.n_samples * np.dtype(dtype).itemsize))
+    step = max(1, CHUNK_BYTES // (int(np.prod(frames.shape[1:])) * np.dtype(dtype).itemsize))
     for i in range(0, n_cycles, step):
         j = min(i + step, n_cycles)
         tx = transmit(scene, rho[i:j], cycle0 + i, fid)
@@ -237,18 +245,21 @@ def simulate_cycles(scene: Scene, rho: np.ndarray, rng_noise: np.random.Generato
 
 
 def echo_energy_per_chirp(scene: Scene, rho: np.ndarray, fidelity: str = "beat") -> np.ndarray:
-    """Noise-free echo energy sum_m |rho(k) x_k[m]|^2 per chirp, float64 (n_cycles, n_chirps), at the
-    mean RCS (Swerling factors = 1). W * samples, ADC input, unquantised."""
-    tpl = echo_templates(scene, fidelity)
+    """Noise-free echo energy sum_(r, m) |rho(k) x_k,r[m]|^2 per chirp, over every receiver r, float64 (n_cycles,
+    n_chirps), at the mean RCS (Swerling factors = 1). W * samples, ADC input, unquantised."""
+    tpl = receiver_echoes(scene, fidelity)
     rho = np.asarray(rho, dtype=bool)
-    e_main = np.sum(np.abs(tpl.main_sum.astype(np.complex128)) ** 2, axis=1)
+
+    def energy(x: np.ndarray) -> np.ndarray:    # (n_chirps,): summed over the samples and the receivers
+        e = np.sum(np.abs(x.astype(np.complex128)) ** 2, axis=-1)
+        return e.sum(axis=0) if e.ndim == 2 else e
+
+    e_main = energy(tpl.main_sum)
     if tpl.tail_sum is None:
         return rho * e_main[None, :]
     # main and tail overlap little; sum the exact energy of each combination present
     rho_prev = np.zeros_like(rho)
     rho_prev[:, 1:] = rho[:, :-1]
-    m = tpl.main_sum.astype(np.complex128)
-    t = tpl.tail_sum.astype(np.complex128)
-    e_tail = np.sum(np.abs(t) ** 2, axis=1)
-    e_both = np.sum(np.abs(m + t) ** 2, axis=1)
+    e_tail = energy(tpl.tail_sum)
+    e_both = energy(tpl.main_sum.astype(np.complex128) + tpl.tail_sum)
     return np.where(rho & rho_prev, e_both, rho * e_main + rho_prev * e_tail)

@@ -77,3 +77,17 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path, capsys
     assert printed.startswith("machine: ") and f"({doc['machine']['simd']})" in printed.splitlines()[0]
     channel = graphs[0]["busy_ns_per_sample"]["channel"]
     assert "busy us/cycle (ns/sample, 128 x 256 a cycle): " in printed and f"({channel:.2f})" in printed
+
+
+@pytest.mark.integration
+def test_bench_pipeline_runs_the_mimo_scene_without_the_recorder_of_one_receiver(tmp_path, capsys):
+    out = tmp_path / "bench.json"
+    assert run_bench(["pipeline", "--cases", "awr1642_mimo:waveform", "--repeats", "1", "--scale", "0.02",
+                      "--batch", "4", "--transport", "shm", "--json", str(out)]) == 0
+    records = json.loads(out.read_text())["records"]
+    assert [(r["preset"], r["fidelity"], r["mode"], r["transport"]) for r in records] == [
+        ("awr1642_mimo", "waveform", "pipeline", "shm"), ("awr1642_mimo", "waveform", "fused", "none")]
+    assert records[0]["samples_per_cycle"] == 4 * 128 * 256 and records[0]["real_time_factor"] > 0
+    printed = capsys.readouterr().out
+    assert "record and replay left out: the recorder takes one receiver's frames, awr1642_mimo has 4" in printed
+    assert "busy us/cycle (ns/sample, 4 x 128 x 256 a cycle): " in printed

@@ -147,12 +147,17 @@ def test_detector_judges_invalid_a_cycle_with_nonfinite_adc_input_or_an_unbalanc
 
 
 @pytest.mark.parametrize("codes", [False, True])
-def test_detector_judges_a_receiver_arrays_frames_on_each_chirps_rms_over_all_receivers(codes):
-    """Frames (cycles, n_rx, chirps, samples), float32 samples or int16 codes: the verdict is detect(receivers=True)
-    on the same numbers; the gate passes the clean cycles' 4-D frames whole; a lone frame gets its cycles' rho."""
+def test_detector_judges_a_receiver_arrays_frames_on_each_chirps_rms_over_all_receivers(codes, tmp_path):
+    """Frames (cycles, n_rx, chirps, samples) of a four-receiver table1, float32 samples or int16 codes: the verdict
+    is detect(receivers=True) on the same numbers; the gate passes the clean cycles' 4-D frames whole; a lone frame
+    gets its cycles' rho; a one-receiver scene refuses them."""
     from carav_stream.detect.detector import detect
     from carav_stream.radar.adc import adc_codes
-    det = RmsDetector(scene=SCENE, eta=1.5)
+    from carav_stream.radar.scene_loader import PRESET_DIR
+    array = tmp_path / "table1_4rx.toml"
+    array.write_text((PRESET_DIR / "table1.toml").read_text().replace("[[targets]]", "n_rx = 4\n\n[[targets]]", 1))
+    det = RmsDetector(scene=str(array), eta=1.5)
+    assert det.sigma == RmsDetector(scene=SCENE, eta=1.5).sigma
     rng = np.random.default_rng(7)
     rho = np.zeros((3, 64), bool)
     rho[:, ::2] = True
@@ -171,3 +176,5 @@ def test_detector_judges_a_receiver_arrays_frames_on_each_chirps_rms_over_all_re
     assert gated["alarms"].header["per_cycle"]["reason"] == ["attack"]
     lone = det.unpaired("frames", wire(Frame.of(x, cycles=3), 2))
     assert lone.payload.shape == (3, 64) and lone.header["per_cycle"]["invalid"] == [True] * 3
+    with pytest.raises(ValueError, match="do not describe the same cycles"):
+        RmsDetector(scene=SCENE, eta=1.5).process(wire(Frame.of(x, cycles=3), 3), wire(Frame.of(rho, cycles=3), 3))

@@ -106,7 +106,7 @@ def test_every_shipped_graph_loads_and_includes_the_radar_chain_unchanged(graph)
     assert {str(e) for e in chain.edges} <= {str(e) for e in g.edges}      # detection stays ahead of ranging
     assert {n: node.type for n, node in chain.nodes.items()}.items() <= {n: node.type for n, node in
                                                                         g.nodes.items()}.items()
-    assert g.params["scene"] in ("table1", "table1_following", "awr1642")
+    assert g.params["scene"] in ("table1", "table1_following", "awr1642", "awr1642_mimo")
 
 
 def test_the_replay_graph_asks_for_its_recording_and_keeps_detection_ahead_of_ranging():

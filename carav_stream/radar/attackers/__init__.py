@@ -5,7 +5,8 @@ attackers together are ``scene_attacker(scene)``. ``carav attackers`` lists the 
 and its parameters; ``carav blocks attacker`` gives each parameter's meaning.
 
     _base.py        Attacker (the plain models), LiveChirpAttacker (the ones that answer the victim's chirps on
-                    the air), Observation (what an attacker hears), AttackerError, gate_by_emission
+                    the air), Observation (what an attacker hears), AttackerError, gate_by_emission, AZIMUTH (where
+                    the radar sees it: every model's signal reaches each receiver of an array at its phase)
     _registry.py    KINDS and make_attacker, built from the model files
     _replica.py     the delayed replica of the victim's chirp that ghost and reactive send
     _composite.py   several attackers at once
@@ -16,6 +17,7 @@ a docstring (its first paragraph says what it puts on the air), its ``params`` a
 ``response``; the attacker block, the graph validator, the scene loader and the documents' model table find it.
 """
 from carav_stream.radar.attackers._base import (
+    AZIMUTH,
     Attacker,
     AttackerError,
     LiveChirpAttacker,
@@ -29,6 +31,6 @@ from carav_stream.radar.attackers._registry import KINDS, make_attacker
 # every model's class under its own name too (from carav_stream.radar.attackers import GhostAttacker)
 globals().update({cls.__name__: cls for cls in KINDS.values()})
 
-__all__ = ["Attacker", "AttackerError", "CompositeAttacker", "KINDS", "LiveChirpAttacker", "Observation",
+__all__ = ["AZIMUTH", "Attacker", "AttackerError", "CompositeAttacker", "KINDS", "LiveChirpAttacker", "Observation",
            "gate_by_emission", "make_attacker", "rarms_param", "scene_attacker",
            *(cls.__name__ for cls in KINDS.values())]

@@ -20,6 +20,14 @@ and its receiver (adc_framer) gates it.
 
 Common parameters: ``start_cycle`` (int, default 0) and ``n_active_cycles`` (int or None = forever). RMS levels
 are ``rarms`` = sigma_a / sigma_n, per-sample RMS while on (E|a|^2 = sigma_a^2, for I-only and I/Q alike).
+
+Receiver arrays: where the attacker is, ``azimuth_deg``, is not a model parameter but its place in the scene
+(AttackerSpec.azimuth_deg; the attacker block's own parameter). Every model's signal reaches receiver r one way with
+the far-field phase of that receiver (radar/arrays.py), applied here once for every model: ``emit`` and ``replies``
+give the signal at the receivers. For I-only it turns the analytic signal: a model that renders a waveform from its
+physics (``analytic_rendering``, the replicas and the secondary antenna) renders it in complex when ``analytic`` asks
+(the scene is I-only and the receivers see it at different phases); of any other model's real samples the base takes
+the discrete analytic signal (arrays.hilbert).
 """
 from __future__ import annotations
 
@@ -30,8 +38,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from carav_stream.core.params import Param, problems
+from carav_stream.radar.arrays import attack_at_receivers, receiver_phases
 from carav_stream.radar.noise import gaussian
 from carav_stream.radar.scene import Scene
+
+AZIMUTH = Param("azimuth_deg", float, 0.0, "azimuth of the attacker's antenna from boresight, + towards larger array "
+                "positions", unit="deg", low=-90.0, high=90.0)
 
 
 @dataclass(frozen=True)
@@ -72,6 +84,7 @@ class Attacker:
     needs_waveform = False       # transmits its own waveform: only the waveform fidelity renders it
     uses_live_emission = False   # answers the current chirp, with a latency (LiveChirpAttacker)
     same_every_chirp = False     # a[c, k, :] is the same for every chirp k (a[:, :1] says it all)
+    analytic_rendering = False   # renders its complex (analytic) signal when self.analytic asks (module docstring)
     params: tuple[Param, ...] = ()
     COMMON = (Param("start_cycle", int, 0, "first cycle the attacker is on", unit="cycles", low=0),
               Param("n_active_cycles", int, None, "cycles it stays on (none: until the end)", unit="cycles", low=0,
@@ -87,8 +100,12 @@ class Attacker:
         """What the model puts on the air, in one line: the first paragraph of its class docstring."""
         return " ".join(inspect.cleandoc(cls.__doc__ or "").split("\n\n")[0].split())
 
-    def __init__(self, scene: Scene, **params):
+    def __init__(self, scene: Scene, *, azimuth_deg: float = 0.0, **params):
         self.scene = scene
+        self.azimuth_deg = float(azimuth_deg)
+        # an I-only scene whose receivers see the signal at different phases: render the analytic signal
+        self.analytic = (self.analytic_rendering and not scene.iq
+                         and bool(receiver_phases(scene, self.azimuth_deg).any()))
         declared = self.declared()
         found = problems(declared, params, f"attacker {self.kind!r}")
         for p in declared:
@@ -135,10 +152,12 @@ class Attacker:
 
     def emit(self, n_cycles: int, cycle0: int, rng_attack: np.random.Generator | None,
              observation: Observation | None = None, *, fidelity: str = "beat", compact: bool = False):
-        """The attack signal a: (n_cycles, n_chirps, n_samples) of the scene's dtype, or None when
-        silent throughout, and attack_active bool (n_cycles,). Draws from rng_attack in cycle order.
-        With ``compact`` a model that sends the same samples in every chirp (``same_every_chirp``)
-        returns them once per cycle, (n_cycles, 1, n_samples), which broadcasts over the chirps.
+        """The attack signal a at the receivers, or None when silent throughout, and attack_active bool
+        (n_cycles,). a: (n_cycles, n_chirps, n_samples) of the scene's dtype for one receiver, (n_cycles, n_rx,
+        n_chirps, n_samples) for several ((n_cycles, 1, n_chirps, n_samples) when all see it at phase 0, which
+        broadcasts): arrays.attack_at_receivers. Draws from rng_attack in cycle order. With ``compact`` a model
+        that sends the same samples in every chirp (``same_every_chirp``) returns them once per cycle, a chirp axis
+        of 1, which broadcasts over the chirps.
 
         A listening model (``listens``) hears ``observation``'s row i after producing cycle i; with
         ``observation=None`` it hears nothing here (a streaming node feeds it with ``listen``)."""
@@ -153,7 +172,7 @@ class Attacker:
         if not on.any() and not hear:
             return None, on
         rows = 1 if compact and self.same_every_chirp else self.scene.n_chirps
-        a = np.zeros((n_cycles, rows, self.scene.n_samples), self.dtype)
+        a = np.zeros((n_cycles, rows, self.scene.n_samples), np.complex64 if self.analytic else self.dtype)
         active = np.zeros(n_cycles, dtype=bool)
         batch = self._batch(a, on, cycle0, rng_attack, fidelity)
         for i in range(n_cycles):
@@ -164,7 +183,7 @@ class Attacker:
                 active[i] = on[i]
             if hear:
                 self._listen(np.array(observation.emission[i], dtype=bool))
-        return a, active
+        return attack_at_receivers(self.scene, a, self.azimuth_deg), active
 
     @property
     def listens(self) -> bool:
@@ -184,7 +203,8 @@ class Attacker:
         return False
 
     def _cycle(self, a_c: np.ndarray, cycle: int, rng, live, fidelity: str) -> bool:
-        """Write cycle ``cycle``'s attack into a_c (n_chirps, n_samples); return whether it emitted."""
+        """Write cycle ``cycle``'s attack into a_c (n_chirps, n_samples; complex64 when ``analytic``); return
+        whether it emitted."""
         return False
 
     def _listen(self, emission_row: np.ndarray) -> None:
@@ -208,8 +228,23 @@ class LiveChirpAttacker(Attacker, ABC):
     def response(self, fidelity: str) -> tuple[np.ndarray, np.ndarray | None]:
         """What it answers in a cycle in which it is on, whatever the victim transmits (rho-independent):
         ``main`` (n_chirps, n_samples), its reply to chirp k heard in chirp k, and ``tail``, its reply to chirp
-        k-1 still arriving in chirp k (None when there is none); scene dtype, read-only, the same for every cycle.
-        :func:`gate_by_emission` keeps the replies to chirps on air."""
+        k-1 still arriving in chirp k (None when there is none); scene dtype (complex64 when ``analytic``),
+        read-only, the same for every cycle, at position 0. :func:`gate_by_emission` keeps the replies to chirps on
+        air; ``replies`` gives them at the receivers."""
+
+    def replies(self, fidelity: str) -> tuple[np.ndarray, np.ndarray | None]:
+        """``response`` as the receivers get it: (main, tail) of the scene's dtype, (n_chirps, n_samples) for one
+        receiver, (n_rx | 1, n_chirps, n_samples) for several (arrays.attack_at_receivers); read-only."""
+        main, tail = self.response(fidelity)
+        cached = getattr(self, "_replies_of", None)
+        if cached is None or cached[0] is not main or cached[1] is not tail:
+            turned = tuple(None if x is None else attack_at_receivers(self.scene, x[None], self.azimuth_deg)[0]
+                           for x in (main, tail))
+            for x in turned:
+                if x is not None:
+                    x.setflags(write=False)
+            self._replies_of, self._replies = (main, tail), turned
+        return self._replies
 
     def _cycle(self, a_c, cycle, rng, live, fidelity):
         main, tail = self.response(fidelity)
@@ -225,12 +260,19 @@ def gate_by_emission(main: np.ndarray, tail: np.ndarray | None, on_air: np.ndarr
         a[c, k] = live[c, k] main[k] + live[c, k-1] tail[k]     (k >= 1; chirp 0 gets no tail)
         live[c, k] = on_air[c, k] and on[c]
 
-    main: (n_chirps, n_samples), or (1 | n_cycles, n_chirps, n_samples), from a LiveChirpAttacker's ``response``;
-    tail: the same shape or None (beat fidelity); on_air: bool (n_cycles, n_chirps), chirp k of cycle c was
-    transmitted; on: bool (n_cycles,), the repeater is switched on (None = every cycle).
-    Returns a, (n_cycles, n_chirps, n_samples) of main's dtype, and attack_active bool (n_cycles,) = a
+    main: (n_chirps, n_samples), or (1 | n_cycles, n_chirps, n_samples), from a LiveChirpAttacker's ``response``,
+    or with a receiver axis (1 | n_cycles, n_rx, n_chirps, n_samples) from its ``replies``; tail: the same shape or
+    None (beat fidelity); on_air: bool (n_cycles, n_chirps), chirp k of cycle c was transmitted; on: bool
+    (n_cycles,), the repeater is switched on (None = every cycle).
+    Returns a, (n_cycles, [n_rx,] n_chirps, n_samples) of main's dtype, and attack_active bool (n_cycles,) = a
     chirp of the cycle was answered. Pure; the same floating-point operations for any batch of cycles.
     """
+    if main.ndim == 4:            # every receiver gated alike
+        if tail is not None and tail.shape != main.shape:
+            raise ValueError(f"tail: expected {main.shape} like main, got {tail.shape}")
+        parts = [gate_by_emission(main[:, r], None if tail is None else tail[:, r], on_air, on)
+                 for r in range(main.shape[1])]
+        return np.stack([a for a, _ in parts], axis=1), parts[0][1]
     on_air = np.asarray(on_air)
     if on_air.dtype != np.bool_ or on_air.ndim != 2:
         raise ValueError(f"on_air: expected bool (n_cycles, n_chirps), got {on_air.dtype} {on_air.shape}")

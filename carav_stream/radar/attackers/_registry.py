@@ -48,11 +48,12 @@ def _models() -> dict[str, type[Attacker]]:
 KINDS: dict[str, type[Attacker]] = _models()
 
 
-def make_attacker(kind: str, scene: Scene, **params) -> Attacker:
-    """Build an attacker of ``kind`` (``carav attackers`` lists the models and their parameters).
+def make_attacker(kind: str, scene: Scene, *, azimuth_deg: float = 0.0, **params) -> Attacker:
+    """Build an attacker of ``kind`` (``carav attackers`` lists the models and their parameters) whose antenna the
+    radar sees at ``azimuth_deg`` (its place in the scene, not a model parameter).
 
     Raises :class:`AttackerError` (a ValueError) listing every bad parameter.
     """
     if kind not in KINDS:
         raise AttackerError(str(kind), [("kind", f"unknown attacker kind {kind!r}{suggest(str(kind), KINDS)}")])
-    return KINDS[kind](scene, **params)
+    return KINDS[kind](scene, azimuth_deg=azimuth_deg, **params)

@@ -25,6 +25,7 @@ class SecondaryAntennaAttacker(Attacker):
 
     kind = "secondary_antenna"
     needs_waveform = True
+    analytic_rendering = True
     params = (Param("range_m", float, 30.0, "range of the transmitter", unit="m", low=0.0, strict=True),
               Param("velocity_mps", float, 50.0 * KMH, "ground speed of the transmitter (target convention)",
                     unit="m/s"),
@@ -92,7 +93,7 @@ class SecondaryAntennaAttacker(Attacker):
         if key not in self._cache:
             if len(self._cache) > 8:
                 self._cache.clear()
-            self._cache[key] = physics.filter_decimate(s, self.mixed(phase0)).astype(self.dtype)
+            self._cache[key] = physics.filter_decimate(s, self.mixed(phase0)).astype(a_c.dtype)
         a_c += self._cache[key]
         return self.tx_power_w > 0
 
@@ -102,6 +103,8 @@ class SecondaryAntennaAttacker(Attacker):
 
             tau = (R + (v - v_radar) t) / c,    u = (t - tau + phase0_s) mod t_chirp,    gate = u < t_sweep
             y = A gate exp(j (theta_ref(t) + 2 pi fc tau - (2 pi f_offset u + pi slope u u)))    (Re for I-only)
+
+        (complex for I-only too when ``analytic`` asks: the analytic signal an array turns, attackers/_base.py).
 
         t - tau and theta_ref + 2 pi fc tau are the same in every cycle and are kept from the first; the rest runs a
         few chirps at a time (its temporaries stay in cache), the modulo by physics.wrap_s and the exponential only
@@ -115,7 +118,7 @@ class SecondaryAntennaAttacker(Attacker):
             tau = (self.range_m + (self.velocity_mps - s.radar_speed_mps) * g.t_cycle_s) / C_MPS
             self._grid_terms = (g.t_cycle_s - tau, g.ref_phase + 2 * np.pi * s.fc_hz * tau)
         lead, carrier = self._grid_terms
-        y = np.empty(lead.shape, np.complex128 if s.iq else np.float64)
+        y = np.empty(lead.shape, np.complex128 if s.iq or self.analytic else np.float64)
         amp = self.amplitude()
         c_offset, c_slope = 2 * np.pi * self.f_offset_hz, np.pi * self.slope_hz_per_s
         rows = max(1, 32768 // lead.shape[1])
@@ -127,7 +130,7 @@ class SecondaryAntennaAttacker(Attacker):
             if self.f_offset_hz != 0:            # else 0 u + x = x (u >= 0; where u is NaN, so is x)
                 phase += c_offset * u
             np.subtract(carrier[a: a + rows], phase, out=phase)
-            physics.tone(s, phase, amp, gate, out=y[a: a + rows])
+            physics.tone(s, phase, amp, gate, out=y[a: a + rows], analytic=self.analytic)
         return y
 
 
