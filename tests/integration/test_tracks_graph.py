@@ -9,10 +9,12 @@ import json
 
 import numpy as np
 import pytest
+from scipy.io import loadmat
 
 from carav_stream.radar.attackers import make_attacker
 from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.loader import load_graph
+from carav_stream.testing.graphs import by_cycle
 from tests.integration.conftest import ROOT, read_jsonl
 
 pytestmark = pytest.mark.integration
@@ -153,3 +155,40 @@ def test_without_the_detector_the_picture_follows_the_false_echo(carav, graph):
     assert on_echo and on_echo <= set(tracks["false_track_ids"])
     assert tracks["targets"][0]["lost_cycles"] > len(far) // 2 and tracks["targets"][0]["deleted_tracks"] >= 1
     assert tracks["first_alarm"]["nis"]["cycles"] > attack["capture_cycles"]
+
+
+TRACK_KEYS = {"track_id": "track_id", "status": "track_status", "range_m": "track_range_m",
+              "velocity_mps": "track_velocity_mps", "var_range_m2": "track_var_range_m2",
+              "var_velocity_m2ps2": "track_var_velocity_m2ps2", "nis_alarm": "track_nis_alarm"}
+
+
+def test_a_recording_keeps_every_cycles_tracks_and_replay_and_export_carry_them(carav):
+    """carav record puts the tracks of every cycle into its annotations; carav replay tracks the recording again
+    with the recorded tracker (the same tracks, bit for bit, and the same figures); carav export gives them as
+    per-cycle columns."""
+    live_dir, n = carav.workdir / "live", 300            # the attack from cycle 200: coasting in the last 100
+    done = carav.cli("record", str(GRAPH), "--out", str(live_dir), "--cycles", str(n), "--no-progress", "--json",
+                     str(carav.workdir / "live.json"))
+    assert done.returncode == 0, done.stderr
+    logged = by_cycle(read_jsonl(carav.workdir / "tracks.jsonl"))
+    ann = json.loads((live_dir / "recording.sigmf-meta").read_text())["annotations"]
+    assert [a["carav:cycle"] for a in ann] == sorted(logged) == list(range(n))
+    assert all(a[f"carav:{name}"] == logged[a["carav:cycle"]][key] for a in ann for key, name in TRACK_KEYS.items())
+    assert {s for a in ann for s in a["carav:track_status"]} == {"tentative", "confirmed", "coasting"}
+    done = carav.cli("replay", str(live_dir), "--tracks", str(carav.workdir / "again.jsonl"), "--no-progress",
+                     "--json", str(carav.workdir / "replay.json"))
+    assert done.returncode == 0, done.stderr
+    again = by_cycle(read_jsonl(carav.workdir / "again.jsonl"))
+    assert sorted(again) == list(range(n))
+    per_cycle = set(read_jsonl(carav.workdir / "tracks.jsonl")[0]["per_cycle"])     # the frames' own headers apart
+    assert per_cycle >= set(TRACK_KEYS) | {"measured", "reason", "born", "deleted", "nis"}
+    assert all({k: again[c][k] for k in per_cycle} == {k: logged[c][k] for k in per_cycle} for c in range(n))
+    live, replay = (json.loads((carav.workdir / f).read_text()) for f in ("live.json", "replay.json"))
+    assert replay["tracks"] == live["tracks"] and live["tracks"]["targets"][0]["coasted_cycles"] == 100
+    done = carav.cli("export", str(live_dir), "--mat", str(carav.workdir / "rec.mat"), "--quiet",
+                     "--no-activation")
+    assert done.returncode == 0, done.stderr
+    per = loadmat(str(carav.workdir / "rec.mat"), simplify_cells=True)["per_cycle"]
+    for key in ("range_m", "velocity_mps"):                 # one live track a cycle here: a column
+        np.testing.assert_array_equal(np.ravel(per[f"track_{key}"]), [logged[c][key][0] for c in range(n)])
+    assert [str(s) for s in per["track_status"]] == [logged[c]["status"][0] for c in range(n)]
