@@ -8,6 +8,10 @@ waveform) and mode:
                  same allocator and BLAS settings, supervisor.NODE_ENV), in batches of the same --batch cycles (the same
                  work per cycle, the same vectorisation; scene templates built before the clock starts, as
                  the channel node builds them before the run starts)
+  tracker        the pipeline graph with the tracker of graphs/table1_tracks.toml added after the target list
+                 (ranging.estimates and gate.alarms in, as in that graph), run right after the pipeline of the same
+                 repeat; its cycles/s over the pipeline's, repeat by repeat, and the loss 1 - that ratio (target:
+                 at most TRACKER_LOSS_TARGET)
 Each figure is the median of --repeats runs; the real-time factor is cycles/s over the radar's own cycle
 rate (table1: 1 / (64 x 7.33 us) = 2131 cycles/s); the bottleneck is the node with the most busy time. Each
 node's busy time is also given per sample (us per cycle over the cycle's real values, table1 64 x 1080, every
@@ -25,6 +29,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from bench import records as bench_records
@@ -43,13 +48,16 @@ from carav_stream.runtime.supervisor import NODE_ENV, Supervisor
 
 CASES = (("table1", "beat", 2000), ("table1", "waveform", 1000), ("awr1642", "beat", 1000),
          ("awr1642_mimo", "waveform", 1000))
-MODES = ("pipeline", "fused", "record", "replay")
+MODES = ("pipeline", "tracker", "fused", "record", "replay")
+EXTRA_MODES = ("record", "replay", "tracker")
+TRACKER_LOSS_TARGET = 0.05     # the tracker may cost the graph at most this share of its cycles/s
 
 
 def _modes(text: str) -> list[str]:
     wanted = [] if text == "none" else text.split(",")
-    if set(wanted) - {"record", "replay"} or "replay" in wanted and "record" not in wanted:
-        raise argparse.ArgumentTypeError(f"expected record, record,replay or none, got {text!r}")
+    if set(wanted) - set(EXTRA_MODES) or "replay" in wanted and "record" not in wanted:
+        raise argparse.ArgumentTypeError(f"expected a comma list of {', '.join(EXTRA_MODES)} (replay needs record), "
+                                         f"or none, got {text!r}")
     return wanted
 
 
@@ -81,8 +89,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--transport", default=",".join(TRANSPORTS), type=_transports,
                         help="data planes of the pipeline runs: zmq (arrays in ZeroMQ messages), shm (in shared "
                         "memory, runtime/shm.py), or both as a comma list (record and replay use the first)")
-    parser.add_argument("--with", dest="with_modes", default=["record", "replay"], type=_modes, metavar="MODES",
-                        help="extra modes beside pipeline and fused: record, replay (needs record), or none")
+    parser.add_argument("--with", dest="with_modes", default=list(EXTRA_MODES), type=_modes, metavar="MODES",
+                        help="extra modes beside pipeline and fused, a comma list: record, replay (needs record), "
+                        "tracker (the graph with the tracker after the target list); or none (default: all three)")
 
 
 def _run(graph, n: int, what: str) -> dict:
@@ -110,15 +119,31 @@ def ceiling(busy: dict[str, float], outside: dict[str, float], cores: int) -> tu
     return (one_node, node) if one_node <= shared else (shared, f"{cores} core{'s' if cores != 1 else ''}")
 
 
+def tracker_graph(folder: Path) -> Path:
+    """Write FOLDER/tracker_chain.toml: graphs/radar_chain.toml with the tracker of graphs/table1_tracks.toml (its
+    own parameters, the graph-wide ones left to the including graph) on the estimator's target list and the gate's
+    refusals, wired as in that graph; returns its path. The tracks go nowhere: what is measured is the tracker."""
+    tracks = load_graph(graph_file("table1_tracks"))
+    own = {k: v for k, v in tracks.nodes["tracker"].params.items() if k not in tracks.params}
+    fields = ", ".join(f"{k} = {json.dumps(v)}" for k, v in {"type": "tracker", **own}.items())
+    wires = [f"{e.src}.{e.src_port} -> {e.dst}.{e.dst_port}" for e in tracks.edges if e.dst == "tracker"]
+    path = folder / "tracker_chain.toml"
+    path.write_text(f"include = {json.dumps(str(graph_file('radar_chain')))}\n"
+                    f"connections = {json.dumps(wires)}\n\n[blocks]\ntracker = {{ {fields} }}\n")
+    return path
+
+
 def _pipeline(preset: str, fidelity: str, n: int, method: str, batch: int, transport: str,
-              record_to: Path | None = None) -> tuple[float, dict, dict]:
+              record_to: Path | None = None, tracker: bool = False) -> tuple[float, dict, dict]:
     """cycles/s, busy us per cycle by node, and the run summary; with record_to, the graph with its recorder
-    (carav record) writing into that folder."""
+    (carav record) writing into that folder; with tracker, the graph with the tracker (tracker_graph)."""
     overrides = pipeline_overrides(preset, fidelity, n, method, batch, transport)
-    graph = load_graph(graph_file("radar_chain"), overrides)
-    if record_to is not None:
-        graph = load_graph(record_graph(graph, record_to, overrides), overrides)
-    summary = _run(graph, n, f"{'record' if record_to else 'pipeline'} run of {preset}/{fidelity}")
+    with tempfile.TemporaryDirectory(prefix="carav-bench-") as folder:
+        graph = load_graph(tracker_graph(Path(folder)) if tracker else graph_file("radar_chain"), overrides)
+        if record_to is not None:
+            graph = load_graph(record_graph(graph, record_to, overrides), overrides)
+        what = "record" if record_to else "tracker" if tracker else "pipeline"
+        summary = _run(graph, n, f"{what} run of {preset}/{fidelity}")
     busy = {node: p["busy_s"] / n * 1e6 for node, p in summary["per_node"].items()}
     return summary["throughput_cycles_per_s"], busy, summary
 
@@ -156,6 +181,88 @@ def _fused_worker(preset: str, fidelity: str, n: int, method: str, batch: int) -
     return n / (time.perf_counter() - t0), (time.process_time() - c0) / n * 1e6
 
 
+@dataclass
+class _Runs:
+    """What the repeats of one case and batch measured, run by run: rates and busy times by (mode, transport), each
+    pipeline run's CPU outside the blocks by transport, the fused chain's CPU, the recording's bytes per cycle."""
+
+    rates: dict[tuple[str, str], list[float]]
+    busy: dict[tuple[str, str], list[dict]] = field(default_factory=dict)
+    outside: dict[str, list[dict]] = field(default_factory=dict)
+    fused_cpu: list[float] = field(default_factory=list)
+    bytes_per_cycle: int | None = None
+
+    def add(self, key: tuple[str, str], rate: float, busy: dict | None = None) -> None:
+        self.rates[key].append(rate)
+        if busy is not None:
+            self.busy.setdefault(key, []).append(busy)
+
+
+def _repeat(runs: _Runs, case: tuple[str, str, int], args: argparse.Namespace, batch: int) -> None:
+    """One run of every mode, interleaved so that the ratios compare like with like: each pipeline, the tracker
+    right after the pipeline on the first plane, the fused chain, then record and replay."""
+    preset, fidelity, n = case
+    first = args.transport[0]
+    for transport in args.transport:
+        rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, transport)
+        runs.add(("pipeline", transport), rate, busy)
+        runs.outside.setdefault(transport, []).append(outside_blocks(summary, n))
+        if transport == first and ("tracker", first) in runs.rates:
+            rate, busy, _ = _pipeline(preset, fidelity, n, args.method, batch, first, tracker=True)
+            runs.add(("tracker", first), rate, busy)
+    rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
+    runs.add(("fused", "none"), rate)
+    runs.fused_cpu.append(cpu_us)
+    if ("record", first) in runs.rates:
+        with tempfile.TemporaryDirectory(prefix="carav-bench-") as folder:
+            rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, first, Path(folder))
+            runs.add(("record", first), rate, busy)
+            runs.bytes_per_cycle = summary["recording"]["bytes_per_cycle"]
+            if ("replay", first) in runs.rates:
+                runs.add(("replay", first), *_replay(Path(folder), n, args.method, first))
+
+
+def _record(runs: _Runs, mode: str, transport: str, base: dict, samples: int) -> tuple[dict, str]:
+    """The record of one mode and plane from its runs, and the note its printed line ends with."""
+    rates = runs.rates[(mode, transport)]
+    rate = statistics.median(rates)
+    # against the fused chain run in the same repeat: a paired ratio per repeat, and their median, so that the
+    # machine's load drifting from repeat to repeat cancels out
+    paired = [r / f for r, f in zip(rates, runs.rates[("fused", "none")])]
+    rec = {**base, "mode": mode, "transport": transport, "cycles_per_s": rate, "runs_cycles_per_s": rates,
+           "real_time_factor": rate / base["radar_cycles_per_s"], "speedup_over_fused": statistics.median(paired),
+           "runs_speedup_over_fused": paired}
+    if mode == "fused":
+        rec["cpu_us_per_cycle"] = statistics.median(runs.fused_cpu)
+        return rec, ""
+    b_runs = runs.busy[(mode, transport)]
+    busy = {node: statistics.median(b[node] for b in b_runs) for node in b_runs[0]}
+    rec["bottleneck_node"] = bottleneck = max(busy, key=busy.get)
+    rec["busy_us_per_cycle"] = busy
+    rec["samples_per_cycle"] = samples
+    rec["busy_ns_per_sample"] = {node: us * 1e3 / samples for node, us in busy.items()}
+    note = f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)"
+    if mode == "pipeline":
+        o_runs = runs.outside[transport]
+        rec["outside_us_per_cycle"] = outside = {node: statistics.median(o[node] for o in o_runs) for node in o_runs[0]}
+        # every node's CPU, in and outside its block, run by run: the graph's cost of a cycle
+        rec["cpu_us_per_cycle"] = cpu = statistics.median(
+            sum(b.values()) + sum(o.values()) for b, o in zip(b_runs, o_runs))
+        note += f"  outside the blocks {sum(outside.values()):.0f} us/cycle, CPU {cpu:.0f} us/cycle"
+    if mode in ("record", "replay"):
+        rec["bytes_per_cycle"] = runs.bytes_per_cycle
+        rec["ratio_to_pipeline"] = rate / statistics.median(runs.rates[("pipeline", transport)])
+        note += f"  {runs.bytes_per_cycle} B/cycle on disk, x{rec['ratio_to_pipeline']:.2f} live graph"
+    if mode == "tracker":
+        # against the pipeline of the same repeat and plane, run just before it: paired, like the fused ratio
+        rec["runs_ratio_to_pipeline"] = ratios = [t / p for t, p in zip(rates, runs.rates[("pipeline", transport)])]
+        rec["ratio_to_pipeline"] = statistics.median(ratios)
+        rec["cycles_per_s_loss"] = loss = 1.0 - rec["ratio_to_pipeline"]
+        rec["loss_target"] = TRACKER_LOSS_TARGET
+        note += f"  x{rec['ratio_to_pipeline']:.3f} the graph without it (loss {loss:.1%})"
+    return rec, note
+
+
 def run(args: argparse.Namespace) -> int:
     wanted = None if args.cases == "all" else {tuple(c.split(":")) for c in args.cases.split(",")}
     batches = [int(b) for b in str(args.batch).split(",")]
@@ -169,81 +276,31 @@ def run(args: argparse.Namespace) -> int:
         scene = scene_of(preset)
         rate_radar = scene.cycles_per_s
         samples = scene.n_rx * scene.n_chirps * scene.n_samples * (2 if scene.iq else 1)    # real values a cycle
-        first = args.transport[0]
         case_modes = modes
         if scene.n_rx > 1 and modes & {"record", "replay"}:    # sigmf_sink records frames of one receiver
             case_modes = modes - {"record", "replay"}
             print(f"{preset:<8} {fidelity:<8} record and replay left out: the recorder takes one receiver's frames, "
                   f"{preset} has {scene.n_rx}", flush=True)
         for batch in batches:
-            # (mode, transport) -> rates; the fused chain has no data plane
-            runs = {(m, t): [] for m in MODES if m in case_modes
-                    for t in (args.transport if m == "pipeline" else ["none"] if m == "fused" else [first])}
-            busy_runs, fused_cpu, bytes_per_cycle = {k: [] for k in runs}, [], None
-            outside_runs = {t: [] for t in args.transport}
-            for _ in range(args.repeats):   # modes interleaved: the ratios compare like with like
-                for transport in args.transport:
-                    rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, transport)
-                    runs[("pipeline", transport)].append(rate)
-                    busy_runs[("pipeline", transport)].append(busy)
-                    outside_runs[transport].append(outside_blocks(summary, n))
-                rate, cpu_us = _fused(preset, fidelity, n, args.method, batch)
-                runs[("fused", "none")].append(rate)
-                fused_cpu.append(cpu_us)
-                if ("record", first) in runs:
-                    with tempfile.TemporaryDirectory(prefix="carav-bench-") as folder:
-                        rate, busy, summary = _pipeline(preset, fidelity, n, args.method, batch, first, Path(folder))
-                        runs[("record", first)].append(rate)
-                        busy_runs[("record", first)].append(busy)
-                        bytes_per_cycle = summary["recording"]["bytes_per_cycle"]
-                        if ("replay", first) in runs:
-                            rate, busy = _replay(Path(folder), n, args.method, first)
-                            runs[("replay", first)].append(rate)
-                            busy_runs[("replay", first)].append(busy)
-            fused_runs = runs[("fused", "none")]
-            for (mode, transport), rates in runs.items():
-                rate = statistics.median(rates)
-                # against the fused chain run in the same repeat, right after: a paired ratio per repeat, and
-                # their median, so that the machine's load drifting from repeat to repeat cancels out
-                paired = [r / f for r, f in zip(rates, fused_runs)]
-                rec = {"preset": preset, "fidelity": fidelity, "mode": mode, "transport": transport, "batch": batch,
-                       "cycles": n, "repeats": args.repeats, "method": args.method, "cycles_per_s": rate,
-                       "runs_cycles_per_s": rates, "real_time_factor": rate / rate_radar,
-                       "radar_cycles_per_s": rate_radar, "speedup_over_fused": statistics.median(paired),
-                       "runs_speedup_over_fused": paired}
-                note = ""
-                if mode == "fused":
-                    rec["cpu_us_per_cycle"] = statistics.median(fused_cpu)
-                else:
-                    b_runs = busy_runs[(mode, transport)]
-                    busy = {node: statistics.median(b[node] for b in b_runs) for node in b_runs[0]}
-                    rec["bottleneck_node"] = bottleneck = max(busy, key=busy.get)
-                    rec["busy_us_per_cycle"] = busy
-                    rec["samples_per_cycle"] = samples
-                    rec["busy_ns_per_sample"] = {node: us * 1e3 / samples for node, us in busy.items()}
-                    note = f"  bottleneck {bottleneck} ({busy[bottleneck]:.0f} us/cycle)"
-                    if mode == "pipeline":
-                        o_runs = outside_runs[transport]
-                        rec["outside_us_per_cycle"] = outside = {
-                            node: statistics.median(o[node] for o in o_runs) for node in o_runs[0]}
-                        # every node's CPU, in and outside its block, run by run: the graph's cost of a cycle
-                        rec["cpu_us_per_cycle"] = cpu = statistics.median(
-                            sum(b.values()) + sum(o.values()) for b, o in zip(b_runs, o_runs))
-                        note += f"  outside the blocks {sum(outside.values()):.0f} us/cycle, CPU {cpu:.0f} us/cycle"
-                if mode in ("record", "replay"):
-                    rec["bytes_per_cycle"] = bytes_per_cycle
-                    rec["ratio_to_pipeline"] = rate / statistics.median(runs[("pipeline", transport)])
-                    note += f"  {bytes_per_cycle} B/cycle on disk, x{rec['ratio_to_pipeline']:.2f} live graph"
+            # (mode, transport) -> rates; the fused chain has no data plane, the extra modes run on the first plane
+            runs = _Runs({(m, t): [] for m in MODES if m in case_modes
+                          for t in (args.transport if m == "pipeline" else ["none"] if m == "fused"
+                                    else [args.transport[0]])})
+            for _ in range(args.repeats):
+                _repeat(runs, (preset, fidelity, n), args, batch)
+            base = {"preset": preset, "fidelity": fidelity, "batch": batch, "cycles": n, "repeats": args.repeats,
+                    "method": args.method, "radar_cycles_per_s": rate_radar}
+            for mode, transport in runs.rates:
+                rec, note = _record(runs, mode, transport, base, samples)
                 records.append(rec)
-                print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {transport:<4} {rate:9.1f} cycles/s  "
-                      f"real-time x{rate / rate_radar:6.3f}  vs fused x{rec['speedup_over_fused']:5.2f}{note}",
-                      flush=True)
+                print(f"{preset:<8} {fidelity:<8} batch {batch:<3} {mode:<8} {transport:<4} "
+                      f"{rec['cycles_per_s']:9.1f} cycles/s  real-time x{rec['real_time_factor']:6.3f}  "
+                      f"vs fused x{rec['speedup_over_fused']:5.2f}{note}", flush=True)
                 if "busy_ns_per_sample" in rec:
-                    per_node = ", ".join(f"{node} {busy[node]:.0f} ({ns:.2f})"
+                    per_node = ", ".join(f"{node} {rec['busy_us_per_cycle'][node]:.0f} ({ns:.2f})"
                                          for node, ns in rec["busy_ns_per_sample"].items())
                     shape = " x ".join(str(d) for d in scene.frame_shape(1)[1:])
-                    print(f"    busy us/cycle (ns/sample, {shape} a cycle): {per_node}",
-                          flush=True)
+                    print(f"    busy us/cycle (ns/sample, {shape} a cycle): {per_node}", flush=True)
     if args.json:
         bench_records.write(args.json, args, records)
     return 0

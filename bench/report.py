@@ -370,6 +370,13 @@ def pipeline_rows(doc: dict) -> list[Row]:
                          f"{r['cycles_per_s']:.0f} cycles/s = {r['real_time_factor']:.3g} x real time, "
                          f"{r['ratio_to_pipeline']:.2f} x the live graph, {r['bytes_per_cycle'] / 1e3:.1f} kB/cycle",
                          f">= 1 x ({r['radar_cycles_per_s']:.0f} cycles/s)", _met(r["real_time_factor"] >= 1)))
+        if r["mode"] == "tracker":
+            rows.append((f"the tracker after the target list: cycles/s lost against the same graph without it, "
+                         f"{case}",
+                         f"{r['cycles_per_s_loss']:.1%} ({r['cycles_per_s']:.0f} cycles/s, "
+                         f"{r['ratio_to_pipeline']:.3f} x the graph without it, paired run by run; the tracker's block "
+                         f"{r['busy_us_per_cycle']['tracker']:.1f} us/cycle)",
+                         f"<= {r['loss_target']:.0%}", _met(r["cycles_per_s_loss"] <= r["loss_target"])))
         if r["mode"] != "pipeline":
             continue
         transport = r.get("transport", "zmq")
@@ -414,6 +421,10 @@ def pipeline_table(doc: dict) -> list[str]:
             extra += f"; ceiling {top[0]:.0f} cycles/s ({top[1]}), {r['cycles_per_s'] / top[0]:.0%} of it reached"
         if "bytes_per_cycle" in r:
             extra += f"; {r['bytes_per_cycle'] / 1e3:.1f} kB/cycle on disk"
+        if r["mode"] == "tracker":
+            extra += (f"; {r['ratio_to_pipeline']:.3f} x the graph without it (runs "
+                      f"{', '.join(f'{x:.3f}' for x in r['runs_ratio_to_pipeline'])}), tracker "
+                      f"{r['busy_us_per_cycle']['tracker']:.1f} us/cycle")
         lines.append(f"| {r['preset']} | {r['fidelity']} | {r['batch']} | {r['mode']} "
                      f"| {r.get('transport', 'zmq')} | {r['cycles_per_s']:.0f} ({runs}) | {r['real_time_factor']:.3g} "
                      f"| {r['speedup_over_fused']:.2f} | {extra} |")

@@ -3,7 +3,10 @@
     BASE.sigmf-data   the ADC's codes, cycle after cycle (ri16_le | ci16_le; rf32_le | cf32_le for an ideal ADC)
     BASE.sigmf-meta   sample rate, carrier, the scene's chirp structure, the graph and its seed, the software
                       version; one annotation per cycle: attack on or off and its model, clipped and non-finite
-                      counts, the detector's verdict and Q, the gate's decision, the estimates
+                      counts, the detector's verdict and Q, the gate's decision, the estimates, and with a tracker
+                      the tracks after the cycle (track_id, track_status, track_range_m, track_velocity_mps,
+                      track_var_range_m2, track_var_velocity_m2ps2, and track_nis_alarm when the alarm is on: one
+                      value per live track)
     BASE.activation   the activation sequence of every cycle: firmware state, mode 0600, never in the two above
 
 The samples are written as they arrive; the metadata and the log when the stream ends (format: carav_stream/
@@ -18,6 +21,7 @@ Ports   in  frames     ADC frames (int16 codes, or float32 | complex64 samples o
         in  verdict    the detector's verdicts (optional)           (inputs merged in arrival order,
         in  estimates  the range estimator's records (optional)      matched by cycle index)
         in  alarms     the gate's refusals (optional)
+        in  tracks     the tracker's tracks (optional)
 Graph   recorder = { type = "sigmf_sink", path = "rec/recording" }
 """
 import hashlib
@@ -36,6 +40,10 @@ from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cyc
 VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by")   # k_max and rbar stay out: they speak of rho
 ADC_FIELDS = ("attack_active", "clipped", "nonfinite")
 ESTIMATE_FIELDS = ("range_m", "velocity_mps")
+# the tracker's per-cycle fields -> the annotation's (track_ in front: the estimates have range_m and velocity_mps)
+TRACK_FIELDS = {"track_id": "track_id", "status": "track_status", "range_m": "track_range_m",
+                "velocity_mps": "track_velocity_mps", "var_range_m2": "track_var_range_m2",
+                "var_velocity_m2ps2": "track_var_velocity_m2ps2", "nis_alarm": "track_nis_alarm"}
 
 
 class SigmfSink(Block):
@@ -43,7 +51,8 @@ class SigmfSink(Block):
               In("rho", kind="rho", dtypes=("bool",)),
               In("verdict", kind="verdict", required=False),
               In("estimates", kind="estimates", required=False),
-              In("alarms", kind="alarm", required=False))
+              In("alarms", kind="alarm", required=False),
+              In("tracks", kind="tracks", required=False))
     merge_inputs = True
     not_restartable = ("it writes the recording's metadata and activation log at the end from what it holds in "
                        "memory: a restarted recorder would write a recording without the cycles before the restart")
@@ -74,9 +83,14 @@ class SigmfSink(Block):
         return self.cycle.setdefault(cycle, {})
 
     def process(self, frames: Frame | None, rho: Frame | None = None, verdict: Frame | None = None,
-                estimates: Frame | None = None, alarms: Frame | None = None) -> None:
+                estimates: Frame | None = None, alarms: Frame | None = None, tracks: Frame | None = None) -> None:
         if frames is not None:
             self._samples(frames)
+        elif tracks is not None:
+            per = per_cycle(tracks)
+            for i, c in enumerate(cycle_indices(tracks)):
+                self._fields(c).update({name: per[k][i] for k, name in TRACK_FIELDS.items()
+                                        if per.get(k) is not None and per[k][i] is not None})
         elif rho is not None:
             r = np.asarray(rho.payload, dtype=bool)
             if r.ndim != 2 or r.shape[1] != self.scene_obj.n_chirps or r.shape[0] != len(cycle_indices(rho)):

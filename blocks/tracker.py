@@ -15,6 +15,10 @@ The simulator freezes geometry per cycle (each cycle starts from the scene's ran
 rate stays at its range while its Doppler says it moves, which no constant-velocity track follows (validation warns);
 table1_following is Table I's radar with the car at its own speed.
 
+The run's figures (carav_stream/track/figures.py: confirmed, false and dragged tracks against the scene's targets
+within truth_gate_m and truth_gate_mps; each target's held, coasted and lost cycles and its deleted tracks; the
+first CARAV and NIS alarms after the attack's start) go to the run summary under "tracks", with the counts.
+
 Ports   in  estimates   range_estimator records (per_cycle range_m, velocity_mps: one value per target)
         in  alarms      gate alarm records (per_cycle cycle_index, reason)                      optional
         out tracks      header only, per_cycle: cycle_index, measured, reason (None, the gate's reason or "lost"),
@@ -28,7 +32,7 @@ import numpy as np
 
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, cycle_indices, n_cycles, per_cycle
-from carav_stream.track import CycleReport, TrackerConfig, Tracks, step
+from carav_stream.track import NEAR_M, NEAR_MPS, CycleReport, TrackerConfig, TrackFigures, Tracks, step
 
 
 class Tracker(Block):
@@ -54,7 +58,11 @@ class Tracker(Block):
                     low=0.0, high=1.0),
               Param("nis_window", int, 1, "updates the NIS alarm sums", low=1),
               Param("max_hold_cycles", int, 1024, "how far a later cycle may run ahead of a missing one",
-                    unit="cycles", low=1))
+                    unit="cycles", low=1),
+              Param("truth_gate_m", float, NEAR_M, "a track this near a scene target's range (and truth_gate_mps "
+                    "its range rate) is on it, in the run's figures", unit="m", low=0.0, strict=True),
+              Param("truth_gate_mps", float, NEAR_MPS, "... and this near its range rate", unit="m/s", low=0.0,
+                    strict=True))
 
     def check_params(self) -> None:
         scene = scene_of(self.scene)
@@ -63,6 +71,8 @@ class Tracker(Block):
             sigma_velocity_mps=self.sigma_velocity_mps, gate_probability=self.gate_probability,
             confirm_m=self.confirm_m, confirm_n=self.confirm_n, delete_misses=self.delete_misses,
             coast_cycles=self.coast_cycles, nis_pfa=self.nis_pfa, nis_window=self.nis_window)
+        self.truth = (np.array([t.range_m for t in scene.targets], float),
+                      np.array([scene.range_rate_mps(t) for t in scene.targets], float))
 
     def param_warnings(self) -> list[str]:
         scene = scene_of(self.scene)
@@ -83,6 +93,8 @@ class Tracker(Block):
         self.counts = {"cycles": 0, "measured": 0, "late": 0, "born": 0, "deleted": 0, "nis_alarms": 0,
                        "unsent_cycles": 0}
         self.reasons: dict[str, int] = {}
+        self.figures = TrackFigures(len(self.truth[0]), self.config.dt_s, self.nis_pfa > 0, self.truth_gate_m,
+                                    self.truth_gate_mps)
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> Frame | None:
         frame = estimates if estimates is not None else alarms
@@ -149,6 +161,8 @@ class Tracker(Block):
             self.counts[key] += n
         if reason is not None:
             self.reasons[reason] = self.reasons.get(reason, 0) + 1
+        self.figures.add(cycle, r.id, r.status, r.range_m, r.velocity_mps, r.deleted, self.truth, reason, active,
+                         r.nis_alarm)
         return {"cycle_index": cycle, "measured": r.measured, "reason": reason, "attack_active": active,
                 "born": list(r.born), "deleted": list(r.deleted), **tracks}
 
@@ -159,5 +173,8 @@ class Tracker(Block):
                         dt_s=self.config.dt_s)
 
     def summary(self) -> dict:
-        return {**self.counts, "unmeasured_by_reason": self.reasons, "live_tracks": len(self.tracks),
-                "confirmed_tracks": int(self.tracks.confirmed.sum())}
+        counts = {**self.counts, "unmeasured_by_reason": self.reasons, "live_tracks": len(self.tracks),
+                  "live_confirmed_tracks": int(self.tracks.confirmed.sum())}
+        # the run's track figures (carav_stream/track/figures.py) go to the run summary's "tracks"
+        return {**counts, "run": {"tracks": {**counts, "dt_s": self.config.dt_s, "nis_alarm": self.nis_pfa > 0,
+                                  **self.figures.figures(self.truth)}}}

@@ -7,7 +7,8 @@ A recording is three files with one base name (SigMF 1.2, written and validated 
                         (carav:n_chirps, carav:n_samples, ...), the graph with its seed (carav:graph, carav:seed);
                         one capture (core:frequency = the carrier); one annotation per cycle: its index, whether
                         an attack was on and its model, clipped and non-finite sample counts, the detector's
-                        verdict and Q, the gate's decision, the estimates
+                        verdict and Q, the gate's decision, the estimates, a tracker's tracks (track_id,
+                        track_status, track_range_m, ...: one value per live track)
     BASE.activation     the private activation log (activation_log.py, mode 0600); never in the two above.
                         The detector's k_max (the chirp that decided) is left out of the annotations too: with
                         raised_by it would tell whether that chirp was silent, one bit of the sequence per cycle.

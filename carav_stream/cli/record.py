@@ -2,7 +2,8 @@
 
 DIR receives recording.sigmf-data and recording.sigmf-meta (the samples and their metadata, shareable),
 recording.activation (the activation sequences: private, mode 0600), record.toml (the graph that made the
-recording: GRAPH plus a sigmf_sink wired to the ADC, the detector, the gate and the estimator) and, for a scene
+recording: GRAPH plus a sigmf_sink wired to the ADC, the detector, the gate, the estimator and the tracker, if the
+graph has one: its tracks of every cycle go into the annotations) and, for a scene
 that is not a preset, recording.scene.toml. `carav replay DIR` judges the recording again.
 """
 from __future__ import annotations
@@ -38,7 +39,8 @@ def out_folder(out: Path) -> Path:
 
 def wiring(graph) -> list[str]:
     """The recorder's connections: the ADC frames and rho the detector reads, its verdicts, the gate's refusals,
-    the estimates. CommandError unless the graph has exactly one rms_detector."""
+    the estimates, the tracker's tracks. CommandError unless the graph has exactly one rms_detector, or if it has
+    more than one tracker."""
     detectors = [n for n, node in graph.nodes.items() if node.type == "rms_detector"]
     if len(detectors) != 1:
         raise CommandError(f"{graph.path}: a recording follows the graph's rms_detector; the graph has "
@@ -51,6 +53,11 @@ def wiring(graph) -> list[str]:
             wires.append(f"{n}.alarms -> {NODE}.alarms")
         elif node.type == "range_estimator":
             wires.append(f"{n}.estimates -> {NODE}.estimates")
+    trackers = [n for n, node in graph.nodes.items() if node.type == "tracker"]
+    if len(trackers) > 1:
+        raise CommandError(f"{graph.path}: a recording keeps the tracks of one tracker; the graph has "
+                           f"{len(trackers)}: {', '.join(trackers)}", Exit.INVALID)
+    wires += [f"{n}.tracks -> {NODE}.tracks" for n in trackers]
     return wires
 
 

@@ -5,19 +5,30 @@ detector's and estimator's settings (eta, sigma_n, method, n_targets, detection,
 verdicts, Q and estimates are those of the live run, bit for bit; `--graph FILE` replays through another graph
 (its sigmf_source node gets the recording; the scene and batch are set as well). `--set` comes last and overrides
 all of it. The run summary is printed (and written with --json) as by `carav run`.
+
+A recording of a graph with a tracker (its tracks are in the annotations) is replayed with that tracker too, its
+recorded settings, on the gate's refusals and the estimates: the replay's estimates are the live run's, so its
+tracks are too, and the summary gives their figures; `--tracks FILE` writes them, one JSON line per frame as the
+live graph's jsonl_sink did. The composed graph (the replay graph plus the tracker) is written to a private
+temporary folder, named as the replay graph so the run id reads the same.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
+import tempfile
 from pathlib import Path
 
 from carav_graphs import graph_file as default_graph
-from carav_stream.capture.sigmf_io import Recording, RecordingError, open_recording
+from carav_stream.capture.sigmf_io import NS, Recording, RecordingError, open_recording
 from carav_stream.cli import run as run_command
 from carav_stream.console.errors import CommandError, Exit
+from carav_stream.console.options import output_file
 from carav_stream.runtime.loader import read_graph_file
+from carav_stream.runtime.registry import Registry
 
+TRACKER, TRACKS_LOG = "tracker", "tracks_log"       # the nodes a replay of a recording with tracks adds
 RECORDED = {"rms_detector": ("eta", "sigma_n"),
             "range_estimator": ("method", "n_targets", "detection", "pfa", "max_targets", "sigma_n",
                                 "max_speed_mps")}
@@ -27,6 +38,8 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("recording", type=Path, help="a folder written by carav record, or a recording's base name")
     p.add_argument("--graph", type=Path, help="graph to replay through (default: graphs/replay.toml)")
     p.add_argument("--paced", action="store_true", help="release cycles at the radar's cycle rate")
+    p.add_argument("--tracks", type=output_file, metavar="FILE", help="a recording with tracks: write the replayed "
+                   "tracks as JSON lines (the tracker's frames, as a jsonl_sink writes them)")
     run_command.run_options(p)
 
 
@@ -62,14 +75,60 @@ def overrides_for(rec: Recording, player: str, blocks: dict, recorded_settings: 
     return out
 
 
+def recorded_tracker(rec: Recording) -> dict | None:
+    """The recorded graph's tracker node (type and parameters), None without one; RecordingError for several."""
+    nodes = (rec.global_field("graph") or {}).get("nodes", {})
+    trackers = [spec for spec in nodes.values() if spec.get("type") == "tracker"]
+    if len(trackers) > 1:
+        raise RecordingError(f"{rec.base}.sigmf-meta: global {NS}:graph: {len(trackers)} trackers; a recording "
+                             "keeps the tracks of one")
+    return trackers[0] if trackers else None
+
+
+def with_tracker(graph_file: Path, blocks: dict, tracker: dict, tracks_out: Path | None) -> Path:
+    """Write graph_file plus `tracker` (its recorded parameters less the graph-wide ones) on the gate's refusals
+    and the estimates, and with tracks_out a jsonl_sink of its tracks, into a new private temporary folder; returns
+    its path (the caller removes the folder). CommandError unless the graph has one gate and one range_estimator."""
+    found = {kind: [n for n, b in blocks.items() if isinstance(b, dict) and b.get("type") == kind]
+             for kind in ("gate", "range_estimator")}
+    if any(len(names) != 1 for names in found.values()) or TRACKER in blocks or TRACKS_LOG in blocks:
+        raise CommandError(f"{graph_file}: replaying the recorded tracker needs one gate, one range_estimator and "
+                           f"no node named {TRACKER} or {TRACKS_LOG}; it has " + ", ".join(
+                               f"{len(names)} {kind}" for kind, names in found.items()), Exit.INVALID)
+    (gate,), (ranging,) = found.values()
+    wide = {p.name for p in Registry().get("tracker").cls.params if p.graph_wide}
+    params = {"type": "tracker", **{k: v for k, v in tracker.items() if k != "type" and k not in wide}}
+    wires = [f"{ranging}.estimates -> {TRACKER}.estimates", f"{gate}.alarms -> {TRACKER}.alarms"]
+    nodes = f"{TRACKER} = {{ {', '.join(f'{k} = {json.dumps(v)}' for k, v in params.items())} }}\n"
+    if tracks_out is not None:
+        wires.append(f"{TRACKER}.tracks -> {TRACKS_LOG}.inp")
+        nodes += f"{TRACKS_LOG} = {{ type = \"jsonl_sink\", path = {json.dumps(str(tracks_out.resolve()))} }}\n"
+    path = Path(tempfile.mkdtemp(prefix="carav-replay-")) / graph_file.name
+    path.write_text(f"include = {json.dumps(str(graph_file.resolve()))}\nconnections = {json.dumps(wires)}\n\n"
+                    f"[blocks]\n{nodes}")
+    return path
+
+
 def run(args: argparse.Namespace) -> int:
     graph_file = args.graph or default_graph("replay")
     (player,), blocks = player_nodes(graph_file)
     unchecked = any(s.replace(" ", "") == f"{player}.verify=false" for s in args.set)
     try:   # the player compares the hash itself; a recording without one is refused here unless asked otherwise
         rec = open_recording(args.recording, verify_hash=False, require_hash=not unchecked)
+        tracker = recorded_tracker(rec) if args.graph is None else None
     except RecordingError as exc:
         raise CommandError(str(exc), Exit.INVALID) from None
     overrides = overrides_for(rec, player, blocks, recorded_settings=args.graph is None, paced=args.paced)
-    return run_command.execute(run_command.load(graph_file, args, overrides), args, "replay",
-                               expected_cycles=min(len(rec.cycles), args.cycles or len(rec.cycles)))
+    if args.tracks is not None and tracker is None:
+        raise CommandError(f"--tracks: {rec.base} has no tracks to replay (" + (
+            "its graph had no tracker)" if args.graph is None else "with --graph, the graph's own sinks write them)"))
+    expected = min(len(rec.cycles), args.cycles or len(rec.cycles))
+    if tracker is None:
+        return run_command.execute(run_command.load(graph_file, args, overrides), args, "replay",
+                                   expected_cycles=expected)
+    path = with_tracker(graph_file, blocks, tracker, args.tracks)
+    try:
+        graph = run_command.load(path, args, overrides, shown_as=graph_file)
+        return run_command.execute(graph, args, "replay", expected_cycles=expected)
+    finally:
+        shutil.rmtree(path.parent, ignore_errors=True)

@@ -201,7 +201,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "radar_cycle_duration_s", "radar_time_s", "real_time_factor",
               "range_error_m", "range_error_attacked_missed_m", "velocity_error_mps", "velocity_ambiguous",
               "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
-              "refused_by_estimator", "unreadable_cycles", "figures_cover"}
+              "refused_by_estimator", "unreadable_cycles", "figures_cover", "tracks"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
                 "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security", "node_starts"}
@@ -259,6 +259,38 @@ def _radar_lines(s: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _after(a: dict | str | None, what: str) -> str:
+    if a == "off":
+        return f"{what} off"
+    return f"{what} none" if a is None else f"{what} after {a['cycles']} cycles ({a['ms']:.3g} ms)"
+
+
+def track_lines(t: dict[str, Any]) -> list[str]:
+    """The tracker's figures (its summary's "tracks"), as the car's picture of the road reads."""
+    unmeasured = ", ".join(f"{k} {v}" for k, v in sorted(t["unmeasured_by_reason"].items()))
+    ids = t["false_track_ids"]
+    named = f" (ids {', '.join(map(str, ids[:5]))}{', ...' if len(ids) > 5 else ''})" if ids else ""
+    gate = t["truth_gate"]
+    lines = [f"  tracks: {t['cycles']} cycles tracked, {t['cycles'] - t['measured']} unmeasured"
+             + (f" ({unmeasured})" if unmeasured else "")
+             + f"; {t['confirmed_tracks']} confirmed, {t['false_tracks']} false{named} (off every target by more "
+             f"than {_qty(gate['range_m'], 'm')} or {_qty(gate['velocity_mps'], 'm/s')} while confirmed), "
+             f"{t['dragged_tracks']} of them dragged off a target"]
+    for x in t["targets"]:
+        where = f"  target at {_qty(x['range_m'], 'm')}, {_qty(x['velocity_mps'], 'm/s')}"
+        if x["first_held_cycle"] is None:
+            lines.append(f"  {where}: never held by a confirmed track")
+            continue
+        lines.append(f"  {where}: held from cycle {x['first_held_cycle']}: updated {x['held_cycles']} cycles, "
+                     f"coasted {x['coasted_cycles']}, lost {x['lost_cycles']}; its tracks deleted "
+                     f"{x['deleted_tracks']}")
+    if t["first_alarm"] is not None:
+        a = t["first_alarm"]
+        lines.append(f"    first alarm from the attack's start (cycle {t['attack_start_cycle']}): "
+                     f"{_after(a['carav'], 'CARAV')}, {_after(a['nis'], 'NIS alarm')}")
+    return lines
+
+
 def print_summary(s: dict[str, Any]) -> None:
     print(f"graph {s['graph']}  run {s['run']}")
     print(f"  {s['cycles']} cycles in {_duration(s['wall_s'])} of wall time: {_num(s['throughput_cycles_per_s'])} "
@@ -277,6 +309,9 @@ def print_summary(s: dict[str, Any]) -> None:
         print(f"  {line}")
     for line in _radar_lines(s):
         print(line)
+    if s.get("tracks"):
+        for line in track_lines(s["tracks"]):
+            print(line)
     for k, v in s.items():
         if k not in RUNTIME_KEYS | RADAR_KEYS:
             print(f"  {k.replace('_', ' ')}: {_plain(v)}")

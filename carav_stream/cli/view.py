@@ -1,8 +1,8 @@
 """`carav run GRAPH --view [--port N]`: the graph plus a live_view node on taps of its gate and estimator.
 
 The composed graph is a file like `carav record`'s: the user's graph included, the view node and its wiring
-added (gate.alarms, range_estimator.estimates, gate.clean; the attacker node the page swaps; the detector's eta; the
-page's per-run token),
+added (gate.alarms, range_estimator.estimates, gate.clean, and a tracker's tracks; the attacker node the page swaps;
+the detector's eta; the page's per-run token),
 written to a private temporary folder named after the graph so the run id reads the same.
 """
 from __future__ import annotations
@@ -32,18 +32,22 @@ def view_params(graph: Graph, host: str, port: int, token: str) -> dict:
         params["attacker"] = attacker
     if detector and isinstance(graph.nodes[detector].params.get("eta"), int | float):
         params["eta"] = float(graph.nodes[detector].params["eta"])
+    if _one(graph, "tracker"):
+        params["tracks"] = True
     return params
 
 
 def wiring(graph: Graph) -> list[str]:
-    """The view's taps: the gate's refusals and clean frames, the estimator's estimates. CommandError if the graph
-    has no gate (nothing to watch)."""
-    gate, ranging = _one(graph, "gate"), _one(graph, "range_estimator")
+    """The view's taps: the gate's refusals and clean frames, the estimator's estimates, a tracker's tracks.
+    CommandError if the graph has no gate (nothing to watch)."""
+    gate, ranging, tracker = _one(graph, "gate"), _one(graph, "range_estimator"), _one(graph, "tracker")
     if gate is None:
         raise CommandError(f"{graph.path}: --view watches the gate's verdicts; the graph has no gate", Exit.INVALID)
     wires = [f"{gate}.alarms -> {NODE}.alarms", f"{gate}.clean -> {NODE}.clean"]
     if ranging:
         wires.append(f"{ranging}.estimates -> {NODE}.estimates")
+    if tracker:
+        wires.append(f"{tracker}.tracks -> {NODE}.tracks")
     return wires
 
 

@@ -15,8 +15,9 @@ graphs/table1_tracks.toml on the estimates. One simulation per attacker model an
 
 Figures of each, over the cycles from the attack's start on:
 
-    false tracks/min  confirmed tracks that were ever more than NEAR_M or NEAR_MPS from the car, per minute of radar
-                      time (the run's cycles times the scene's cycle time)
+    false tracks/min  confirmed tracks that were ever more than NEAR_M or NEAR_MPS from the car (the gates of
+                      track/figures.py, the run summary's), per minute of radar time (the run's cycles times the
+                      scene's cycle time)
     car lost          share of the cycles without a confirmed track (coasting included) within NEAR_M and NEAR_MPS
                       of the car
     lead error        RMS range and range-rate error, against the car, of the lead track: the nearest confirmed
@@ -34,13 +35,12 @@ from carav_stream.detect.detector import PAPER_ETA
 from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.algorithm1 import run_algorithm1
 from carav_stream.radar.scene_loader import load_scene
-from carav_stream.track import CycleReport, TrackerConfig, run
+from carav_stream.track import NEAR_M, NEAR_MPS, CycleReport, TrackerConfig, run
 
 __all__ = ["tracks_experiment", "cell", "MODELS", "DEFENCES", "TRACKER", "START", "SCENE"]
 
 SCENE = "table1_following"
 START = 200                  # the attacker's first cycle: the car's track is confirmed and settled by then
-NEAR_M, NEAR_MPS = 1.0, 1.0  # about a range cell, and far beyond the estimator's range-rate error: on the car
 NO_ALARM_ETA = 1e9           # the chain's detector as good as off; CARAV's refusals come from its Q at PAPER_ETA
 # the tracker of graphs/table1_tracks.toml (tests/experiments/test_tracks.py keeps the two the same)
 TRACKER = {"sigma_accel_mps2": 8.0, "sigma_range_m": 0.0025, "sigma_velocity_mps": 0.01, "gate_probability": 0.9999,

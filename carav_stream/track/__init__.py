@@ -4,12 +4,15 @@
     association.py  the chi-square gate and global nearest neighbour association (scipy's linear_sum_assignment)
     tracker.py      a cycle of the multi-target tracker: track birth, M-of-N confirmation, deletion after misses or
                     a coast limit, the opt-in NIS alarm; a refused cycle is no measurement, never no target
+    figures.py      a run's tracks scored against the truth: confirmed, false and dragged tracks, each target's
+                    held, coasted and lost cycles, the first alarms after an attack's start
 
 A kernel floor like radar/, detect/ and estimate/: pure functions on numpy arrays, importing only numpy and scipy.
 """
 from carav_stream.track.association import gate_threshold, gnn
+from carav_stream.track.figures import NEAR_M, NEAR_MPS, TrackFigures
 from carav_stream.track.kalman import cv_model, measurement_noise
 from carav_stream.track.tracker import STATUSES, CycleReport, TrackerConfig, Tracks, run, step
 
-__all__ = ["STATUSES", "CycleReport", "TrackerConfig", "Tracks", "cv_model", "gate_threshold", "gnn",
-           "measurement_noise", "run", "step"]
+__all__ = ["NEAR_M", "NEAR_MPS", "STATUSES", "CycleReport", "TrackFigures", "TrackerConfig", "Tracks", "cv_model",
+           "gate_threshold", "gnn", "measurement_noise", "run", "step"]

@@ -6,7 +6,9 @@
             track left without a measurement costing gamma + ln det S_i (its gate's edge)
 
 Leaving a track out at its gate's edge makes every pairing within the gate at least as cheap as none, so GNN pairs
-as many tracks as the gates allow and among those pairings takes the likeliest. The assignment is scipy's
+as many tracks as the gates allow and among those pairings takes the likeliest. With one track, every pairing
+and none carry the same ln det S: the track takes the measurement of the smallest d2 within its gate, found
+without the assignment. The assignment is scipy's
 linear_sum_assignment on the tracks x (measurements + one "no measurement" column per track), pairs outside the
 gate at an infinite cost: a global optimum, where pairing each track with its nearest measurement in turn can
 take a measurement another track needs more.
@@ -45,6 +47,11 @@ def gnn(d2: np.ndarray, log_det_s: np.ndarray, gamma: float) -> tuple[np.ndarray
     """
     n, m = d2.shape
     if n == 0 or m == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    if n == 1:                 # one track: its cheapest measurement within the gate (module docstring)
+        j = int(np.argmin(d2[0]))
+        if d2[0, j] <= gamma:
+            return np.zeros(1, np.int64), np.array([j], np.int64)
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     cost = np.full((n, m + n), np.inf)
     cost[:, :m] = np.where(d2 <= gamma, d2 + log_det_s[:, None], np.inf)

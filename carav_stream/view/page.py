@@ -3,7 +3,9 @@
 Plots: Q per cycle with the threshold eta, coloured by the detector's decision (clean, D0, D1, opt-in detectors,
 fail-closed refusals drawn at Q = 0 with their reason on hover); the range and the velocity estimates of every
 listed target against the scene's true targets; the range-Doppler map of the latest clean cycle (dB over the
-noise); the attacker node's block, model and RARMS with a form to swap them; per-node rates and per-edge queue
+noise); with a tracker (PageConfig.tracks), its confirmed tracks' range per cycle, updated or coasting, with their
+ids on hover and the latest cycle's in words; the attacker node's block, model and RARMS with a form to swap them;
+per-node rates and per-edge queue
 fill from the supervisor's status; the display counters (maps drawn, clean frames not drawn, frames the taps
 skipped). Every model carries a `name` so tests (and scripts) find it in the browser's Bokeh document.
 
@@ -26,7 +28,7 @@ import numpy as np
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.adc import from_codes
 from carav_stream.view.control import RunControl, models
-from carav_stream.view.state import CATEGORIES, ViewState, rd_map_db
+from carav_stream.view.state import CATEGORIES, TrackPoint, ViewState, rd_map_db
 
 REFUSALS = {"D0": "alarms by D0", "D1": "alarms by D1", "opt-in": "alarms by an opt-in detector",
             "refused": "refusals without a verdict"}
@@ -48,6 +50,7 @@ class PageConfig:
     update_hz: float
     attacker: str
     title: str
+    tracks: bool = False        # the graph has a tracker: its confirmed tracks get a plot
 
 
 @dataclass
@@ -69,8 +72,10 @@ class _Models:
     info: Any
     choices: list[str]
     sync: Any
+    tracks_src: Any = None      # None: no tracker
+    tracks_div: Any = None
     seen: dict[str, Any] = field(default_factory=lambda: {"points": 0, "estimates": 0, "map": 0, "status": None,
-                                                          "model": None})
+                                                          "model": None, "tracks": 0})
 
 
 def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: PageConfig) -> None:
@@ -92,12 +97,14 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
     nodes, node_src, edges, edge_src = _tables(bm)
     info = bm.Div(name="info", text="", width=980)
 
+    t_fig, tracks_src, tracks_div = _tracks_plot(bm, figure, cfg) if cfg.tracks else (None, None, None)
     doc.add_root(column(
         bm.Div(text=f"<h2>{cfg.title}</h2>"), info, row(q_fig), eta_div, row(r_fig, v_fig), pause_div,
+        *((t_fig, tracks_div) if cfg.tracks else ()),
         row(column(rd_fig, rd_div), column(attacker_div, row(model_in, rarms_in), swap_button, swap_div, nodes)),
         edges))
     m = _Models(q_src, eta_line, eta_div, est_src, pause_div, rd_src, rd_div, attacker_div, model_in, rarms_in,
-                swap_div, node_src, edge_src, info, choices, page_sync(doc))
+                swap_div, node_src, edge_src, info, choices, page_sync(doc), tracks_src, tracks_div)
     doc.add_periodic_callback(lambda: _update(m, state, cfg), max(50, int(1000 / cfg.update_hz)))
 
 
@@ -138,6 +145,49 @@ def _estimate_plots(bm: Any, figure: Any, cfg: PageConfig) -> tuple[Any, Any, An
         if truths:
             fig.line([0, 0], [truths[0], truths[0]], line_color="green", line_width=2, legend_label="true target")
     return r_fig, v_fig, est_src
+
+
+TRACK_COLOURS = {False: "#1f77b4", True: "#7f7f7f"}     # updated, coasting
+
+
+def _tracks_plot(bm: Any, figure: Any, cfg: PageConfig) -> tuple[Any, Any, Any]:
+    """The tracker's confirmed tracks, range per cycle, against the true targets: (figure, its source, the latest
+    cycle's tracks in words)."""
+    src = bm.ColumnDataSource({"cycle": [], "range_m": [], "velocity_mps": [], "track": [], "status": [],
+                               "colour": []}, name="tracks")
+    fig = figure(name="tracks_plot", height=260, width=980, title="Confirmed tracks (the tracker's): range per cycle",
+                 x_axis_label="cycle", y_axis_label="range (m)", tools="pan,wheel_zoom,box_zoom,reset")
+    fig.add_layout(bm.Legend(orientation="horizontal"), "below")
+    fig.scatter("cycle", "range_m", source=src, size=4, color="colour", legend_field="status")
+    fig.add_tools(bm.HoverTool(tooltips=[("track", "@track"), ("cycle", "@cycle"), ("range (m)", "@range_m"),
+                                         ("range rate (m/s)", "@velocity_mps"), ("status", "@status")]))
+    for t in cfg.truth_range_m:
+        fig.add_layout(bm.Span(location=t, dimension="width", line_color="green", line_width=2))
+    return fig, src, bm.Div(name="tracks_text", text="no confirmed track yet", width=980)
+
+
+def tracks_text(t: TrackPoint | None) -> str:
+    """The latest cycle's confirmed tracks in words, one per id."""
+    if t is None:
+        return "no confirmed track yet"
+    if not t.track_id:
+        return f"cycle {t.cycle}: no confirmed track"
+    return f"cycle {t.cycle}: " + "; ".join(
+        f"track {i} at {r:.2f} m, {v:+.2f} m/s ({'coasting' if c else 'updated'})"
+        for i, r, v, c in zip(t.track_id, t.range_m, t.velocity_mps, t.coasting))
+
+
+def _draw_tracks(m: _Models, state: ViewState, cfg: PageConfig) -> None:
+    """The confirmed tracks of the cycles that came since the last update, and the latest cycle's in words."""
+    new, m.seen["tracks"] = state.tracks_since(m.seen["tracks"])
+    if not new:
+        return
+    flat = [(t.cycle, r, v, str(i), "coasting" if c else "updated", TRACK_COLOURS[c])
+            for t in new for i, r, v, c in zip(t.track_id, t.range_m, t.velocity_mps, t.coasting)]
+    if flat:
+        keys = ("cycle", "range_m", "velocity_mps", "track", "status", "colour")
+        m.tracks_src.stream(dict(zip(keys, (list(x) for x in zip(*flat)))), rollover=cfg.history)
+    m.tracks_div.text = tracks_text(new[-1])
 
 
 def _rd_plot(bm: Any, figure: Any, g: Geometry) -> tuple[Any, Any, Any]:
@@ -206,6 +256,8 @@ def _update(m: _Models, state: ViewState, cfg: PageConfig) -> None:
     if m.sync.shown < m.sync.sent:
         return
     _draw_points(m, state, cfg)
+    if m.tracks_src is not None:
+        _draw_tracks(m, state, cfg)
     _draw_map(m, state, cfg)
     _draw_pause(m, state)
     status, status_error = _draw_status(m, state, cfg)

@@ -3,7 +3,8 @@
 The live_view block's process thread adds frames (`ViewState.add`); the page's update callback, on the web
 server's thread, takes what is new since its last look (`since`) and the latest range-Doppler map. Points per
 cycle: Q with the detector's decision (clean, D0, D1, an opt-in detector, or a fail-closed refusal with its
-reason), whether the attacker was on, and the estimates (every listed target). Only the most recent `history`
+reason), whether the attacker was on, and the estimates (every listed target); per cycle of a tracker's output, its
+confirmed tracks (coasting included: the car's picture of the road). Only the most recent `history`
 cycles are kept; a page that looks less often than that loses the oldest points from its plot, never from the
 run (the run summary counts everything).
 
@@ -61,6 +62,31 @@ class EstimatePoint:
     velocity_mps: tuple[float, ...]
 
 
+@dataclass(frozen=True)
+class TrackPoint:
+    """A cycle's confirmed tracks (status "confirmed" or "coasting"), one value per track."""
+    cycle: int
+    track_id: tuple[int, ...]
+    range_m: tuple[float, ...]
+    velocity_mps: tuple[float, ...]
+    coasting: tuple[bool, ...]
+
+
+def confirmed_tracks(per: dict[str, Any], cycles: list[int]) -> list[TrackPoint]:
+    """The confirmed tracks of every cycle of a tracker's frame (per-cycle track_id, status, range_m,
+    velocity_mps: one value per live track); a cycle without any gives an empty point."""
+    n = len(cycles)
+    ids, status = per.get("track_id") or [[]] * n, per.get("status") or [[]] * n
+    ranges, velocities = per.get("range_m") or [[]] * n, per.get("velocity_mps") or [[]] * n
+    out = []
+    for i, c in enumerate(cycles):
+        kept = [(int(t), float(r), float(v), s == "coasting")
+                for t, s, r, v in zip(ids[i] or [], status[i] or [], ranges[i] or [], velocities[i] or [])
+                if s in ("confirmed", "coasting") and _finite(r) is not None and _finite(v) is not None]
+        out.append(TrackPoint(c, *(tuple(x) for x in zip(*kept))) if kept else TrackPoint(c, (), (), (), ()))
+    return out
+
+
 def rd_map_db(x: np.ndarray, rho: np.ndarray, geometry: Geometry, sigma_n: float
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The range-Doppler map of one cycle in dB over the noise (0 dB = the mean of a noise cell), Doppler centred:
@@ -87,7 +113,8 @@ class ViewState:
         self.lock = threading.Lock()
         self.points: collections.deque[tuple[int, CyclePoint]] = collections.deque(maxlen=history)
         self.estimates: collections.deque[tuple[int, EstimatePoint]] = collections.deque(maxlen=history)
-        self.n_points = self.n_estimates = 0          # running numbers: a reader asks for what came after its last
+        self.tracks: collections.deque[tuple[int, TrackPoint]] = collections.deque(maxlen=history)
+        self.n_points = self.n_estimates = self.n_tracks = 0   # running numbers: a reader asks for what came after
         self.latest: tuple[int, np.ndarray, np.ndarray] | None = None   # (cycle, samples, rho) of the last clean one
         self.latest_version = 0                       # clean frames received (a new map is due when it changes)
         self.drawn_version = 0
@@ -107,7 +134,8 @@ class ViewState:
         self.folded: collections.Counter[str] = collections.Counter()
 
     def add(self, port: str, frame: Frame) -> None:
-        """Take one frame from tap `port` (alarms, estimates or clean). Cheap: the map is drawn by a reader."""
+        """Take one frame from tap `port` (alarms, estimates, clean or tracks). Cheap: the map is drawn by a
+        reader."""
         with self.lock:
             self.frames_in[port] += 1
             try:
@@ -136,6 +164,10 @@ class ViewState:
                     self.n_estimates += 1
                     self.estimates.append((self.n_estimates, EstimatePoint(
                         c, _numbers(ranges[i]), _numbers(velocities[i]))))
+            elif port == "tracks":
+                for t in confirmed_tracks(per, cycles):
+                    self.n_tracks += 1
+                    self.tracks.append((self.n_tracks, t))
             elif port == "clean" and frame.payload is not None and "rho" in frame.arrays and n:
                 if self.latest_version > self.drawn_version:
                     self.frames_not_drawn += 1        # the one before it was never drawn
@@ -185,6 +217,11 @@ class ViewState:
             pts = [p for k, p in self.points if k > points_after]
             est = [e for k, e in self.estimates if k > estimates_after]
             return pts, self.n_points, est, self.n_estimates
+
+    def tracks_since(self, after: int) -> tuple[list[TrackPoint], int]:
+        """The cycles of confirmed tracks added after running number `after`, and the number to ask with next."""
+        with self.lock:
+            return [t for k, t in self.tracks if k > after], self.n_tracks
 
     def recent(self, n: int) -> list[CyclePoint]:
         """The last n cycle points received."""

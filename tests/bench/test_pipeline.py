@@ -1,4 +1,5 @@
 """`python3 dev.py bench pipeline`: the shipped radar chain graph against run_algorithm1 in one process."""
+import argparse
 import json
 import math
 import statistics
@@ -6,7 +7,7 @@ import statistics
 import pytest
 
 from bench import main as run_bench
-from bench.pipeline import ceiling, pipeline_overrides
+from bench.pipeline import _modes, ceiling, pipeline_overrides, tracker_graph
 from carav_graphs import graph_file
 from carav_stream.runtime.loader import load_graph
 
@@ -17,6 +18,30 @@ def test_the_benchmark_runs_the_shipped_radar_chain_with_only_its_case_set():
     assert g.nodes["attacker"].params["model"] == "smart" and g.nodes["attacker"].params["start_cycle"] == 50
     assert g.nodes["ranging"].params["method"] == "fft_peak"
     assert [str(e) for e in g.edges] == [str(e) for e in load_graph(graph_file("radar_chain")).edges]
+
+
+def test_the_tracker_mode_adds_the_tracks_graphs_tracker_after_the_target_list_and_nothing_else(tmp_path):
+    overrides = pipeline_overrides("table1", "beat", 200, "ml", 32)
+    chain = load_graph(graph_file("radar_chain"), overrides)
+    g = load_graph(tracker_graph(tmp_path), overrides)
+    tracks = load_graph(graph_file("table1_tracks"))
+    assert set(g.nodes) == set(chain.nodes) | {"tracker"} and g.params == chain.params
+    assert {n: node.params for n, node in g.nodes.items() if n != "tracker"} == \
+        {n: node.params for n, node in chain.nodes.items()}
+    added = {str(e) for e in g.edges} - {str(e) for e in chain.edges}
+    assert added == {str(e) for e in tracks.edges if e.dst == "tracker"} == \
+        {"ranging.estimates -> tracker.estimates", "gate.alarms -> tracker.alarms"}
+    own = {k: v for k, v in g.nodes["tracker"].params.items() if k not in g.params}
+    assert own == {k: v for k, v in tracks.nodes["tracker"].params.items() if k not in tracks.params}
+    assert g.nodes["tracker"].params["scene"] == "table1"       # the case's scene, not the tracks graph's
+
+
+def test_the_extra_modes_are_any_of_record_replay_and_tracker_and_replay_needs_record():
+    assert _modes("tracker") == ["tracker"] and _modes("record,replay,tracker") == ["record", "replay", "tracker"]
+    assert _modes("none") == []
+    for bad in ("replay", "tracker,replay", "fused"):
+        with pytest.raises(argparse.ArgumentTypeError, match="replay needs record"):
+            _modes(bad)
 
 
 @pytest.mark.parametrize("busy, outside, cores, expected", [
@@ -43,8 +68,8 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path, capsys
     records = doc["records"]
     assert [(r["preset"], r["fidelity"], r["mode"], r["transport"], r["batch"]) for r in records] == [
         ("awr1642", "beat", mode, transport, b) for b in (4, 8)
-        for mode, transport in (("pipeline", "zmq"), ("pipeline", "shm"), ("fused", "none"), ("record", "zmq"),
-                                ("replay", "zmq"))]
+        for mode, transport in (("pipeline", "zmq"), ("pipeline", "shm"), ("tracker", "zmq"), ("fused", "none"),
+                                ("record", "zmq"), ("replay", "zmq"))]
     for r in records:
         assert r["cycles"] == 40 and r["cycles_per_s"] > 0 and r["real_time_factor"] == r["cycles_per_s"] / 25.0
     assert all(set(r["busy_us_per_cycle"]) >= {"channel", "ranging"} for r in records if r["mode"] == "pipeline")
@@ -62,6 +87,14 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path, capsys
     for r in records:
         assert r["runs_speedup_over_fused"] == [x / f for x, f in zip(r["runs_cycles_per_s"], fused[r["batch"]])]
         assert r["speedup_over_fused"] == statistics.median(r["runs_speedup_over_fused"])
+    # the tracker against the pipeline on the same plane, repeat by repeat; what it loses of the graph's cycles/s
+    pipeline = next(r for r in records if r["mode"] == "pipeline" and r["transport"] == "zmq" and r["batch"] == 4)
+    tracked = next(r for r in records if r["mode"] == "tracker" and r["batch"] == 4)
+    assert tracked["runs_ratio_to_pipeline"] == [t / p for t, p in zip(tracked["runs_cycles_per_s"],
+                                                                       pipeline["runs_cycles_per_s"])]
+    assert tracked["cycles_per_s_loss"] == 1 - statistics.median(tracked["runs_ratio_to_pipeline"])
+    assert tracked["loss_target"] == 0.05 and tracked["busy_us_per_cycle"]["tracker"] > 0
+    assert "tracker" not in pipeline["busy_us_per_cycle"]
     # on disk: awr1642's 128 chirps x 256 real int16 codes per cycle, nothing else
     assert all(r["bytes_per_cycle"] == 128 * 256 * 2 for r in records if r["mode"] in ("record", "replay"))
     assert all("recorder" in r["busy_us_per_cycle"] for r in records if r["mode"] == "record")

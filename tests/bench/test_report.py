@@ -186,3 +186,20 @@ def test_the_estimators_page_shows_both_frames_and_stars_only_the_front(tmp_path
     assert "| table1 | tones | * | ml | 200 | 0.98 |" in front
     assert "| table1 | tones |  | os_cfar | 6000 | 0.979 |" in front          # ml's error, 30 times the time
     assert "| table1 | chain, beat |  | music | 700 | 1.2 |" in front
+
+
+@pytest.mark.parametrize("ratios, met", [([0.97, 0.95, 0.99], "yes"), ([0.90, 0.93, 0.92], "**no**")])
+def test_the_trackers_loss_of_cycles_per_second_is_judged_against_five_percent(tmp_path, ratios, met):
+    ratio = sorted(ratios)[1]
+    rec = {"preset": "table1", "fidelity": "beat", "batch": 32, "mode": "tracker", "transport": "zmq",
+           "cycles_per_s": 1000.0 * ratio, "runs_cycles_per_s": [1000.0 * r for r in ratios],
+           "real_time_factor": 1000.0 * ratio / 2131.0, "radar_cycles_per_s": 2131.0, "speedup_over_fused": 1.1,
+           "bottleneck_node": "channel", "busy_us_per_cycle": {"channel": 550.0, "tracker": 12.5},
+           "runs_ratio_to_pipeline": ratios, "ratio_to_pipeline": ratio, "cycles_per_s_loss": 1 - ratio,
+           "loss_target": 0.05}
+    summary, page = render_one(tmp_path, "pipeline", [rec])
+    assert (f"| the tracker after the target list: cycles/s lost against the same graph without it, table1 beat, "
+            f"batch 32 | {1 - ratio:.1%} ({1000 * ratio:.0f} cycles/s, {ratio:.3f} x the graph without it, paired run "
+            f"by run; the tracker's block 12.5 us/cycle) | <= 5% | {met} |") in summary
+    assert (f"; {ratio:.3f} x the graph without it (runs {', '.join(f'{r:.3f}' for r in ratios)}), tracker 12.5 "
+            "us/cycle |") in page

@@ -95,6 +95,24 @@ def test_the_track_coasts_through_refused_cycles_and_is_kept_within_the_coast_li
     assert _column(sent, "nis_alarm")[0] is None               # the NIS alarm is off unless asked for
 
 
+def test_the_runs_track_figures_go_to_the_run_summary_with_the_counts():
+    refused = set(range(30, 50))
+    block = Tracker(**{**PARAMS, "nis_pfa": 1e-3, "nis_window": 4})
+    block.start()
+    _feed(block, _arrivals(_source_frames(80, refused), 1))
+    summary = block.summary()
+    t = summary["run"]["tracks"]
+    assert {k: t[k] for k in ("cycles", "measured", "unmeasured_by_reason")} == \
+        {"cycles": 80, "measured": 60, "unmeasured_by_reason": {"attack": 20}}
+    assert all(t[k] == v for k, v in summary.items() if k != "run")
+    assert (t["confirmed_tracks"], t["false_tracks"], t["dragged_tracks"]) == (1, 0, 0)
+    (car,) = t["targets"]
+    assert car["range_m"] == R0 and car["first_held_cycle"] == 2       # confirmed at its third hit (3 of 5)
+    assert (car["held_cycles"], car["coasted_cycles"], car["lost_cycles"]) == (80 - 2 - 20, 20, 0)
+    assert t["attack_start_cycle"] == 30 and t["dt_s"] == scene_of(SCENE).t_cycle_s
+    assert t["first_alarm"]["carav"] == {"cycle": 30, "cycles": 0, "ms": 0.0} and t["first_alarm"]["nis"] is None
+
+
 def test_a_refusal_longer_than_the_coast_limit_deletes_the_track_and_a_new_one_starts_after():
     refused = set(range(30, 51))                               # 21 cycles
     block = Tracker(**PARAMS)
@@ -102,6 +120,9 @@ def test_a_refusal_longer_than_the_coast_limit_deletes_the_track_and_a_new_one_s
     sent = _feed(block, _arrivals(_source_frames(80, refused), 0))
     assert _column(sent, "deleted")[50] == [0] and _column(sent, "track_id")[50] == []
     assert _column(sent, "born")[51] == [1] and _column(sent, "status")[55] == ["confirmed"]
+    (car,) = block.summary()["run"]["tracks"]["targets"]
+    assert car["deleted_tracks"] == 1 and car["track_ids"] == [0, 1]
+    assert (car["coasted_cycles"], car["lost_cycles"]) == (20, 1 + 2)    # cycle 50, then 51-52 before confirmation
 
 
 def test_a_cycle_that_never_comes_is_lost_once_a_later_one_is_far_enough_ahead():

@@ -147,3 +147,32 @@ def test_a_paced_replay_releases_cycles_no_sooner_than_the_radar_made_them(tmp_p
     unpaced = SigmfSource(path=str(tmp_path / "rec"), scene=str(slow), batch=2)
     unpaced.start()
     assert unpaced.ready_in(2) == 0.0
+
+
+def test_the_trackers_tracks_of_every_cycle_go_into_its_annotation_and_export_as_columns(tmp_path):
+    from carav_stream.capture.recording_export import recording_variables
+    sink = SigmfSink(path=str(tmp_path / "rec"), scene=IQ_SCENE, seed=11, batch=3)
+    sink.start()
+    codes = np.zeros((3, 4, 256, 2), np.int16)
+    rho = np.ones((3, 4), bool)
+    sink.process(wire(Frame.of(codes, cycle=0, cycles=3, per_cycle={"attack_active": [False] * 3}), 0))
+    sink.process(None, wire(Frame.of(rho, cycle=0, cycles=3), 0))
+    tracks = {"cycle_index": [0, 1, 2], "measured": [True, True, False], "reason": [None, None, "attack"],
+              "born": [[0], [1], []], "deleted": [[], [], [0]], "track_id": [[0], [0, 1], [1]],
+              "status": [["tentative"], ["tentative", "tentative"], ["tentative"]],
+              "range_m": [[43.0], [43.1, 60.2], [60.3]], "velocity_mps": [[0.0], [0.1, -2.0], [-2.1]],
+              "var_range_m2": [[1e-6], [1e-6, 1e-6], [2e-6]], "var_velocity_m2ps2": [[1e-4], [1e-4, 1e-4], [2e-4]],
+              "nis": [[None], [0.5, None], [None]], "nis_alarm": [None, None, None]}
+    sink.process(None, None, None, None, None, wire(Frame.of(None, cycle=0, cycles=3, per_cycle=tracks), 0))
+    sink.finish()
+    ann = json.loads((tmp_path / "rec.sigmf-meta").read_text())["annotations"]
+    for c, a in enumerate(ann):
+        assert {k: v for k, v in a.items() if k.startswith("carav:track")} == {
+            "carav:track_id": tracks["track_id"][c], "carav:track_status": tracks["status"][c],
+            "carav:track_range_m": tracks["range_m"][c], "carav:track_velocity_mps": tracks["velocity_mps"][c],
+            "carav:track_var_range_m2": tracks["var_range_m2"][c],
+            "carav:track_var_velocity_m2ps2": tracks["var_velocity_m2ps2"][c]}     # no alarm column when it is off
+    columns = recording_variables(open_recording(tmp_path / "rec"), slice(0, 3))[0]["per_cycle"]
+    np.testing.assert_array_equal(columns["track_id"], [[0, np.nan], [0, 1], [1, np.nan]])
+    np.testing.assert_array_equal(columns["track_range_m"], [[43.0, np.nan], [43.1, 60.2], [60.3, np.nan]])
+    assert list(columns["track_status"]) == tracks["status"]

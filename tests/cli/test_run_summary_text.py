@@ -93,3 +93,21 @@ def test_whole_run_figures_print_no_coverage_line_and_a_restarted_summary_says_w
     print_summary(with_radar_time({**runtime(3, 0.5), **restarted.summary()["run"]}))
     lines = [line for line in capsys.readouterr().out.splitlines() if "figures cover" in line]
     assert lines == ["  figures cover cycles 5-7 only (3 cycles counted): run_summary restarted 1 time"]
+
+
+def test_the_trackers_figures_print_as_tracks_targets_and_first_alarms(capsys):
+    from carav_blocks.tracker import Tracker
+    from tests.blocks.test_tracker import PARAMS, _arrivals, _feed, _source_frames
+    block = Tracker(**{**PARAMS, "nis_pfa": 1e-3, "nis_window": 4})
+    block.start()
+    _feed(block, _arrivals(_source_frames(80, set(range(30, 51))), 0))      # one cycle past the coast limit
+    s = {**runtime(80, 1.0), **block.summary()["run"]}
+    print_summary(s)
+    out = capsys.readouterr().out
+    assert ("  tracks: 80 cycles tracked, 21 unmeasured (attack 21); 2 confirmed, 0 false (off every target by "
+            "more than 1 m or 1 m/s while confirmed), 0 of them dragged off a target\n") in out
+    assert ("    target at 43 m, 0 m/s: held from cycle 2: updated 55 cycles, coasted 20, lost 3; its tracks deleted "
+            "1\n" in out)
+    assert "    first alarm from the attack's start (cycle 30): CARAV after 0 cycles (0 ms), NIS alarm none\n" in out
+    assert "tracks: {" not in out                   # printed as the tracker's lines, not as an unknown key
+    assert json.loads(json.dumps(s))["tracks"]["targets"][0]["lost_cycles"] == 3

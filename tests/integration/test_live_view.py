@@ -1,9 +1,9 @@
 """`carav run --view` in a real headless browser (Debian's Chromium driven by Selenium): the page loads, its plots
 update while the graph runs, and a swap made from the page reaches the attacker node, shows in `carav status` and
-in the run summary, and the alarms follow it. On a machine loaded by two processes spinning on its two cores, the
-tables as drawn follow the run, the plots of clean cycles that paused say why with the count of refused cycles,
-and no legend sits over a plot. CI installs the browser (.ci/run); a local run without one skips these tests and
-says why."""
+in the run summary, and the alarms follow it; a tracker's confirmed tracks are drawn with their ids. On a machine
+loaded by two processes spinning on its two cores, the tables as drawn follow the run, the plots of clean cycles
+that paused say why with the count of refused cycles, and no legend sits over a plot. CI installs the browser
+(.ci/run); a local run without one skips these tests and says why."""
 import json
 import os
 import re
@@ -75,10 +75,10 @@ def two_busy_cores():
         p.wait()
 
 
-def start_viewed(carav, port: int):
-    """table1_smart run until stopped, paced, with its live view on `port`: (the run, the page's address) once the
+def start_viewed(carav, port: int, graph: str = "table1_smart"):
+    """The graph run until stopped, paced, with its live view on `port`: (the run, the page's address) once the
     page answers."""
-    run = carav.run(ROOT / "graphs" / "table1_smart.toml", "--view", "--port", str(port), "--cycles", "0", *PACED)
+    run = carav.run(ROOT / "graphs" / f"{graph}.toml", "--view", "--port", str(port), "--cycles", "0", *PACED)
     wait_until(lambda: "live view at " in run.stderr(), "the page's address", run, interval_s=0.2)
     url = re.search(r"live view at (\S+)", run.stderr()).group(1)
 
@@ -231,6 +231,28 @@ def test_on_a_loaded_machine_the_tables_follow_the_run_paused_plots_say_why_and_
     assert carav.cli("stop").returncode == 0
     assert run.wait() == 0, run.stderr()
     assert run.summary()["lost"] == 0
+
+
+def test_a_graphs_tracker_shows_its_confirmed_tracks_with_their_ids(carav):
+    """graphs/table1_tracks.toml viewed: the car's track (id 0, confirmed at its third cycle) drawn at the car's
+    range, and named in words; it coasts once the pull-off begins (cycle 200), which the gate refuses."""
+    run, url = start_viewed(carav, free_port("127.0.0.1"), "table1_tracks")
+    driver = browser()
+    try:
+        driver.get(url)
+        data = lambda col: model(driver, "tracks", f"data[{json.dumps(col)}]") or []  # noqa: E731
+        wait_until(lambda: "coasting" in data("status"), "a coasting track on the page", run)
+        assert set(data("track")) == {"0"} and all(abs(r - 43.0) < 0.05 for r in data("range_m"))
+        # none before its third cycle (its tap may skip frames for a busy view, so maybe later)
+        assert min(data("cycle")) >= 2 and "track 0 at 43.0" in model(driver, "tracks_text", "text")
+    except BaseException:
+        driver.save_screenshot(str(carav.workdir / "live_view_tracks.png"))
+        raise
+    finally:
+        driver.quit()
+    assert carav.cli("stop").returncode == 0
+    assert run.wait() == 0, run.stderr()
+    assert run.summary()["per_node"]["view"]["in"]["tracks"] > 0
 
 
 def test_a_graph_without_a_gate_has_nothing_to_watch(carav):

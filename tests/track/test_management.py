@@ -143,6 +143,23 @@ def test_gnn_leaves_out_what_lies_outside_the_gate_and_weighs_the_covariance():
     assert rows.size == cols.size == 0
 
 
+def test_one_tracks_pairing_is_the_assignments_whatever_the_measurements():
+    """One track takes its nearest measurement within the gate without scipy's assignment: the pairing the
+    assignment of the module docstring's costs gives, on random distances within and beyond the gate."""
+    from scipy.optimize import linear_sum_assignment
+    rng = np.random.default_rng(3)
+    for m in (1, 2, 5):
+        for _ in range(200):
+            d2, log_det, gamma = rng.exponential(8.0, (1, m)), rng.normal(size=1), 9.0
+            cost = np.full((1, m + 1), np.inf)
+            cost[:, :m] = np.where(d2 <= gamma, d2 + log_det[:, None], np.inf)
+            cost[0, m] = gamma + log_det[0]
+            r, c = linear_sum_assignment(cost)
+            expected = [int(c[0])] if c[0] < m else []
+            rows, cols = gnn(d2, log_det, gamma)
+            assert cols.tolist() == expected and rows.tolist() == [0] * len(expected)
+
+
 def test_two_crossing_targets_keep_their_tracks():
     """Two targets 2 m apart closing at 1 m/s each pass each other in range, each measured every cycle: with the
     Doppler in the measurement GNN keeps every track on its own target through the crossing."""

@@ -13,7 +13,7 @@ from carav_stream.runtime import Frame
 from carav_stream.view.page import PageConfig, make_document
 from carav_stream.view.state import CATEGORIES, ViewState
 from tests.blocks.helpers import wire
-from tests.view.test_state import alarms, estimates
+from tests.view.test_state import alarms, estimates, tracks
 
 document = pytest.importorskip("bokeh.document")       # the view extra
 Legend = pytest.importorskip("bokeh.models").Legend
@@ -26,12 +26,12 @@ def status(model: str) -> dict:
                                    "params": {"model": model, "rarms": 2.5}}}}
 
 
-def page(state: ViewState, eta: float | None = None):
+def page(state: ViewState, eta: float | None = None, with_tracks: bool = False):
     scene = scene_of("table1")
     cfg = PageConfig(scene=scene, geometry=Geometry.from_scene(scene),
                      truth_range_m=[t.range_m for t in scene.targets],
                      truth_velocity_mps=[scene.range_rate_mps(t) for t in scene.targets], eta=eta, history=100,
-                     update_hz=10.0, attacker="attacker", title="test page")
+                     update_hz=10.0, attacker="attacker", title="test page", tracks=with_tracks)
     doc = document.Document()
     make_document(doc, state, None, cfg)
     (callback,) = doc.session_callbacks
@@ -118,8 +118,8 @@ def test_the_plots_of_clean_cycles_say_they_paused_and_how_many_cycles_the_gate_
 
 
 def test_no_legend_sits_over_a_plot():
-    doc, _, _ = page(ViewState(history=10))
-    for name in ("q_plot", "range_plot", "velocity_plot", "rd_plot"):
+    doc, _, _ = page(ViewState(history=10), with_tracks=True)
+    for name in ("q_plot", "range_plot", "velocity_plot", "rd_plot", "tracks_plot"):
         fig = doc.get_model_by_name(name)
         assert not [r for r in fig.center if isinstance(r, Legend)], name
     q = doc.get_model_by_name("q_plot")
@@ -142,3 +142,29 @@ def test_a_threshold_given_to_the_page_wins_over_the_frames():
     state.add("estimates", estimates([0], [1.0], [[40.0]], [[1.0]]))
     update()
     assert doc.get_model_by_name("eta_line").location == 2.0
+
+
+def test_with_a_tracker_the_page_plots_each_confirmed_tracks_range_with_its_id_and_says_the_latest_in_words():
+    state = ViewState(history=100)
+    doc, update, _ = page(state, with_tracks=True)
+    update()
+    assert doc.get_model_by_name("tracks_text").text == "no confirmed track yet"
+    state.add("tracks", tracks([0, 1, 2], [[0], [0, 4], [0, 4]], [["confirmed"], ["coasting", "tentative"],
+                                                                  ["confirmed", "confirmed"]],
+                               [[43.0], [43.01, 30.0], [43.02, 30.1]], [[0.0], [0.01, 27.0], [0.0, 26.9]]))
+    shown(doc)
+    update()
+    data = doc.get_model_by_name("tracks").data
+    assert list(data["cycle"]) == [0, 1, 2, 2] and list(data["track"]) == ["0", "0", "0", "4"]
+    assert list(data["status"]) == ["updated", "coasting", "updated", "updated"]
+    assert list(data["range_m"]) == [43.0, 43.01, 43.02, 30.1]
+    assert doc.get_model_by_name("tracks_text").text == (
+        "cycle 2: track 0 at 43.02 m, +0.00 m/s (updated); track 4 at 30.10 m, +26.90 m/s (updated)")
+    shown(doc)
+    update()                                                  # nothing new: nothing drawn twice
+    assert len(doc.get_model_by_name("tracks").data["cycle"]) == 4
+
+
+def test_without_a_tracker_the_page_has_no_tracks_plot():
+    doc, _, _ = page(ViewState(history=10))
+    assert doc.get_model_by_name("tracks_plot") is None and doc.get_model_by_name("tracks_text") is None

@@ -1,6 +1,9 @@
 """The live view's tables, without a browser: node rates over the last status interval, edges beyond their capacity
-with the supervisor's reason, and the supervisor's side of it (counters read apart, the reason given)."""
+with the supervisor's reason, and the supervisor's side of it (counters read apart, the reason given); what
+`carav run --view` taps."""
 from types import SimpleNamespace
+
+import pytest
 
 from carav_stream.runtime.admin_server import AdminServer
 from carav_stream.runtime.graph import Edge
@@ -41,3 +44,22 @@ def test_the_supervisor_names_counters_read_apart_when_in_flight_exceeds_the_que
     assert "the producer's count is 0.8 s newer than the consumer's" in q["beyond_capacity"]
     server.nodes["a"] = node("a", 5.0, sent={str(edge): 60})
     assert "beyond_capacity" not in AdminServer.edge_queues(server)[str(edge)]
+
+
+def test_carav_run_view_taps_a_trackers_tracks_and_asks_the_page_for_them():
+    import shutil
+
+    from carav_graphs import graph_file
+    from carav_stream.cli.view import view_graph
+    from carav_stream.runtime.loader import load_graph
+    pytest.importorskip("bokeh")
+    for name, tracked in (("table1_tracks", True), ("demo", False)):
+        path = view_graph(load_graph(graph_file(name)), "127.0.0.1", 5006, "token")
+        try:
+            g = load_graph(path)
+        finally:
+            shutil.rmtree(path.parent)
+        taps = {str(e) for e in g.edges if e.dst == "view"}
+        assert ("tracker.tracks -> view.tracks" in taps) == tracked
+        assert g.nodes["view"].params.get("tracks", False) == tracked
+        assert {"gate.alarms -> view.alarms", "gate.clean -> view.clean", "ranging.estimates -> view.estimates"} <= taps

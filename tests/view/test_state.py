@@ -29,6 +29,13 @@ def estimates(cycles, q, ranges, velocities, seq=0):
     return wire(Frame.of(None, cycles=len(cycles), eta=1.5, per_cycle=per), seq)
 
 
+def tracks(cycles, ids, status, ranges, velocities, seq=0):
+    """A tracker's frame (blocks/tracker.py's per-cycle columns, those the view reads)."""
+    per = {"cycle_index": cycles, "track_id": ids, "status": status, "range_m": ranges, "velocity_mps": velocities,
+           "attack_active": [False] * len(cycles)}
+    return wire(Frame.of(None, cycle=cycles[0], cycles=len(cycles), per_cycle=per), seq)
+
+
 def clean(cycles, seq=0):
     n = len(cycles)
     x = np.arange(n * 4 * 8, dtype=np.float32).reshape(n, 4, 8)
@@ -151,3 +158,19 @@ def test_a_swap_from_the_page_sends_rarms_only_to_models_that_take_it():
     assert swap_params("none", 3.0) == {"model": "none"}
     assert set(swap_params("ramp", 2.0)) == {"model"}                      # ramp takes rarms_start / rarms_end
     assert all("rarms" in swap_params(m, 1.0) or "rarms" not in {p.name for p in KINDS[m].declared()} for m in KINDS)
+
+
+def test_a_page_gets_each_cycles_confirmed_tracks_once_coasting_included_tentative_left_out():
+    state = ViewState(history=3)
+    state.add("tracks", tracks([0, 1], [[0], [0, 1]], [["tentative"], ["confirmed", "tentative"]],
+                               [[43.0], [43.01, 60.0]], [[0.0], [0.01, -2.0]]))
+    got, n = state.tracks_since(0)
+    assert n == 2 and [(t.cycle, t.track_id, t.range_m, t.coasting) for t in got] == [
+        (0, (), (), ()), (1, (0,), (43.01,), (False,))]
+    state.add("tracks", tracks([2, 3], [[0, 1], [1]], [["coasting", "confirmed"], ["confirmed"]],
+                               [[43.02, 59.9], [59.8]], [[0.01, -2.0], [-2.0]], seq=1))
+    got, n = state.tracks_since(n)
+    assert n == 4 and [(t.cycle, t.track_id, t.coasting) for t in got] == [(2, (0, 1), (True, False)),
+                                                                             (3, (1,), (False,))]
+    assert [t.cycle for t in state.tracks_since(0)[0]] == [1, 2, 3]          # the last `history` cycles kept
+    assert state.counts()["frames_in"]["tracks"] == 2 and state.counts()["last_cycle"] == 3
