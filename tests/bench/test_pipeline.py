@@ -119,7 +119,8 @@ def test_bench_pipeline_runs_the_mimo_scene_without_the_recorder_of_one_receiver
                       "--batch", "4", "--transport", "shm", "--json", str(out)]) == 0
     records = json.loads(out.read_text())["records"]
     assert [(r["preset"], r["fidelity"], r["mode"], r["transport"]) for r in records] == [
-        ("awr1642_mimo", "waveform", "pipeline", "shm"), ("awr1642_mimo", "waveform", "fused", "none")]
+        ("awr1642_mimo", "waveform", "pipeline", "shm"), ("awr1642_mimo", "waveform", "tracker", "shm"),
+        ("awr1642_mimo", "waveform", "fused", "none")]
     assert records[0]["samples_per_cycle"] == 4 * 128 * 256 and records[0]["real_time_factor"] > 0
     printed = capsys.readouterr().out
     assert "record and replay left out: the recorder takes one receiver's frames, awr1642_mimo has 4" in printed
