@@ -70,12 +70,15 @@ def _cumulants(r: float, t: float) -> tuple[float, float, float]:
     return float(log_k), mean, float(w @ (k2 - mean) ** 2)
 
 
-def _tilt(s_star: float, nu: int, r: float) -> float:
-    """t >= 0 with nu K'(t) = s* (0 when s* is at or below the mean)."""
+def _tilt(s_star: float, nu: int, r: float) -> float | None:
+    """t >= 0 with nu K'(t) = s* (0 when s* is at or below the mean), or None when s* lies beyond what the table's
+    codes reach (every component beyond the law's last e^-2000)."""
     if nu * _cumulants(r, 0.0)[1] >= s_star:
         return 0.0
     t_max = 1.0 / (2.0 * r * r)                  # K(t) is finite below it: P(c^2 = k^2) ~ exp(-k^2 / (2 r^2))
     hi = t_max * (1 - 1e-12)
+    if nu * _cumulants(r, hi)[1] < s_star:
+        return None
     return float(optimize.brentq(lambda t: nu * _cumulants(r, t)[1] - s_star, 0.0, hi, xtol=1e-300, rtol=1e-10))
 
 
@@ -84,6 +87,10 @@ def _one(s_star: float, nu: int, r: float) -> float:
         return 0.0
     s0 = math.ceil(s_star - 1e-9)
     t = _tilt(s0, nu, r)
+    if t is None:
+        # S >= s0 needs a component with c^2 >= s0 / nu, beyond the table, where P(c^2 = k^2) < e^-2000 and falls
+        # faster than geometrically: P(S >= s0) <= nu e^-2000, returned as the bound (a probability of 0 in floats)
+        return math.log(nu) - 2000.0
     log_k, mean, var = _cumulants(r, t)
     k2, lp = _codes(r, t)
     length = int(scipy.fft.next_fast_len(int(nu * mean + 80 * math.sqrt(nu * var) + k2.max()) + 2, real=True))

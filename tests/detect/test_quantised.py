@@ -1,5 +1,7 @@
 """The energy of quantised Gaussian noise (detect/quantised.py) against a direct convolution and against codes drawn
 through the same rounding."""
+import math
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -46,3 +48,13 @@ def test_the_tail_is_what_rounded_gaussian_noise_gives():
     for s in (40, 49, 60):
         p = float(np.exp(quantised_energy_logsf(s, nu, r)))
         assert stats.binomtest(int(np.sum(energy >= s)), energy.size, p).pvalue > 1e-3, s
+
+
+def test_an_energy_beyond_every_code_of_the_table_has_the_tables_bound_not_a_root_finding_error():
+    """A detector given a noise RMS far above the scene's (sigma_c = 0.24 lsb, threshold at 400 lsb a component):
+    the energy cannot be reached within the codes the law keeps; its log tail is the bound log(nu) - 2000."""
+    r, nu = 0.24, 64
+    far = nu * 400.0 ** 2
+    assert quantised_energy_logsf(far, nu, r) == pytest.approx(math.log(nu) - 2000.0)
+    near = quantised_energy_logsf(nu * 1.5 ** 2, nu, r)
+    assert -2000 < float(near) < 0

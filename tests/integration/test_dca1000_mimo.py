@@ -72,3 +72,35 @@ def test_a_capture_with_fewer_receivers_than_the_scene_is_refused_before_anythin
     assert done.returncode != 0
     refusal = [line for line in done.stderr.splitlines() if "contradict" in line]
     assert len(refusal) == 1 and "the capture's receivers [0, 1] (n_rx = 2) contradict the scene mimo's 4" in refusal[0]
+
+
+def test_the_detector_and_gate_judge_every_cycle_of_a_four_receiver_capture_on_all_its_receivers(carav):
+    """The capture's cycles through rms_detector and gate: one verdict per cycle, its Q over all four receivers'
+    samples of each chirp (the combined RMS of detect(receivers=True), recomputed here from the written codes); a
+    cycle whose silent chirps hold the same noise as its active ones is clean, one with a loud silent chirp on a
+    single receiver is refused."""
+    (carav.workdir / "mimo.cfg").write_text(PROFILE)
+    assert carav.cli("scenes", "--from-ti-cfg", "mimo.cfg", "--out", "mimo.toml").returncode == 0
+    x = np.random.default_rng(9).normal(0, 200, size=(CYCLES, N_CHIRPS, 4, N_SAMPLES, 2)).round().astype(np.int16)
+    x[3, 2, 1] *= 8                                # cycle 3: receiver 1 of a silent chirp (the pattern's 3rd) loud
+    (carav.workdir / "adc_data.bin").write_bytes(capture_bytes(x.reshape(-1, 4, N_SAMPLES, 2), complex_data=True))
+    lsb = 1.0 / 2 ** 15                            # the profile's scene: full scale 1, 16 bits
+    sigma = 200 * np.sqrt(2) * lsb                 # the noise RMS of a complex sample, given to the detector
+    path = carav.graph(f"""
+scene = "mimo.toml"
+batch = 4
+connections = ["source.frames -> detector.frames", "source.rho -> detector.rho", "source.frames -> gate.frames",
+               "detector.verdict -> gate.verdict", "gate.alarms -> log.inp"]
+[blocks]
+source = {{ type = "dca1000_source", path = "adc_data.bin", n_rx = 4, lanes = 2, pattern = "{'1100' * 8}" }}
+detector = {{ type = "rms_detector", sigma_n = {float(sigma)!r}, eta = 1.5 }}
+gate = {{ type = "gate" }}
+log = {{ type = "jsonl_sink", path = "alarms.jsonl", max_values = 0 }}
+""", "mimo_judged.toml")
+    run = carav.run(str(path))
+    assert run.wait() == 0, run.stderr()
+    s = run.summary()
+    assert s["lost"] == 0 and s["per_node"]["detector"]["cycles"] == s["per_node"]["gate"]["cycles"] == CYCLES, s
+    refused = [c for line in read_jsonl(carav.workdir / "alarms.jsonl")
+               for c in line.get("per_cycle", {}).get("cycle_index", [])]
+    assert refused == [3]
