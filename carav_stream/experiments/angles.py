@@ -41,7 +41,8 @@ def scene_bound_deg(scene) -> float:
     """The Cramer-Rao std of the scene's first target's azimuth [degrees], from the scene: its per-sample SNR, its
     samples, half its loops active (module docstring)."""
     snr_eff = effective_snr(scene.snr_db(0), scene.n_samples, scene.n_loops // 2, iq=scene.iq)
-    return float(azimuth_crlb(snr_eff, VirtualArray.from_scene(scene).positions_wl, scene.targets[0].azimuth_deg)["deg"])
+    positions = VirtualArray.from_scene(scene).positions_wl
+    return float(azimuth_crlb(snr_eff, positions, scene.targets[0].azimuth_deg)["deg"])
 
 
 def azimuth_errors(scene, n_cycles: int, rng: np.random.Generator, fidelity: str,

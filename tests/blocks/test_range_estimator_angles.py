@@ -6,8 +6,8 @@ import pytest
 
 from carav_blocks.range_estimator import RangeEstimator
 from carav_stream.estimate.target_azimuth import target_azimuths
-from carav_stream.radar.adc import adc_codes, from_codes
 from carav_stream.radar.activation import balanced_rows
+from carav_stream.radar.adc import adc_codes, from_codes
 from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.synth import simulate_cycles
 from carav_stream.runtime import Frame
