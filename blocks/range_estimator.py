@@ -17,13 +17,16 @@ chirp; a CFAR list then also leaves out what a stronger target's walk explains. 
 range cells within a cycle (awr1642: 3.6 cells at 83 m/s); `method` is then not used.
 
 Antenna arrays: range and velocity come from one virtual element, receiver 0 and the chirps of each TDM loop's
-first slot (carav_stream/estimate/virtual_element.py): one transmitter's repetitions, a loop apart.
+first slot (carav_stream/estimate/virtual_element.py): one transmitter's repetitions, a loop apart. Each target's
+azimuth then comes from its cell refined over the whole virtual array, TDM-compensated, by maximum likelihood
+(carav_stream/estimate/target_azimuth.py), with its Cramer-Rao standard deviation at the cell's measured SNR.
 
 Ports   in  frames      clean_frame: ADC frames (int16 codes or float32 | complex64 samples) of the clean
                         cycles, (cycles, [n_rx,] n_chirps, n_samples[, 2]), + array rho
         out estimates   header method, detection, per_cycle range_m, velocity_mps (lists, one value per target;
                         "strongest": n_targets values, None where no target was found; CFAR: the listed
-                        targets only, and snr_db, amplitude beside them) beside the frame's own per-cycle fields
+                        targets only, and snr_db, amplitude beside them) beside the frame's own per-cycle fields;
+                        with an antenna array also azimuth_deg and azimuth_std_deg, one value per target
 Graph   ranging = { type = "range_estimator", method = "root_music" }
         ranging = { type = "range_estimator", detection = "ca_cfar", pfa = 1e-6 }
 """
@@ -32,6 +35,7 @@ import math
 import numpy as np
 
 from carav_stream.estimate.estimators import METHODS, estimate
+from carav_stream.estimate.target_azimuth import target_azimuths
 from carav_stream.estimate.virtual_element import element_geometry, reference_element
 from carav_stream.firmware.target_list import KINDS, target_list
 from carav_stream.radar.adc import adc_step, from_codes
@@ -84,7 +88,8 @@ class RangeEstimator(Block):
         if len(shape) != len(sc.frame_shape(n)) or shape[0] != n or rho.shape != (n, shape[-2]) or (
                 sc.n_rx > 1 and shape[1] != sc.n_rx):
             raise ValueError(f"frame seq {frames.seq}: {n} cycles, frames {x.shape} and rho {rho.shape} disagree")
-        x, rho = reference_element(x, np.asarray(rho, dtype=bool), sc)
+        full, rho_full = x, np.asarray(rho, dtype=bool)
+        x, rho = reference_element(full, rho_full, sc)
         if x.dtype == np.int16 and self.detection == "strongest":   # the estimator reads the active chirps' codes
             lsb = adc_step(sc)
         else:
@@ -92,17 +97,30 @@ class RangeEstimator(Block):
         if self.detection == "strongest":
             est = estimate(x, rho, self.geometry, method=self.method, n_targets=self.n_targets,
                            max_speed_mps=self.max_speed_mps, lsb=lsb)
-            return frames.derive(None, method=self.method, detection=self.detection, per_cycle=pick(
-                frames, range(n), range_m=_plain(est.range_m), velocity_mps=_plain(est.velocity_mps)))
+            fields = {"range_m": _plain(est.range_m), "velocity_mps": _plain(est.velocity_mps)}
+            fields.update(self._azimuths(full, rho_full, est.range_m, est.velocity_mps))
+            return frames.derive(None, method=self.method, detection=self.detection,
+                                 per_cycle=pick(frames, range(n), **fields))
         tl = target_list(x, rho, self.geometry, self.sigma_n or self.scene_obj.sigma_n, detection=self.detection,
                          pfa=self.pfa, method=self.method, max_targets=self.max_targets,
                          max_speed_mps=self.max_speed_mps)
         found = [slice(0, int(k)) for k in tl.n_found]
-        lists = {name: [_plain(values[i:i + 1, s])[0] for i, s in enumerate(found)]
-                 for name, values in (("range_m", tl.range_m), ("velocity_mps", tl.velocity_mps),
-                                      ("snr_db", tl.snr_db), ("amplitude", tl.amplitude))}
+        columns = {"range_m": tl.range_m, "velocity_mps": tl.velocity_mps, "snr_db": tl.snr_db,
+                   "amplitude": tl.amplitude}
+        if sc.has_array:
+            columns["azimuth_deg"], columns["azimuth_std_deg"] = target_azimuths(
+                from_codes(sc, full), rho_full, sc, tl.range_m, tl.velocity_mps)
+        lists = {name: [_plain(values[i:i + 1, s])[0] for i, s in enumerate(found)] for name, values in columns.items()}
         return frames.derive(None, method=self.method, detection=self.detection, pfa=self.pfa,
                              per_cycle=pick(frames, range(n), **lists))
+
+    def _azimuths(self, frames: np.ndarray, rho: np.ndarray, range_m: np.ndarray, velocity_mps: np.ndarray) -> dict:
+        """per_cycle azimuth_deg and azimuth_std_deg of the targets of an array scene; none for one antenna."""
+        sc = self.scene_obj
+        if not sc.has_array:
+            return {}
+        azimuth, std = target_azimuths(from_codes(sc, frames), rho, sc, range_m, velocity_mps)
+        return {"azimuth_deg": _plain(azimuth), "azimuth_std_deg": _plain(std)}
 
     def summary(self) -> dict:
         return {"refused": self.refused}

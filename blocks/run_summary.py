@@ -12,7 +12,9 @@ estimates against the scene's first target (n, mean, rmse, abs_max = the largest
 key max), split into attacked and clean cycles. The velocity error is the estimate minus the
 true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_c) (AWR1642's Table II car) is
 seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
-unambiguous interval (how well the alias was measured) is reported beside it.
+unambiguous interval (how well the alias was measured) is reported beside it. With an antenna array the azimuth
+error of the first target (estimate minus the scene's target azimuth, degrees) beside them, and the RMS of the
+Cramer-Rao standard deviations the estimator reported with it: one target of one scene, no other.
 
 With a CFAR target list (range_estimator detection = "ca_cfar" | "os_cfar") every cycle's list is scored against
 all of the scene's targets (carav_stream.firmware.target_list.associate: nearest pairs within 1.5 range cells plus
@@ -74,6 +76,7 @@ class RunSummary(Block):
         target = scene.targets[0] if scene.targets else None
         self.true_range_m = target.range_m if target else None
         self.true_velocity_mps = scene.range_rate_mps(target) if target else None
+        self.true_azimuth_deg = target.azimuth_deg if target and scene.has_array else None
         geometry = Geometry.from_scene(scene)
         self.radar_rate, self.radar_cycle_s = scene.cycles_per_s, scene.t_cycle_s
         self.v_max = geometry.max_velocity_mps
@@ -89,6 +92,8 @@ class RunSummary(Block):
         self.range_err = {"attacked": ErrorStats(), "clean": ErrorStats()}
         self.velocity_err = ErrorStats()           # estimate - true range rate, as measured
         self.velocity_err_folded = ErrorStats()    # the same error modulo the unambiguous interval
+        self.azimuth_err = ErrorStats()            # first target's azimuth estimate - the scene's, degrees
+        self.azimuth_bound = ErrorStats()          # the Cramer-Rao std reported with it (its rmse: their RMS)
         self.next_print = time.monotonic() + self.every_s
         self.listing: dict[str, dict] = {}         # CFAR lists scored against the truth, by attacked / clean
         self.detection: str | None = None
@@ -134,6 +139,8 @@ class RunSummary(Block):
                     err = velocities[i][0] - self.true_velocity_mps
                     self.velocity_err.add(err)
                     self.velocity_err_folded.add((err + self.v_max) % (2 * self.v_max) - self.v_max)
+            if self.true_azimuth_deg is not None:
+                self._azimuths(per, n)
         if self.every_s and time.monotonic() >= self.next_print:
             self.next_print = time.monotonic() + self.every_s
             r = self.run_figures()
@@ -142,6 +149,14 @@ class RunSummary(Block):
                   f"{r['detected']}, false alarms {r['false_alarms']}, refused without a verdict "
                   f"{r['refused']['cycles']}; range RMSE {'n/a' if rmse is None else f'{rmse * 1e3:.3g} mm'}",
                   file=sys.stderr, flush=True)
+
+    def _azimuths(self, per: dict, n: int) -> None:
+        azimuths, stds = per.get("azimuth_deg") or [None] * n, per.get("azimuth_std_deg") or [None] * n
+        for i in range(n):
+            if azimuths[i] and azimuths[i][0] is not None:
+                self.azimuth_err.add(azimuths[i][0] - self.true_azimuth_deg)
+                if stds[i] and stds[i][0] is not None:
+                    self.azimuth_bound.add(stds[i][0])
 
     def _covered(self, frame: Frame) -> None:
         try:
@@ -184,6 +199,13 @@ class RunSummary(Block):
                                      for r, v, d in zip(*self.truth, t["detected"])]}
         return out
 
+    def azimuth_error_figures(self) -> dict | None:
+        """The first target's azimuth error and the RMS of its reported bound; None without an array."""
+        if self.true_azimuth_deg is None:
+            return None
+        return {**self.azimuth_err.figures(), "true_azimuth_deg": self.true_azimuth_deg,
+                "bound_rms_deg": self.azimuth_bound.figures()["rmse"], "covers": "the scene's first target only"}
+
     def run_figures(self) -> dict:
         alarms = sum(self.reasons.values())
         refusals = {k: v for k, v in self.reasons.items() if k != "attack"}
@@ -209,6 +231,7 @@ class RunSummary(Block):
             "velocity_ambiguous": self.true_velocity_mps is not None and abs(self.true_velocity_mps) >= self.v_max,
             "unambiguous_velocity_mps": self.v_max,
             "velocity_error_modulo_ambiguity_mps": self.velocity_err_folded.figures(),
+            "azimuth_error_deg": self.azimuth_error_figures(),
             "target_list": self.target_list_figures(),
             "figures_cover": self.coverage(),
         }

@@ -19,7 +19,7 @@
     carav reproduce ...        the paper's figures into reproduction/ (--in-place: docs/REPRODUCTION.md)
     carav design --preset NAME | --scene FILE [--pf 1e-6]   every detector's threshold for that PF per cycle
     carav experiment secondary-antenna | matlab-table1 | interference | cfar | clutter | latency | near-echoes
-                     | blind-zones | fidelities | tracks | receivers ...
+                     | blind-zones | fidelities | tracks | receivers | angles ...
     carav new block NAME [--kind filter|source|sink] [--dir DIR]   a block, its test and a graph to start from
 
 Every command is a module with configure(parser) and run(args) -> exit code; only the module of the command asked
@@ -72,6 +72,7 @@ EXPERIMENTS = {name: (f"carav_stream.cli.experiment.{name.replace('-', '_')}", t
     "fidelities": "beat against waveform fidelity at the range edge, loud",
     "tracks": "the car's picture of the road under attack, by defence",
     "receivers": "weak attacks against C on 1, 2, 4 and 8 receivers",
+    "angles": "the chain's azimuth of one target against its bound",
 }.items()}   # each in cli/experiment/, its engine in carav_stream/experiments/
 GROUPS = {"experiment": ("the paper's experiments", EXPERIMENTS)}
 

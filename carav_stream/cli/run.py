@@ -200,7 +200,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "false_alarms", "detection_rate", "false_alarm_rate", "refused", "radar_cycles_per_s",
               "radar_cycle_duration_s", "radar_time_s", "real_time_factor",
               "range_error_m", "range_error_attacked_missed_m", "velocity_error_mps", "velocity_ambiguous",
-              "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "target_list",
+              "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "azimuth_error_deg", "target_list",
               "refused_by_estimator", "unreadable_cycles", "figures_cover", "tracks"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
@@ -241,6 +241,12 @@ def _radar_lines(s: dict[str, Any]) -> list[str]:
             else "the error above is the aliased estimate's"))
         lines.append(_errors("  velocity error modulo the ambiguity", s.get("velocity_error_modulo_ambiguity_mps"),
                              "m/s"))
+    azimuth = s.get("azimuth_error_deg")
+    if azimuth:
+        lines.append(_errors(f"azimuth error, first target only (at {_qty(azimuth['true_azimuth_deg'], 'deg')})",
+                             azimuth, "deg")
+                     + ("" if azimuth["bound_rms_deg"] is None
+                        else f"; its Cramer-Rao std {_qty(azimuth['bound_rms_deg'], 'deg')} (RMS)"))
     for key, text in (("refused_by_estimator", "cycles the estimator refused (no clean verdict)"),
                       ("unreadable_cycles", "cycles whose per-cycle fields could not be read")):
         if s.get(key):
