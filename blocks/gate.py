@@ -12,6 +12,7 @@ Ports   in  frames    ADC frames of the cycles (int16 codes or float32 | complex
                       per_cycle cycle_index, q and the frame's own per-cycle fields
         out alarms    header only: per_cycle cycle_index and reason "attack" | "invalid" | "no_rho" |
                       "no_verdict" | "no_frame" | "bad_verdict" for every refused cycle
+Both outputs carry on the verdict's attacker columns where it has them (a receiver array's: ATTACKER_FIELDS).
 A frame whose verdict never comes (detector down), or whose verdict does not say "alarm: false" and
 "invalid: false" for a cycle in so many words, is refused for that cycle, never passed.
 Graph   gate = { type = "gate" }
@@ -19,6 +20,8 @@ Graph   gate = { type = "gate" }
 import numpy as np
 
 from carav_stream.runtime import Block, Frame, In, Out, n_cycles, pick
+
+ATTACKER_FIELDS = ("attack_azimuth_deg", "attack_azimuth_std_deg", "attack_reason")   # rms_detector's, on arrays
 
 
 def _chirp_counts(data) -> tuple[int, ...]:
@@ -66,6 +69,7 @@ class Gate(Block):
         if not usable:
             return {"alarms": self._refuse(frames, range(n), ["bad_verdict"] * n)}
         raised_by, q = _column(per, "raised_by", n) or [None] * n, _column(per, "q", n) or [None] * n
+        attacker = {k: v for k in ATTACKER_FIELDS if (v := _column(per, k, n)) is not None}
         reasons = [_reason(a, i, r) for a, i, r in zip(alarm, invalid, raised_by)]
         keep = [i for i in range(n) if reasons[i] is None]
         refused = [i for i in range(n) if reasons[i] is not None]
@@ -77,10 +81,12 @@ class Gate(Block):
                 data = np.take(data, keep, axis=0, out=slot, mode="clip")   # "raise" would copy twice
             out["clean"] = frames.derive(data, arrays={"rho": rho if whole else rho[keep]},
                                          verdict="clean", eta=verdict.header.get("eta"), cycles=len(keep),
-                                         per_cycle=pick(frames, keep, q=[q[i] for i in keep]))
+                                         per_cycle=pick(frames, keep, q=[q[i] for i in keep],
+                                                        **{k: [v[i] for i in keep] for k, v in attacker.items()}))
         if refused:
             out["alarms"] = self._refuse(frames, refused, [reasons[i] for i in refused],
-                                         q=[q[i] for i in refused], raised_by=[raised_by[i] for i in refused])
+                                         q=[q[i] for i in refused], raised_by=[raised_by[i] for i in refused],
+                                         **{k: [v[i] for i in refused] for k, v in attacker.items()})
         return out
 
     @staticmethod

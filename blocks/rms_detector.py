@@ -12,13 +12,19 @@ Ports   in  frames    ADC frames of the cycles: int16 codes (the scene's lsb mak
                       invalid, raised_by ("D0" | "D1" | "invalid" | "no_rho" | "bad_rho"), k_max, rbar; frames
                       whose rho never comes get alarm verdicts (reason "no_rho"), never clean ones; a cycle whose
                       rho is not balanced (half its chirps active) or whose ADC reported NaN/Inf input samples
-                      (per_cycle nonfinite) gets an invalid verdict
+                      (per_cycle nonfinite) gets an invalid verdict; a receiver array's verdicts also carry,
+                      for every cycle whatever its verdict, the attacker's azimuth from the first direction_chirps
+                      silent chirps (carav_stream/estimate/attacker_direction.py): per_cycle attack_azimuth_deg
+                      (NaN without an attack; |azimuth| when mirrored), attack_azimuth_std_deg (its Cramer-Rao
+                      deviation) and attack_reason ("estimated" | "no_attack" | "mirrored" | "no_silent" |
+                      "invalid" for a cycle with a NaN/Inf sample | "no_rho")
 Graph   detector = { type = "rms_detector", eta = 1.5 }
 """
 import numpy as np
 
 from carav_stream.detect.detector import PAPER_ETA, adc_chirp_rms, detect_from_rms
-from carav_stream.radar.adc import adc_step
+from carav_stream.estimate.attacker_direction import REASON_KEYS, attacker_direction
+from carav_stream.radar.adc import adc_step, from_codes
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, per_cycle
@@ -30,6 +36,8 @@ class RmsDetector(Block):
     outputs = (Out("verdict", kind="verdict", dtypes=("bool",)),)
     params = (Param("eta", float, PAPER_ETA, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
               Param("sigma_n", float, 0.0, "noise RMS per sample; 0 = from the scene", low=0.0),
+              Param("direction_chirps", int, 8, "silent chirps per cycle the attacker's azimuth is estimated from "
+                    "(receiver arrays)", low=1),
               SCENE)
 
     def check_params(self) -> None:
@@ -80,16 +88,37 @@ class RmsDetector(Block):
             for key in fields:
                 fields[key][balanced] = getattr(d, key)
             raised_by[balanced] = np.where(d.invalid, "invalid", np.where(d.by_d1, "D1", "D0"))
+        direction = self._direction(x, r, rms) if rx else {}
         return frames.derive(r, eta=self.eta, per_cycle={**{k: v.tolist() for k, v in fields.items()},
-                                                         "raised_by": raised_by.tolist()})
+                                                         "raised_by": raised_by.tolist(), **direction})
+
+    def _direction(self, x: np.ndarray, r: np.ndarray, rms: np.ndarray) -> dict[str, list]:
+        """The attacker's azimuth, its deviation and the reason per cycle, from the silent chirps of the cycles
+        whose samples are all finite (the others: NaN, reason "invalid")."""
+        n = r.shape[0]
+        az, std = np.full(n, np.nan), np.full(n, np.nan)
+        reason = np.full(n, "invalid", dtype=object)
+        ok = np.isfinite(rms).all(axis=1)
+        if ok.any():
+            samples = x if ok.all() else x[ok]
+            if samples.dtype == np.int16 and self.scene_obj.iq:   # I/Q codes: (.., 2) int16 pairs -> complex64
+                samples = from_codes(self.scene_obj, samples)
+            d = attacker_direction(samples, r[ok], self.scene_obj.rx_positions_wl, max_chirps=self.direction_chirps)
+            az[ok], std[ok] = d.azimuth_deg, d.azimuth_std_deg
+            reason[ok] = np.asarray(REASON_KEYS, dtype=object)[d.reason]
+        return {"attack_azimuth_deg": az.tolist(), "attack_azimuth_std_deg": std.tolist(),
+                "attack_reason": reason.tolist()}
 
     def unpaired(self, port: str, frame: Frame) -> Frame | None:
         if port == "rho":
             return None   # sequences whose frame was lost upstream: counted by the runtime as unpaired
         # frames without their activation sequences cannot be judged: explicit alarms, never clean verdicts
         n, x = n_cycles(frame), frame.payload
-        shape = (x.shape[0], x.shape[2]) if self._receivers(x)[1] else x.shape[:2]
+        rx = self._receivers(x)[1]
+        shape = (x.shape[0], x.shape[2]) if rx else x.shape[:2]
+        direction = {"attack_azimuth_deg": [float("nan")] * n, "attack_azimuth_std_deg": [float("nan")] * n,
+                     "attack_reason": ["no_rho"] * n} if rx else {}
         return frame.derive(np.zeros(shape, dtype=bool), eta=self.eta, reason="no_rho",
                             per_cycle={"q": [float("inf")] * n, "c": [float("inf")] * n, "alarm": [True] * n,
                                        "invalid": [True] * n, "raised_by": ["no_rho"] * n, "k_max": [-1] * n,
-                                       "rbar": [float("nan")] * n})
+                                       "rbar": [float("nan")] * n, **direction})

@@ -22,6 +22,15 @@ half the cycle's range migration and 1.5 Doppler bins, velocities modulo the amb
 detection per true target and the false targets per cycle, on cycles without an attack and, apart, on attacked
 cycles the detector missed (where a ghost shows up as a false target).
 
+On a receiver array the detector's attacker columns (per_cycle attack_azimuth_deg, attack_azimuth_std_deg,
+attack_reason; the gate carries them on both of its outputs) are tallied under attacker_direction: the cycles by
+reason, attacked and clean apart; over the attacked cycles with an azimuth (estimated or mirrored) its median, half
+its interquartile range (quantiles of a 0.01 degree histogram: constant memory) and its RMS deviation; and where the
+estimates carry per-target azimuths (per_cycle azimuth_deg, azimuth_std_deg beside them if any) every detection of a
+cycle with an attacker's azimuth is compared with it (carav_stream/estimate/attacker_direction.matches_attacker:
+within 3 sqrt(std_det^2 + std_att^2) + azimuth_floor_deg) and the flagged ones counted: a target in the attacker's
+direction may be its ghost, even where CARAV passed the cycle.
+
 The figures are those of this process: a restarted run_summary starts them afresh, and then says which cycles
 they cover (`figures_cover`: the first and last cycle counted, the restarts, and a sentence `carav run` prints).
 
@@ -33,6 +42,9 @@ import math
 import sys
 import time
 
+import numpy as np
+
+from carav_stream.estimate.attacker_direction import MIRRORED, AttackerDirection, matches_attacker
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.firmware.target_list import KINDS, associate, gates
 from carav_stream.radar.streams import SCENE, scene_of
@@ -65,11 +77,85 @@ class ErrorStats:
                 "max": self.largest, "abs_max": self.largest}
 
 
+class DirectionTally:
+    """The attacker's azimuth per cycle and the detections in its direction (module docstring), constant memory."""
+
+    STEP = 0.01   # degrees per histogram bin
+
+    def __init__(self, floor_deg: float) -> None:
+        self.floor_deg = floor_deg
+        self.reasons: dict[str, dict[str, int]] = {"attacked": {}, "clean": {}}
+        self.hist = np.zeros(int(round(180 / self.STEP)) + 1, dtype=np.int64)
+        self.azimuth = ErrorStats()      # the attacked cycles' azimuths (their mean and RMS about it)
+        self.flags = {"attacked": [0, 0, 0], "clean": [0, 0, 0]}   # detections compared, flagged, cycles flagged
+
+    def add(self, per: dict, n: int, attacked: list) -> None:
+        reasons, az = per.get("attack_reason"), per.get("attack_azimuth_deg")
+        if reasons is None or az is None:
+            return
+        std = per.get("attack_azimuth_std_deg") or [float("nan")] * n
+        for i in range(n):
+            kind = "attacked" if attacked[i] else "clean"
+            tally = self.reasons[kind]
+            tally[str(reasons[i])] = tally.get(str(reasons[i]), 0) + 1
+            if attacked[i] and isinstance(az[i], float | int) and math.isfinite(az[i]):
+                self.azimuth.add(float(az[i]))
+                self.hist[int(round((min(max(az[i], -90.0), 90.0) + 90.0) / self.STEP))] += 1
+        if per.get("azimuth_deg") is not None:
+            self._flag(per, n, attacked, az, std, reasons)
+
+    def _flag(self, per: dict, n: int, attacked: list, az: list, std: list, reasons: list) -> None:
+        """Every detection of a cycle (per_cycle azimuth_deg: a list per cycle) against its cycle's attacker."""
+        def table(rows: list) -> np.ndarray:
+            rows = [list(r) if isinstance(r, list | tuple) else [] for r in rows]
+            out = np.full((n, max((len(r) for r in rows), default=0)), np.nan)
+            for i, r in enumerate(rows):
+                out[i, :len(r)] = [np.nan if v is None else float(v) for v in r]
+            return out
+
+        def column(values: list) -> np.ndarray:
+            return np.array([float(v) if isinstance(v, float | int) else np.nan for v in values])
+        det = table(per["azimuth_deg"])
+        det_std = np.nan_to_num(table(per.get("azimuth_std_deg") or [[]] * n), nan=0.0)[:, :det.shape[1]]
+        det_std = np.pad(det_std, ((0, 0), (0, det.shape[1] - det_std.shape[1])))
+        att = AttackerDirection(column(az), column(std), np.full(n, np.nan), np.full(n, np.nan),
+                                np.zeros(n, np.int64), np.array([MIRRORED if r == "mirrored" else 0 for r in reasons]))
+        hit = matches_attacker(det, det_std, att, floor_deg=self.floor_deg)
+        compared = np.isfinite(det) & np.isfinite(att.azimuth_deg)[:, None]
+        for i in range(n):
+            f = self.flags["attacked" if attacked[i] else "clean"]
+            f[0] += int(compared[i].sum())
+            f[1] += int(hit[i].sum())
+            f[2] += int(hit[i].any())
+
+    def _quantile(self, q: float) -> float:
+        cum = np.cumsum(self.hist)
+        return round(float(np.searchsorted(cum, q * cum[-1]) * self.STEP - 90.0), 2)
+
+    def figures(self) -> dict | None:
+        if not any(self.reasons.values()):
+            return None
+        n = self.azimuth.n
+        stats = self.azimuth.figures()
+        out = {"cycles_by_reason": self.reasons, "attacked_cycles_with_azimuth": n,
+               "median_azimuth_deg": self._quantile(0.5) if n else None,
+               "azimuth_spread_deg": (self._quantile(0.75) - self._quantile(0.25)) / 2 if n else None,
+               "azimuth_rms_deviation_deg": (math.sqrt(max(stats["rmse"] ** 2 - stats["mean"] ** 2, 0.0))
+                                             if n else None)}
+        if any(f[0] for f in self.flags.values()):
+            out["flagged_detections"] = {k: {"compared": f[0], "flagged": f[1], "cycles_flagged": f[2]}
+                                         for k, f in self.flags.items()}
+            out["floor_deg"] = self.floor_deg
+        return out
+
+
 class RunSummary(Block):
     inputs = (In("estimates", kind="estimates"), In("alarms", kind="alarm", required=False))
     merge_inputs = True
     params = (SCENE,
-              Param("every_s", float, 0.0, "console line period; 0 = none", low=0.0))
+              Param("every_s", float, 0.0, "console line period; 0 = none", low=0.0),
+              Param("azimuth_floor_deg", float, 2.0, "added to 3 sigma when a detection's azimuth is compared with "
+                    "the attacker's", unit="deg", low=0.0))
 
     def check_params(self) -> None:
         scene = scene_of(self.scene)
@@ -99,6 +185,7 @@ class RunSummary(Block):
         self.detection: str | None = None
         self.first_cycle: int | None = None       # the lowest and highest cycle index counted
         self.last_cycle: int | None = None
+        self.direction = DirectionTally(self.azimuth_floor_deg)
 
     def process(self, estimates: Frame | None, alarms: Frame | None = None) -> None:
         frame = estimates if estimates is not None else alarms
@@ -112,6 +199,8 @@ class RunSummary(Block):
         self.cycles += n
         self._covered(frame)
         self.attacked += sum(bool(a) for a in attacked)
+        if not frame.header.get("refused"):
+            self.direction.add(per, n, attacked)
         if alarms is not None:
             for i in range(n):
                 reason = (per.get("reason") or ["attack"] * n)[i]
@@ -233,6 +322,7 @@ class RunSummary(Block):
             "velocity_error_modulo_ambiguity_mps": self.velocity_err_folded.figures(),
             "azimuth_error_deg": self.azimuth_error_figures(),
             "target_list": self.target_list_figures(),
+            "attacker_direction": self.direction.figures(),
             "figures_cover": self.coverage(),
         }
 

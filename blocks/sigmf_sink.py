@@ -37,7 +37,8 @@ from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import NO_SEED, SCENE, SEED, scene_of
 from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle, writing
 
-VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by")   # k_max and rbar stay out: they speak of rho
+VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by",   # k_max and rbar stay out: they speak of rho
+                  "attack_azimuth_deg", "attack_azimuth_std_deg", "attack_reason")   # a receiver array's only
 ADC_FIELDS = ("attack_active", "clipped", "nonfinite")
 ESTIMATE_FIELDS = ("range_m", "velocity_mps")
 # the tracker's per-cycle fields -> the annotation's (track_ in front: the estimates have range_m and velocity_mps)

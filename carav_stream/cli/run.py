@@ -201,7 +201,7 @@ RADAR_KEYS = {"cycles_judged", "alarms", "alarm_reasons", "raised_by", "attacked
               "radar_cycle_duration_s", "radar_time_s", "real_time_factor",
               "range_error_m", "range_error_attacked_missed_m", "velocity_error_mps", "velocity_ambiguous",
               "unambiguous_velocity_mps", "velocity_error_modulo_ambiguity_mps", "azimuth_error_deg", "target_list",
-              "refused_by_estimator", "unreadable_cycles", "figures_cover", "tracks"}
+              "refused_by_estimator", "unreadable_cycles", "figures_cover", "tracks", "attacker_direction"}
 RUNTIME_KEYS = {"graph", "run", "host", "cycles", "lost", "lost_by_edge", "rejected", "unpaired", "restarts",
                 "failures", "swaps", "refused_swaps", "stopped_by", "wall_s", "throughput_cycles_per_s", "per_node",
                 "estimated_counts", "skipped_by_taps", "transport", "shared_memory", "security", "node_starts"}
@@ -262,7 +262,19 @@ def _radar_lines(s: dict[str, Any]) -> list[str]:
                             f"of detection {_pct(x['probability_of_detection'])}" for x in t["targets"])
             lines.append(f"  target list ({listing['detection']}), {t['cycles']} {where}: {per}; false targets "
                          f"{_num(t['false_targets_per_cycle'])} per cycle")
-    return lines
+    return lines + _direction_lines(s.get("attacker_direction"))
+
+
+def _direction_lines(d: dict | None) -> list[str]:
+    """The attacker's azimuth the detector estimated (receiver arrays), and the detections in its direction."""
+    if not d:
+        return []
+    why = "; ".join(f"{k} cycles: {_plain(v)}" for k, v in d["cycles_by_reason"].items() if v)
+    az = f"median {_num(d['median_azimuth_deg'])} deg, spread (half the IQR) {_num(d['azimuth_spread_deg'])} deg"
+    return [f"  attacker's azimuth on {d['attacked_cycles_with_azimuth']} attacked cycles: "
+            f"{az if d['attacked_cycles_with_azimuth'] else 'none'} ({why})"] + [
+        f"  detections in the attacker's direction, {k} cycles: {f['flagged']} of {f['compared']} compared, on "
+        f"{f['cycles_flagged']} cycles" for k, f in (d.get("flagged_detections") or {}).items()]
 
 
 def _after(a: dict | str | None, what: str) -> str:

@@ -26,6 +26,10 @@ P_+ a(s_a) a(s_a)^H + P_- a(-s_a) a(-s_a)^H + sigma^2 I.
                      l_1 / sigma^2; and the azimuth's stochastic Cramer-Rao deviation at that INR and T
                      (angle_crlb.attacker_azimuth_crlb)
 
+With max_chirps, only the first max_chirps silent chirps of each cycle make R (T = max_chirps x the snapshots of a
+chirp): samples gathered, transformed and multiplied in single precision, for a detector that must keep up with
+the radar; the attacker transmits in every slot, so a few of its silent chirps hold as much of it as the others.
+
 An echo's tail in a silent slot after an active one (firmware/leak.py) is a source too; the awr1642 preset's ADC
 start leaves none, a scene that starts sampling earlier may.
 """
@@ -41,12 +45,13 @@ from carav_stream.estimate.angle import sin_grid
 from carav_stream.estimate.angle_crlb import attacker_azimuth_crlb
 from carav_stream.estimate.virtual_array import steering
 
-__all__ = ["ESTIMATED", "NO_SILENT", "NO_ATTACK", "MIRRORED", "REASONS", "AttackerDirection", "attacker_direction",
-           "matches_attacker"]
+__all__ = ["ESTIMATED", "NO_SILENT", "NO_ATTACK", "MIRRORED", "REASONS", "REASON_KEYS", "AttackerDirection",
+           "attacker_direction", "matches_attacker"]
 
 ESTIMATED, NO_SILENT, NO_ATTACK, MIRRORED = 0, 1, 2, 3
 REASONS = ("estimated", "no silent slot in the cycle", "no attack in the silent slots",
            "I-only: the attack is as strong on both sides of the oscillator, the azimuth's sign is not observable")
+REASON_KEYS = ("estimated", "no_silent", "no_attack", "mirrored")   # the reasons' names in records
 SIGN_RATIO = 2.0        # the stronger side's power over the weaker's that decides the sign (3 dB)
 N_GRID = 1024           # the azimuth search grid in sin(theta) (then its parabolic vertex and Newton steps)
 CHUNK_SAMPLES = 1 << 22  # cycles are taken in chunks of about this many samples (bounded memory)
@@ -72,10 +77,39 @@ class AttackerDirection:
     reason: np.ndarray
 
 
-def silent_covariance(frames, rho):
+def _first_silent(x, silent, max_chirps):
+    """(R, T) from the first max_chirps silent chirps of each cycle (module docstring): the chirps gathered cycle by
+    cycle into float32 (C, m, k, N), transformed in place of the bins kept (the others zeroed, so the reshape to
+    snapshots copies nothing) and multiplied in complex64."""
+    n_cycles, n_rx, _, n_samp = x.shape
+    n_silent = silent.sum(axis=1)
+    k = int(min(max_chirps, n_silent.max(initial=0)))
+    order = np.argsort(~silent, axis=1, kind="stable")[:, :k]                     # silent chirps first, in order
+    taken = np.minimum(n_silent, k)
+    part = x[np.arange(n_cycles)[:, None], :, order]                                # (C, k, m, N)
+    part = np.transpose(part, (0, 2, 1, 3)).astype(np.complex64 if np.iscomplexobj(x) else np.float32, order="C")
+    if (taken < k).any():                                                           # cycles with fewer silent chirps
+        part *= (np.arange(k)[None, :] < taken[:, None])[:, None, :, None]
+    if np.iscomplexobj(x):
+        snap, per_chirp = part, n_samp
+    else:
+        per_chirp = (n_samp + 1) // 2 - 1
+        snap = scipy.fft.rfft(part, axis=-1, overwrite_x=True)
+        snap[..., 0] = 0
+        snap[..., per_chirp + 1:] = 0
+    snap = snap.reshape(n_cycles, n_rx, -1)
+    cov = np.matmul(snap, np.swapaxes(snap.conj(), 1, 2)).astype(complex)
+    count = taken * per_chirp
+    return cov / np.maximum(count, 1)[:, None, None], count
+
+
+def silent_covariance(frames, rho, max_chirps: int | None = None):
     """(R complex128 (C, m, m), T (C,)): the silent slots' spatial covariance per cycle and its snapshot count
-    (module docstring). frames (C, m, M, N) float32 | complex64, rho bool (C, M)."""
+    (module docstring). frames (C, m, M, N) float32 | complex64 (or int16 ADC codes of I-only receivers: R in
+    codes^2), rho bool (C, M); max_chirps: the first max_chirps silent chirps of each cycle only."""
     x = np.asarray(frames)
+    if max_chirps is not None:
+        return _first_silent(x, ~np.asarray(rho, dtype=bool), max_chirps)
     n_cycles, n_rx, n_chirps, n_samp = x.shape
     silent = ~np.asarray(rho, dtype=bool)
     iq = np.iscomplexobj(x)
@@ -116,9 +150,11 @@ def _mirror_sign(cov, sigma2, s, p):
     return np.where(p_plus >= SIGN_RATIO * p_minus, 1, np.where(p_minus >= SIGN_RATIO * p_plus, -1, 0))
 
 
-def attacker_direction(frames, rho, rx_positions_wl, *, criterion: str = "mdl") -> AttackerDirection:
+def attacker_direction(frames, rho, rx_positions_wl, *, criterion: str = "mdl",
+                       max_chirps: int | None = None) -> AttackerDirection:
     """The attacker's azimuth per cycle from its silent slots (module docstring). frames (C, m, M, N) float32 |
-    complex64 with m >= 2 receivers at rx_positions_wl [wavelengths]; rho bool (C, M), constant within a TDM loop."""
+    complex64 (or I-only int16 codes) with m >= 2 receivers at rx_positions_wl [wavelengths]; rho bool (C, M),
+    constant within a TDM loop; max_chirps: only the first max_chirps silent chirps of each cycle (None: all)."""
     x = np.asarray(frames)
     p = np.asarray(rx_positions_wl, dtype=float)
     if x.ndim != 4 or x.shape[1] != p.size or p.size < 2:
@@ -127,7 +163,7 @@ def attacker_direction(frames, rho, rx_positions_wl, *, criterion: str = "mdl") 
     if np.shape(rho) != (x.shape[0], x.shape[2]):
         raise ValueError(f"attacker_direction: rho must be {(x.shape[0], x.shape[2])}, got {np.shape(rho)}")
     iq, m = np.iscomplexobj(x), p.size
-    cov, count = silent_covariance(x, rho)
+    cov, count = silent_covariance(x, rho, max_chirps)
     lam, vec = np.linalg.eigh(cov)                                                  # ascending
     d = spectral.information_criterion_order(lam, np.maximum(count, 1), criterion=criterion, max_order=m - 1)
     d = np.where(count > 0, d, 0)

@@ -290,7 +290,11 @@ def _draw_points(m: _Models, state: ViewState, cfg: PageConfig) -> None:
     eta = cfg.eta if cfg.eta is not None else state.eta
     if eta is not None and m.eta_line.location != eta:
         m.eta_line.location = eta
-        m.eta_div.text = f"dashed line: the detector's threshold eta = {eta:g} (an alarm when Q >= eta)"
+    text = ("" if eta is None else f"dashed line: the detector's threshold eta = {eta:g} (an alarm when Q >= eta)")
+    if state.attacker is not None:       # a receiver array's: the attacker's direction the detector estimated
+        text = f"{text}<br>{state.attacker[1]}" if text else state.attacker[1]
+    if text and m.eta_div.text != text:
+        m.eta_div.text = text
 
 
 def _draw_map(m: _Models, state: ViewState, cfg: PageConfig) -> None:

@@ -46,6 +46,15 @@ def category(reason: str | None, raised_by: str | None) -> str:
     return raised_by if raised_by in ("D0", "D1") else "opt-in"
 
 
+def attacker_text(cycle: int, reason: object, azimuth: object, std: object) -> str:
+    """A line on the attacker's direction the detector estimated for a cycle (a receiver array's verdict)."""
+    if reason in ("estimated", "mirrored") and isinstance(azimuth, float | int) and math.isfinite(azimuth):
+        spread = f" +- {std:.2g}" if isinstance(std, float | int) and math.isfinite(std) else ""
+        sign = " (|azimuth|: its sign is not observable on I-only receivers)" if reason == "mirrored" else ""
+        return f"attacker's azimuth, cycle {cycle}: {azimuth:.1f}{spread} deg{sign}"
+    return f"attacker's azimuth, cycle {cycle}: none ({str(reason).replace('_', ' ')})"
+
+
 @dataclass(frozen=True)
 class CyclePoint:
     cycle: int
@@ -123,6 +132,7 @@ class ViewState:
         self.frames_not_drawn = 0
         self.maps_drawn = 0
         self.eta: float | None = None
+        self.attacker: tuple[int, str] | None = None  # (cycle, text) of the latest cycle with the attacker's azimuth
         self.last_cycle = -1
         self.status: dict[str, Any] | None = None     # the supervisor's last status (set by the page's poller)
         self.status_error: str | None = None
@@ -148,6 +158,11 @@ class ViewState:
             self.last_cycle = max([self.last_cycle, *cycles])
             n = len(cycles)
             attacked = [bool(a) for a in per.get("attack_active") or [False] * n]
+            reasons_az = per.get("attack_reason")
+            if reasons_az and port in ("alarms", "estimates") and (self.attacker is None
+                                                                   or cycles[-1] > self.attacker[0]):
+                az, std = per.get("attack_azimuth_deg") or [None] * n, per.get("attack_azimuth_std_deg") or [None] * n
+                self.attacker = (cycles[-1], attacker_text(cycles[-1], reasons_az[-1], az[-1], std[-1]))
             if port == "alarms":
                 reasons = per.get("reason") or ["attack"] * n
                 by = per.get("raised_by") or [None] * n
