@@ -69,7 +69,8 @@ class NodeRunner:
                 # the same from the first frame on: start-up left out, so working - busy is what the node spends
                 # outside its block (decoding, pairing, sending, the data plane, control)
                 "cpu_working_s": 0.0 if d.cpu_at_first_s is None else time.process_time() - d.cpu_at_first_s,
-                "block": d.block_type, "generation": d.generation, "state": self.state(), **p.plane_counters()}
+                "block": d.block_type, "generation": d.generation, "state": self.state(), **p.plane_counters(),
+                **({"taps": p.taps.counters()} if p.taps.totals else {})}   # only once a port was tapped
 
     def state(self) -> str:
         """What the node is doing, in one line: for the supervisor's report on a run that does not drain."""
