@@ -3,7 +3,8 @@ update while the graph runs, and a swap made from the page reaches the attacker 
 in the run summary, and the alarms follow it. On a machine loaded by two processes spinning on its two cores, the
 tables as drawn follow the run, the plots of clean cycles that paused say why with the count of refused cycles,
 and no legend sits over a plot. CI installs the browser (.ci/run); a local run without one skips these tests and
-says why."""
+says why. A port chosen in the page's port selector shows its scope and spectrum while the graph runs, and a private
+port is refused."""
 import json
 import os
 import re
@@ -32,6 +33,14 @@ DRAWN_ROW = """const rows = [];
   for (const el of root.querySelectorAll('*')) if (el.shadowRoot) walk(el.shadowRoot);
 })(document);
 return rows.find(cells => cells[0] === arguments[0]) || null;"""
+# The <select> (in Bokeh's shadow roots) that offers the value arguments[0], or null.
+SELECT_OFFERING = """const want = arguments[0]; let found = null;
+(function walk(root) {
+  for (const el of root.querySelectorAll('select'))
+    if (!found && [...el.options].some(o => o.value === want)) found = el;
+  for (const el of root.querySelectorAll('*')) if (el.shadowRoot) walk(el.shadowRoot);
+})(document);
+return found;"""
 # For each figure named in arguments[0]: how many legends sit in its center (over the plot) and in its side panels.
 LEGENDS = """const doc = Bokeh.documents[0]; const out = {};
 for (const name of arguments[0]) {
@@ -228,6 +237,43 @@ def test_on_a_loaded_machine_the_tables_follow_the_run_paused_plots_say_why_and_
     finally:
         driver.quit()
     assert not problems, "\n".join(problems)
+    assert carav.cli("stop").returncode == 0
+    assert run.wait() == 0, run.stderr()
+    assert run.summary()["lost"] == 0
+
+
+def test_a_port_chosen_on_the_page_is_tapped_and_its_scope_and_spectrum_follow_the_run(carav):
+    """As a user: choose the ADC's frames in the port selector, see the scope, the spectrum and the tap's line come
+    and move on to later cycles; choose the activation sequences and read why they are not shown; the chain loses
+    nothing."""
+    from selenium.webdriver.support.ui import Select
+    run, url = start_viewed(carav, free_port("127.0.0.1"))
+    driver = browser()
+    try:
+        driver.get(url)
+        text = lambda: model(driver, "scope_text", "text") or ""  # noqa: E731
+        select = wait_until(lambda: driver.execute_script(SELECT_OFFERING, "adc.frames"), "the port selector", run,
+                            interval_s=0.2)
+        Select(select).select_by_value("adc.frames")
+        shown = re.compile(r"adc\.frames</b> \(adc_frame\): cycle (\d+), chirp 0 of 64 .* shown [\d.]+/s "
+                           r"&middot; skipped (\d+) of the (\d+) frames")
+        first = wait_until(lambda: shown.search(text()), "the tap's first copy on the page", run)
+        spectrum = model(driver, "spectrum", 'data["db"]')
+        assert len(model(driver, "scope", 'data["t_us"]')) == 1080 and len(spectrum) == 541     # table1: 1080 samples
+        assert model(driver, "range_axis", "visible") and model(driver, "scope_chirp", "visible")
+        later = wait_until(lambda: (m := shown.search(text())) and int(m.group(1)) > int(first.group(1)) and m,
+                           "the scope moving on to a later cycle", run)
+        assert int(later.group(3)) > int(first.group(3)) and model(driver, "spectrum", 'data["db"]') != spectrum
+        taps = json.loads(carav.cli("status", "--json").stdout)[0]["nodes"]["adc"]["counters"].get("taps", {})
+        assert taps.get("frames", {}).get("sent", 0) >= 2, taps               # the node's own count of copies
+
+        Select(driver.execute_script(SELECT_OFFERING, "source.rho")).select_by_value("source.rho")
+        wait_until(lambda: "refused: source.rho is private" in text(), "the refusal of a private port", run)
+    except BaseException:
+        driver.save_screenshot(str(carav.workdir / "live_view_scope.png"))
+        raise
+    finally:
+        driver.quit()
     assert carav.cli("stop").returncode == 0
     assert run.wait() == 0, run.stderr()
     assert run.summary()["lost"] == 0
