@@ -76,10 +76,12 @@ def scope_panel(bm: Any, figure: Any, cfg: Any, ask: Any) -> tuple[Any, ScopePan
                   "(carav run --view)", width=980)
     scope_src = bm.ColumnDataSource({"t_us": [], "i": [], "q": []}, name="scope")
     scope_fig = figure(name="scope_plot", height=300, width=485, title="Scope: one chirp of the latest tapped cycle",
-                       x_axis_label="fast time (us)", y_axis_label="amplitude", tools="pan,wheel_zoom,box_zoom,reset")
+                       x_axis_label="fast time (us)", y_axis_label="amplitude (sqrt(W) for ADC codes)",
+                       tools="pan,wheel_zoom,box_zoom,reset")
     scope_fig.add_layout(bm.Legend(orientation="horizontal"), "below")
     scope_fig.line("t_us", "i", source=scope_src, legend_label="I (real part)", color="#1f77b4")
-    scope_fig.line("t_us", "q", source=scope_src, legend_label="Q (imaginary part)", color="#ff7f0e")
+    scope_fig.line("t_us", "q", source=scope_src, legend_label="Q (imaginary part; I/Q samples)",
+                   color="#ff7f0e")
     spec_src = bm.ColumnDataSource({"f_mhz": [], "db": []}, name="spectrum")
     spec_fig = figure(name="spectrum_plot", height=300, width=485, title="Spectrum of the same samples",
                       x_axis_label="frequency (MHz)", y_axis_label="power (dB, Hann window)",

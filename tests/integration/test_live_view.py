@@ -33,14 +33,19 @@ DRAWN_ROW = """const rows = [];
   for (const el of root.querySelectorAll('*')) if (el.shadowRoot) walk(el.shadowRoot);
 })(document);
 return rows.find(cells => cells[0] === arguments[0]) || null;"""
-# The <select> (in Bokeh's shadow roots) that offers the value arguments[0], or null.
-SELECT_OFFERING = """const want = arguments[0]; let found = null;
+# [the <select> (in Bokeh's shadow roots), the text of its option] for the option whose text names arguments[0]
+# first (as "adc.frames (adc_frame)"), or null: what a user reads and picks (BokehJS keys options by their text).
+SELECT_OFFERING = """const want = arguments[0] + " "; let found = null;
 (function walk(root) {
-  for (const el of root.querySelectorAll('select'))
-    if (!found && [...el.options].some(o => o.value === want)) found = el;
+  for (const el of root.querySelectorAll('select')) {
+    const o = [...el.options].find(o => o.text.startsWith(want)); if (!found && o) found = [el, o.text];
+  }
   for (const el of root.querySelectorAll('*')) if (el.shadowRoot) walk(el.shadowRoot);
 })(document);
 return found;"""
+# Column arguments[1] of the data source named arguments[0] as a plain list (numpy's arrays arrive as typed arrays).
+COLUMN = """const m = Bokeh.documents[0].get_model_by_name(arguments[0]);
+return m && m.data[arguments[1]] ? Array.from(m.data[arguments[1]]) : null;"""
 # For each figure named in arguments[0]: how many legends sit in its center (over the plot) and in its side panels.
 LEGENDS = """const doc = Bokeh.documents[0]; const out = {};
 for (const name of arguments[0]) {
@@ -252,22 +257,24 @@ def test_a_port_chosen_on_the_page_is_tapped_and_its_scope_and_spectrum_follow_t
     try:
         driver.get(url)
         text = lambda: model(driver, "scope_text", "text") or ""  # noqa: E731
-        select = wait_until(lambda: driver.execute_script(SELECT_OFFERING, "adc.frames"), "the port selector", run,
-                            interval_s=0.2)
-        Select(select).select_by_value("adc.frames")
+        select, label = wait_until(lambda: driver.execute_script(SELECT_OFFERING, "adc.frames"), "the port selector",
+                                   run, interval_s=0.2)
+        Select(select).select_by_visible_text(label)
         shown = re.compile(r"adc\.frames</b> \(adc_frame\): cycle (\d+), chirp 0 of 64 .* shown [\d.]+/s "
                            r"&middot; skipped (\d+) of the (\d+) frames")
         first = wait_until(lambda: shown.search(text()), "the tap's first copy on the page", run)
-        spectrum = model(driver, "spectrum", 'data["db"]')
-        assert len(model(driver, "scope", 'data["t_us"]')) == 1080 and len(spectrum) == 541     # table1: 1080 samples
+        spectrum = lambda: driver.execute_script(COLUMN, "spectrum", "db")  # noqa: E731
+        before = spectrum()
+        assert len(driver.execute_script(COLUMN, "scope", "t_us")) == 1080 and len(before) == 541   # table1's samples
         assert model(driver, "range_axis", "visible") and model(driver, "scope_chirp", "visible")
         later = wait_until(lambda: (m := shown.search(text())) and int(m.group(1)) > int(first.group(1)) and m,
                            "the scope moving on to a later cycle", run)
-        assert int(later.group(3)) > int(first.group(3)) and model(driver, "spectrum", 'data["db"]') != spectrum
+        assert int(later.group(3)) > int(first.group(3)) and spectrum() != before
         taps = json.loads(carav.cli("status", "--json").stdout)[0]["nodes"]["adc"]["counters"].get("taps", {})
         assert taps.get("frames", {}).get("sent", 0) >= 2, taps               # the node's own count of copies
 
-        Select(driver.execute_script(SELECT_OFFERING, "source.rho")).select_by_value("source.rho")
+        select, label = driver.execute_script(SELECT_OFFERING, "source.rho")
+        Select(select).select_by_visible_text(label)
         wait_until(lambda: "refused: source.rho is private" in text(), "the refusal of a private port", run)
     except BaseException:
         driver.save_screenshot(str(carav.workdir / "live_view_scope.png"))

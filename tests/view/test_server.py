@@ -14,6 +14,7 @@ from carav_stream.view.server import ViewServer
 from carav_stream.view.state import ViewState
 
 pytest.importorskip("bokeh.server.server")          # the view extra
+pytestmark = pytest.mark.slow                       # a web server and its pages: seconds on a 2-core machine
 TOKEN = "the-runs-token-0123456789abcdef"
 
 
