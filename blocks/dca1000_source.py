@@ -35,7 +35,7 @@ from carav_stream.runtime import Block, BlockError, Frame, Out, Param
 
 class Dca1000Source(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="one receiver's ADC codes per cycle"),
-               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences", private=True))
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)", private=True))
     params = (Param("path", str, doc="DCA1000 .bin capture", file=True),
               *CAPTURE_PARAMS,
               SCENE,
