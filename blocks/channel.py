@@ -26,7 +26,8 @@ from carav_stream.runtime import Block, Frame, In, Out
 class Channel(Block):
     inputs = (In("tx", kind="tx", dtypes=("bool",)),)
     outputs = (Out("rx", kind="rx", dtypes=("float32", "complex64"), doc="ADC input, echoes + noise"),
-               Out("air", kind="air", dtypes=("bool",), doc="each cycle's previous cycle's emission"))
+               Out("air", kind="air", dtypes=("bool",), doc="each cycle's previous cycle's emission",
+                   private=True))
     params = (SCENE, SEED, FIDELITY)
 
     def check_params(self) -> None:

@@ -24,8 +24,9 @@ from carav_stream.runtime import Block, Frame, Out, Param
 
 
 class ChirpSource(Block):
-    outputs = (Out("tx", kind="tx", dtypes=("bool",), doc="transmitted chirps of the cycles"),
-               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private: detector only)"))
+    outputs = (Out("tx", kind="tx", dtypes=("bool",), doc="transmitted chirps of the cycles", private=True),
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private: detector only)",
+                   private=True))
     params = (SCENE, SEED,
               Param("activation", str, "auto", "activation source", choices=("auto", "secure", "seeded", "lfsr")),
               Param("batch", int, 16, "cycles per frame", low=1, high=4096),

@@ -45,7 +45,7 @@ from carav_stream.runtime import Block, BlockError, Frame, Out, Param
 class Dca1000Source(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="ADC codes per cycle: rx's, or the scene's "
                                                                        "receivers'"),
-               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)", private=True))
     params = (Param("path", str, doc="DCA1000 .bin capture", file=True),
               *CAPTURE_PARAMS,
               SCENE,

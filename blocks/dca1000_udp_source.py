@@ -50,7 +50,7 @@ from carav_stream.runtime import Block, BlockError, Frame, Out, Param
 class Dca1000UdpSource(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16",), doc="ADC codes per cycle: rx's, or the scene's "
                                                                        "receivers'"),
-               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)", private=True))
     params = (Param("address", str, "127.0.0.1", "address to receive on (the host's address on the card's link)"),
               Param("port", int, DATA_PORT, "UDP data port", low=1, high=65535),
               *CAPTURE_PARAMS,

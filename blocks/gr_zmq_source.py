@@ -49,7 +49,7 @@ HOLD_S = 0.5         # the longest whole cycles wait for the rest of a frame's b
 
 class GrZmqSource(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64"), doc="the stream's cycles"),
-               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)"))
+               Out("rho", kind="rho", dtypes=("bool",), doc="activation sequences (private)", private=True))
     params = (Param("address", str, "tcp://127.0.0.1:5555", "the GNU Radio ZMQ sink's address (it binds)"),
               Param("socket", str, "pull", "pull: a ZMQ PUSH Sink; sub: a ZMQ PUB Sink; req: a ZMQ REP Sink",
                     choices=("pull", "sub", "req")),

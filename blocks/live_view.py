@@ -9,8 +9,9 @@ detectors and fail-closed refusals; the range and velocity estimates against the
 range-Doppler map of the latest clean cycle, and why these stand still while the gate refuses cycles (how many,
 by class); with a tracker (tracks = true), its confirmed tracks' range per cycle with their ids; the attacker's
 model and RARMS with a form that swaps them through the same request as `carav swap`; the nodes' rates and the
-edges' queue fill from `carav status`. The page's address carries a per-run token and its websocket takes only the
-page's own origin (carav_stream/view/server.py).
+edges' queue fill from `carav status`; the scope and the spectrum of any output port a tab chooses, copied by its
+node on request (a port tap, never an edge: runtime/port_tap.py; private ports refused). The page's address
+carries a per-run token and its websocket takes only the page's own origin (carav_stream/view/server.py).
 
 Ports   in  alarms     header only (tap)      gate.alarms: per_cycle cycle_index, reason, q, raised_by, attack_active
         in  estimates  header only (tap)      range_estimator.estimates: per_cycle q, range_m, velocity_mps, ...

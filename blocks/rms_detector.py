@@ -33,7 +33,7 @@ from carav_stream.runtime import Block, Frame, In, Out, Param, n_cycles, per_cyc
 class RmsDetector(Block):
     inputs = (In("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64")),
               In("rho", kind="rho", dtypes=("bool",)))
-    outputs = (Out("verdict", kind="verdict", dtypes=("bool",)),)
+    outputs = (Out("verdict", kind="verdict", dtypes=("bool",), private=True),)
     params = (Param("eta", float, PAPER_ETA, "threshold of C(eta) = Q / eta", low=0.0, strict=True),
               Param("sigma_n", float, 0.0, "noise RMS per sample; 0 = from the scene", low=0.0),
               Param("direction_chirps", int, 8, "silent chirps per cycle the attacker's azimuth is estimated from "

@@ -27,7 +27,7 @@ FIELDS = ("attack_active", "clipped", "nonfinite")
 
 class SigmfSource(Block):
     outputs = (Out("frames", kind="adc_frame", dtypes=("int16", "float32", "complex64"), doc="recorded ADC frames"),
-               Out("rho", kind="rho", dtypes=("bool",), doc="recorded activation sequences (private)"))
+               Out("rho", kind="rho", dtypes=("bool",), doc="recorded activation sequences (private)", private=True))
     params = (Param("path", str, doc="the recording (BASE, BASE.sigmf-meta or a folder)", file=True),
               Param("activation", str, "", "activation log; empty: BASE.activation", file=True),
               Param("paced", bool, False, "release cycles at the radar's cycle rate"),

@@ -32,7 +32,8 @@ def run(args: argparse.Namespace) -> int:
             tap = "tap (skips frames rather than slow its producer) " if p.tap else ""
             print(f"  in   {p.name:<12} kind={p.kind:<10} dtypes={','.join(p.dtypes) or 'any':<18} {tap}{p.doc}")
         for p in cls.outputs:
-            print(f"  out  {p.name:<12} kind={p.kind:<10} dtypes={','.join(p.dtypes) or 'any':<18} {p.doc}")
+            private = "private (never copied to a port tap) " if p.private else ""
+            print(f"  out  {p.name:<12} kind={p.kind:<10} dtypes={','.join(p.dtypes) or 'any':<18} {private}{p.doc}")
         for p in cls.params:
             where = " (a relative file name in a graph is looked up next to the graph first)" if p.file else ""
             print(f"  param {p.name:<16} {p.describe()}{where}")

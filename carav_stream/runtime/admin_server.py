@@ -6,18 +6,23 @@ view send (admin.request), on a REP socket: one answer for every request, a bad 
     stop     the supervisor stops the run in order (its request_stop), answered at once
     swap     checked like the graph file (validate.swap_problems), sent to the node once the node is ready, and
              answered when the node confirms or refuses it, or after SWAP_TIMEOUT_S; one swap at a time
+    ports    the output ports of this host's nodes (kind, dtypes, private, edges): what may be tapped
+    tap      a port tap started, renewed or stopped (port_tap.py: checked here, answered at once with where its
+             copies come from; the node starts it when it gets the message, from its first control connection on)
 """
 from __future__ import annotations
 
 import os
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import zmq
 
 from carav_stream.runtime.graph import Graph
 from carav_stream.runtime.node_state import NodeState
+from carav_stream.runtime.port_tap import output_ports, tap_request
 from carav_stream.runtime.protocol import Admin, Control, Report, pack, unpack
 from carav_stream.runtime.report import RunReport
 from carav_stream.runtime.validate import swap_problems
@@ -32,8 +37,10 @@ class AdminServer:
     refused (by the checks, the node or the deadline) with its reason; both say when, in seconds from go (`at_s`)."""
 
     def __init__(self, graph: Graph, nodes: dict[str, NodeState], report: RunReport, *,
-                 send: Callable[..., None], request_stop: Callable[[str], None], log: Callable[[str], None]) -> None:
+                 send: Callable[..., None], request_stop: Callable[[str], None], log: Callable[[str], None],
+                 run_dir: Path | None = None) -> None:
         self.graph = graph
+        self.run_dir = run_dir                           # where the nodes bind their port taps
         self.nodes = nodes
         self.report = report
         self.send = send
@@ -85,6 +92,13 @@ class AdminServer:
             self.pending = {**req, "params": params, "asked": req.get("params", {}),
                             "deadline": time.monotonic() + SWAP_TIMEOUT_S, "sent": False}
             self.deliver_swap()
+        elif cmd == Admin.PORTS:
+            self.sock.send(pack("ports", ok=True, ports=output_ports(self.graph, self.nodes)))
+        elif cmd == Admin.TAP:
+            reply, control = tap_request(self.graph, self.nodes, self.run_dir, req)
+            if control is not None:
+                self.send(req["node"], Control.TAP, **control)
+            self.sock.send(pack("tap", **reply))
         elif cmd == Admin.SWAP:
             error = f"another swap (of {self.pending['node']}) is under way"
             self.refuse(req, error)

@@ -47,10 +47,14 @@ class In:
 
 @dataclass(frozen=True)
 class Out:
+    """An output port. A `private` port's frames go only where the graph's edges take them: a port tap (an
+    observer's sampled copy of what a port sends, runtime/port_tap.py) is refused on it."""
+
     name: str
     kind: str = "any"
     doc: str = ""
     dtypes: tuple[str, ...] = ()
+    private: bool = False
 
 
 class BlockError(ValueError):

@@ -20,6 +20,7 @@ class ControlState:
         self.released = False                         # every node drained: exit
         self.recovering = recovering                  # an upstream node was restarted: partners may be lost
         self.pending_swap: dict[str, Any] | None = None
+        self.taps: list[dict[str, Any]] = []          # port taps asked (Control.TAP), not yet applied
         self.ended_ports: set[str] = set()            # inputs whose producer died for good
         self.cut_edges: set[str] = set()              # outputs whose consumer died for good
         self.reconnect_edges: set[str] = set()        # outputs whose consumer was restarted
@@ -53,6 +54,8 @@ class ControlState:
                 self.seq_lease = max(self.seq_lease, msg["upto"])
             for port, bound in _ints(msg, "inputs").items():
                 self.input_bounds[port] = max(self.input_bounds.get(port, bound), bound)
+        elif kind == Control.TAP:
+            self.taps.append(msg)
         elif kind == Control.PEERS:
             for port, (pid, start) in _pairs(msg, "inputs").items():
                 pids = self.producers.setdefault(port, {})

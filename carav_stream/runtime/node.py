@@ -73,7 +73,8 @@ class NodeRunner:
                 # what the node can hold: per input, its largest message and the most frames its pairing buffer
                 # held at once (up to pairing.limit), beside ZeroMQ's queue of queue_frames
                 "frame_bytes": dict(p.frame_bytes), "most_buffered": dict(p.pairing.most_buffered),
-                "buffer_limit": p.pairing.limit, **p.plane_counters()}
+                "buffer_limit": p.pairing.limit, **p.plane_counters(),
+                **({"taps": p.taps.counters()} if p.taps.totals else {})}   # only once a port was tapped
 
     def state(self) -> str:
         """What the node is doing, in one line: for the supervisor's report on a run that does not drain."""

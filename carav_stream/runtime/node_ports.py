@@ -1,7 +1,7 @@
 """A node's data ports: its inputs (one bound PULL socket each, the data plane's readers, and admission: decode,
-the checks of pairing.py, counting) and its outputs (outputs.Outputs over one connected PUSH socket per edge, and
-the data plane's writers). Which plane carries the arrays is the spec's (runtime/planes/); a port the plane gave
-no resources to carries them inline, in the ZeroMQ message.
+the checks of pairing.py, counting), its outputs (outputs.Outputs over one connected PUSH socket per edge, and
+the data plane's writers) and the port taps an observer asked for (port_tap.py). Which plane carries the arrays is
+the spec's (runtime/planes/); a port the plane gave no resources to carries them inline, in the ZeroMQ message.
 
 A bad message is rejected with its reason, counted on its port and reported (the first MAX_REPORTED_REJECTS),
 and the node keeps running. On a local (ipc) input a message is taken only from an incarnation of that input's
@@ -22,6 +22,7 @@ from carav_stream.runtime.frames import PLANE_REF, Frame, FrameError, decode, en
 from carav_stream.runtime.node_link import ControlLink
 from carav_stream.runtime.outputs import Outputs
 from carav_stream.runtime.pairing import Pairing
+from carav_stream.runtime.port_tap import PortTaps
 from carav_stream.runtime.protocol import NodeSpec, Report
 from carav_stream.runtime.senders import sender_pid
 
@@ -50,6 +51,7 @@ class NodePorts:
         self.header_only_endpoints = {e.connect for port in spec.plane_out for e in spec.outputs.get(port, ())
                                       if header_only}
         self.outputs = Outputs(spec.outputs, self.connect, link.idle)
+        self.taps = PortTaps(ctx, spec.name, spec.incarnation)
         self.readers = {port: plane.reader(res) for port, res in spec.plane_in.items() if port in self.inputs}
         ctl = link.ctl
         self.pairing = Pairing(in_ports, max(4, 4 * spec.queue_frames), recovering=spec.recovering,
@@ -137,6 +139,8 @@ class NodePorts:
         """Send `frame` with its stamped `header` on every edge of `port`: its arrays on the port's data plane,
         or inline."""
         self.c_out[port] += 1
+        if self.taps.ports and port in self.taps.ports:   # before the send, which packs the header
+            self.taps.offer(port, header, frame)
         writer = self.writers.get(port)
         if writer is None:
             self.outputs.send(port, encode_with_header(header, frame, self.packer), seq)
@@ -165,6 +169,9 @@ class NodePorts:
         """Act on what the supervisor said (node_link.py): inputs ended, edges cut, consumers restarted (connected
         afresh at once, `resume(port, edge)` sent first)."""
         ctl, out = self.link.ctl, self.outputs
+        for msg in ctl.taps:
+            self.taps.apply(msg)
+        ctl.taps.clear()
         for port in ctl.ended_ports:                     # an upstream node died for good: its input ends here
             self.pairing.eos.setdefault(port, None)
         out.cut |= ctl.cut_edges
@@ -185,6 +192,7 @@ class NodePorts:
 
     def close(self, crashed: bool = False) -> None:
         self.outputs.close(crashed)
+        self.taps.close()
         for sock in self.inputs.values():
             sock.close(linger=0)
         for end in [*self.writers.values(), *self.readers.values()]:

@@ -2,7 +2,8 @@
 
     supervisor --NodeSpec (msgpack file)--> node process
     supervisor --Control--> node   (ROUTER -> DEALER)     node --Report--> supervisor
-    carav status|stop|swap --Admin--> supervisor (REQ -> REP)
+    carav status|stop|swap, the live view --Admin--> supervisor (REQ -> REP)
+    node --port tap (PUB, port_tap.py)--> an observer that asked for it through the supervisor
 
 Every message is one msgpack map with a "type" key, packed and unpacked here only: no extension types, string
 keys, never a pickle.
@@ -32,6 +33,8 @@ class Control(StrEnum):
     LEASE = "lease"            # sources: you may generate every seq below `upto`; consumers: `inputs`
                                # {port: highest seq its producer can send}
     PEERS = "peers"            # consumers: `inputs` {port: [pid, start time] of the process that feeds it}
+    TAP = "tap"                # copy output `port`'s frames to a port tap (port_tap.py): rate_hz, rows, for_s
+                               # (0: stop), endpoint
 
 
 class Report(StrEnum):
@@ -56,6 +59,8 @@ class Admin(StrEnum):
     STATUS = "status"
     STOP = "stop"
     SWAP = "swap"
+    PORTS = "ports"            # the output ports of the nodes on this host, and whether each may be tapped
+    TAP = "tap"                # start, renew or stop a port tap (port_tap.py)
 
 
 def pack(kind: str, **fields: Any) -> bytes:

@@ -72,7 +72,7 @@ class Supervisor:
         self.launcher = launcher                    # starts the node processes (run makes one if not given)
         self.report = RunReport(graph, self.nodes, run_id=self.run_id, host=host, cycles=self.cycles)
         self.admin = AdminServer(graph, self.nodes, self.report, send=self.send, request_stop=self.request_stop,
-                                 log=self.log)
+                                 log=self.log, run_dir=self.run_dir)
 
     # -- planning ------------------------------------------------------------------------------------------
     def plan(self) -> None:

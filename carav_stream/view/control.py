@@ -1,6 +1,7 @@
 """The live view's line to its own run: the supervisor's status and the attacker swap, through the admin requests
 of `carav status` and `carav swap` (runtime.admin), so a swap made from the page is the same swap, validated
-and logged the same way, and shows in `carav status` and the run summary."""
+and logged the same way, and shows in `carav status` and the run summary; the graph's output ports and the port
+taps of the page's scope (admin `ports` and `tap`, runtime/port_tap.py)."""
 from __future__ import annotations
 
 import threading
@@ -14,6 +15,7 @@ from carav_stream.runtime.rundir import run_info
 
 STATUS_EVERY_S = 1.0
 SWAP_TIMEOUT_S = 40.0
+TAP_TIMEOUT_S = 5.0
 
 
 def models() -> list[str]:
@@ -48,13 +50,21 @@ class RunControl:
         while not self.stopped.is_set():
             try:
                 status, error = self._ask(Admin.STATUS, 5.0), None
+                ports = self._ask(Admin.PORTS, 5.0).get("ports") if self.state.ports is None else None
             except (LookupError, TimeoutError, OSError) as exc:
-                status, error = None, str(exc)
+                status, error, ports = None, str(exc), None
             with self.state.lock:
                 if status is not None:
                     self.state.status = status
+                if isinstance(ports, list):
+                    self.state.ports = ports
                 self.state.status_error = error
             self.stopped.wait(STATUS_EVERY_S)
+
+    def tap(self, **fields: Any) -> dict[str, Any]:
+        """Start, renew or stop a port tap (the admin request `tap`, runtime/port_tap.py); the supervisor's
+        answer."""
+        return self._ask(Admin.TAP, TAP_TIMEOUT_S, **fields)
 
     def swap(self, model: str, rarms: float) -> None:
         """Swap the attacker to `model` at `rarms` on a thread of its own (the supervisor answers once the node

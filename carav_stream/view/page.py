@@ -7,7 +7,8 @@ noise); with a tracker (PageConfig.tracks), its confirmed tracks' range per cycl
 ids on hover and the latest cycle's in words; the attacker node's block, model and RARMS with a form to swap them;
 per-node rates and per-edge queue
 fill from the supervisor's status; the display counters (maps drawn, clean frames not drawn, frames the taps
-skipped). Every model carries a `name` so tests (and scripts) find it in the browser's Bokeh document.
+skipped); the scope and spectrum of any output port the user taps (view.scope_page). Every model carries a
+`name` so tests (and scripts) find it in the browser's Bokeh document.
 
 The plots of clean cycles (range, velocity, the map) say, in the line between them, why they stand still: the
 latest clean cycle and the cycles the gate refused after it, by class (one line for the three: each text that
@@ -28,6 +29,7 @@ import numpy as np
 from carav_stream.estimate.geometry import Geometry
 from carav_stream.radar.adc import from_codes
 from carav_stream.view.control import RunControl, models
+from carav_stream.view.scope_page import ScopePanel, scope_panel, update_scope
 from carav_stream.view.state import CATEGORIES, TrackPoint, ViewState, rd_map_db
 
 REFUSALS = {"D0": "alarms by D0", "D1": "alarms by D1", "opt-in": "alarms by an opt-in detector",
@@ -72,6 +74,7 @@ class _Models:
     info: Any
     choices: list[str]
     sync: Any
+    scope: ScopePanel
     tracks_src: Any = None      # None: no tracker
     tracks_div: Any = None
     seen: dict[str, Any] = field(default_factory=lambda: {"points": 0, "estimates": 0, "map": 0, "status": None,
@@ -96,15 +99,17 @@ def make_document(doc: Any, state: ViewState, control: RunControl | None, cfg: P
     attacker_div, model_in, rarms_in, swap_button, swap_div, choices = _swap_form(bm, control)
     nodes, node_src, edges, edge_src = _tables(bm)
     info = bm.Div(name="info", text="", width=980)
+    scope, scope_state = scope_panel(bm, figure, cfg, control.tap if control is not None else None)
 
     t_fig, tracks_src, tracks_div = _tracks_plot(bm, figure, cfg) if cfg.tracks else (None, None, None)
     doc.add_root(column(
         bm.Div(text=f"<h2>{cfg.title}</h2>"), info, row(q_fig), eta_div, row(r_fig, v_fig), pause_div,
         *((t_fig, tracks_div) if cfg.tracks else ()),
         row(column(rd_fig, rd_div), column(attacker_div, row(model_in, rarms_in), swap_button, swap_div, nodes)),
-        edges))
+        edges, scope))
     m = _Models(q_src, eta_line, eta_div, est_src, pause_div, rd_src, rd_div, attacker_div, model_in, rarms_in,
-                swap_div, node_src, edge_src, info, choices, page_sync(doc), tracks_src, tracks_div)
+                swap_div, node_src, edge_src, info, choices, page_sync(doc), scope_state, tracks_src, tracks_div)
+    doc.on_session_destroyed(lambda context: scope_state.close())     # the tab's tap ends with it
     doc.add_periodic_callback(lambda: _update(m, state, cfg), max(50, int(1000 / cfg.update_hz)))
 
 
@@ -260,6 +265,7 @@ def _update(m: _Models, state: ViewState, cfg: PageConfig) -> None:
         _draw_tracks(m, state, cfg)
     _draw_map(m, state, cfg)
     _draw_pause(m, state)
+    update_scope(m.scope, state.ports)
     status, status_error = _draw_status(m, state, cfg)
     k = state.counts()
     skipped = sum(e.get("skipped", 0) for e in (status or {}).get("edges", {}).values())

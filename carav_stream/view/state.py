@@ -137,6 +137,7 @@ class ViewState:
         self.status: dict[str, Any] | None = None     # the supervisor's last status (set by the page's poller)
         self.status_error: str | None = None
         self.swap_log: list[str] = []                 # the page's swaps and their answers, newest last
+        self.ports: list[dict[str, Any]] | None = None   # the run's output ports (admin `ports`), once known
         self.last_clean = -1                          # the latest clean cycle received (estimated or mapped)
         self.refused_after: collections.deque[tuple[int, str]] = collections.deque()   # (cycle, class) after it
         self.refused_by: collections.Counter[str] = collections.Counter()   # their classes, folded ones included

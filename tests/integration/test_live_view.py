@@ -3,7 +3,8 @@ update while the graph runs, and a swap made from the page reaches the attacker 
 in the run summary, and the alarms follow it; a tracker's confirmed tracks are drawn with their ids. On a machine
 loaded by two processes spinning on its two cores, the tables as drawn follow the run, the plots of clean cycles
 that paused say why with the count of refused cycles, and no legend sits over a plot. CI installs the browser
-(.ci/run); a local run without one skips these tests and says why."""
+(.ci/run); a local run without one skips these tests and says why. A port chosen in the page's port selector shows
+its scope and spectrum while the graph runs, and a private port is refused."""
 import json
 import os
 import re
@@ -41,6 +42,18 @@ for (const name of arguments[0]) {
 }
 return out;"""
 
+
+SELECT_OFFERING = """const want = arguments[0] + " "; let found = null;
+(function walk(root) {
+  for (const el of root.querySelectorAll('select')) {
+    const o = [...el.options].find(o => o.text.startsWith(want)); if (!found && o) found = [el, o.text];
+  }
+  for (const el of root.querySelectorAll('*')) if (el.shadowRoot) walk(el.shadowRoot);
+})(document);
+return found;"""
+# Column arguments[1] of the data source named arguments[0] as a plain list (numpy's arrays arrive as typed arrays).
+COLUMN = """const m = Bokeh.documents[0].get_model_by_name(arguments[0]);
+return m && m.data[arguments[1]] ? Array.from(m.data[arguments[1]]) : null;"""
 
 def browser():
     """A headless Chromium, or a skip (a fail under CI, which must run this test) naming what is missing."""
@@ -261,3 +274,42 @@ def test_a_graph_without_a_gate_has_nothing_to_watch(carav):
     r = carav.cli("run", str(carav.graph(body)), "--view", "--port", "0")
     assert r.returncode == 3 and "--view watches the gate's verdicts; the graph has no gate" in r.stderr
     assert not any(carav.run_root.rglob("*.spec"))                                     # nothing started
+
+
+def test_a_port_chosen_on_the_page_is_tapped_and_its_scope_and_spectrum_follow_the_run(carav):
+    """As a user: choose the ADC's frames in the port selector, see the scope, the spectrum and the tap's line come
+    and move on to later cycles; choose the activation sequences and read why they are not shown; the chain loses
+    nothing."""
+    from selenium.webdriver.support.ui import Select
+    run, url = start_viewed(carav, free_port("127.0.0.1"))
+    driver = browser()
+    try:
+        driver.get(url)
+        text = lambda: model(driver, "scope_text", "text") or ""  # noqa: E731
+        select, label = wait_until(lambda: driver.execute_script(SELECT_OFFERING, "adc.frames"), "the port selector",
+                                   run, interval_s=0.2)
+        Select(select).select_by_visible_text(label)
+        shown = re.compile(r"adc\.frames</b> \(adc_frame\): cycle (\d+), chirp 0 of 64 .* shown [\d.]+/s "
+                           r"&middot; skipped (\d+) of the (\d+) frames")
+        first = wait_until(lambda: shown.search(text()), "the tap's first copy on the page", run)
+        spectrum = lambda: driver.execute_script(COLUMN, "spectrum", "db")  # noqa: E731
+        before = spectrum()
+        assert len(driver.execute_script(COLUMN, "scope", "t_us")) == 1080 and len(before) == 541   # table1's samples
+        assert model(driver, "range_axis", "visible") and model(driver, "scope_chirp", "visible")
+        later = wait_until(lambda: (m := shown.search(text())) and int(m.group(1)) > int(first.group(1)) and m,
+                           "the scope moving on to a later cycle", run)
+        assert int(later.group(3)) > int(first.group(3)) and spectrum() != before
+        taps = json.loads(carav.cli("status", "--json").stdout)[0]["nodes"]["adc"]["counters"].get("taps", {})
+        assert taps.get("frames", {}).get("sent", 0) >= 2, taps               # the node's own count of copies
+
+        select, label = driver.execute_script(SELECT_OFFERING, "source.rho")
+        Select(select).select_by_visible_text(label)
+        wait_until(lambda: "refused: source.rho is private" in text(), "the refusal of a private port", run)
+    except BaseException:
+        driver.save_screenshot(str(carav.workdir / "live_view_scope.png"))
+        raise
+    finally:
+        driver.quit()
+    assert carav.cli("stop").returncode == 0
+    assert run.wait() == 0, run.stderr()
+    assert run.summary()["lost"] == 0

@@ -26,14 +26,14 @@ def status(model: str) -> dict:
                                    "params": {"model": model, "rarms": 2.5}}}}
 
 
-def page(state: ViewState, eta: float | None = None, with_tracks: bool = False):
+def page(state: ViewState, eta: float | None = None, with_tracks: bool = False, control=None, doc=None):
     scene = scene_of("table1")
     cfg = PageConfig(scene=scene, geometry=Geometry.from_scene(scene),
                      truth_range_m=[t.range_m for t in scene.targets],
                      truth_velocity_mps=[scene.range_rate_mps(t) for t in scene.targets], eta=eta, history=100,
                      update_hz=10.0, attacker="attacker", title="test page", tracks=with_tracks)
-    doc = document.Document()
-    make_document(doc, state, None, cfg)
+    doc = doc or document.Document()
+    make_document(doc, state, control, cfg)
     (callback,) = doc.session_callbacks
     return doc, callback.callback, scene
 
