@@ -60,24 +60,28 @@ def run(args: argparse.Namespace) -> int:
     # first, before this command imports anything heavy: the zygote that will fork the nodes imports what they
     # need while the graph is read and validated
     launcher = Launcher()
-    # start-up time: the view, the supervisor and the graph's validation import numpy, ZeroMQ and the blocks
-    from carav_stream.cli.view import view_graph
-    from carav_stream.view.server import free_port, new_token, page_url
     try:
         graph = load(args.graph, args)
-        if not args.view:
-            return execute(graph, args, launcher=launcher)
-        port = args.port or free_port(args.view_host)
-        token = new_token()
-        path = view_graph(graph, args.view_host, port, token)
-        try:
-            viewed = load(path, args, shown_as=args.graph)
-            print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
-            return execute(viewed, args, launcher=launcher)
-        finally:
-            shutil.rmtree(path.parent, ignore_errors=True)
+        return execute(graph, args, launcher=launcher) if not args.view else _viewed(graph, args, launcher)
     finally:
         launcher.close()
+
+
+def _viewed(graph: Graph, args: argparse.Namespace, launcher: Launcher) -> int:
+    """Run `graph` with a live_view node on its taps (--view)."""
+    # start-up time: the view's modules, for the runs that ask for it
+    from carav_stream.cli.view import view_graph
+    from carav_stream.view.server import free_port, new_token, page_url
+
+    port = args.port or free_port(args.view_host)
+    token = new_token()
+    path = view_graph(graph, args.view_host, port, token)
+    try:
+        viewed = load(path, args, shown_as=args.graph)
+        print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
+        return execute(viewed, args, launcher=launcher)
+    finally:
+        shutil.rmtree(path.parent, ignore_errors=True)
 
 
 def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:
