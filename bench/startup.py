@@ -11,8 +11,9 @@ Restart and memory: the demo graph with a restart policy, run until stopped by a
 that it can watch its nodes' reports); once the detector has judged frames, the nodes' proportional memory (Pss,
 /proc/PID/smaps_rollup: a page shared by n processes counts 1/n in each) is summed (the zygote's included, whose
 pages the forked nodes share), the detector is SIGKILLed, and the time from the supervisor seeing it dead to its
-successor's ready report is taken. Frames are not reported one by one (heartbeats come every 0.5 s), so the
-successor's first frame is not timed; its ready report is what its start costs.
+successor's ready report, and to its first frame, is taken. The first frame's time is the successor's own
+(`first_frame_at` of its counters: time.monotonic() when its block took the frame, the clock the supervisor reads
+too), which its next heartbeat brings; target: within TARGET_RESTART_S of the death seen, forked.
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ from carav_stream.runtime.protocol import Report
 from carav_stream.runtime.supervisor import Supervisor
 
 TARGET_RATIO = 1.3
+TARGET_RESTART_S = 0.1
 IMPORTS = "import numpy, scipy.signal, scipy.fft, zmq, msgpack"
 VICTIM = "detector"
 MODES = ("zygote", "fresh", "import", "validate")
@@ -83,12 +85,13 @@ def pss_mb(pid: int) -> tuple[float, float]:
 
 class TimedSupervisor(Supervisor):
     """The supervisor, watching its own reports: when the victim has judged frames, it sums its nodes' memory and
-    SIGKILLs the victim; it times the victim's restart; once the successor is ready, it stops the run."""
+    SIGKILLs the victim; it times the victim's restart; once a report of the successor says when it took its first
+    frame, it stops the run."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.memory: dict[str, float] | None = None
-        self.t_seen = self.t_ready = None
+        self.t_seen = self.t_ready = self.t_first = None
 
     def on_node_message(self, name: str, msg: dict[str, Any]) -> None:
         super().on_node_message(name, msg)
@@ -100,6 +103,8 @@ class TimedSupervisor(Supervisor):
             os.kill(st.proc.pid, signal.SIGKILL)
         elif st.restarts == 1 and msg.get("type") == Report.READY and self.t_ready is None:
             self.t_ready = time.monotonic()
+        elif st.restarts == 1 and st.counters.get("first_frame_at") is not None and self.t_first is None:
+            self.t_first = st.counters["first_frame_at"]
             self.request_stop("benchmark")
 
     def node_failed(self, st, reason: str) -> None:
@@ -116,7 +121,7 @@ class TimedSupervisor(Supervisor):
 
 
 def restart_round(zygote: bool, folder: Path) -> dict[str, Any]:
-    """One run of the demo graph with a restart policy, until the killed victim's successor is ready."""
+    """One run of the demo graph with a restart policy, until the killed victim's successor took a frame."""
     graph_path = folder / "restarting.toml"
     graph_path.write_text(f'include = "{graph_file("demo")}"\n[run]\ncycles = 0\n[restart]\npolicy = "on-failure"\n')
     said: list[str] = []
@@ -124,10 +129,11 @@ def restart_round(zygote: bool, folder: Path) -> dict[str, Any]:
                           launcher=Launcher(zygote=zygote, log=said.append))
     summary = sup.run()
     wrong_start = summary["node_starts"]["fresh" if zygote else "forked"]
-    if summary["failures"] or sup.t_ready is None or sup.memory is None or wrong_start:
+    if summary["failures"] or sup.t_first is None or sup.memory is None or wrong_start:
         raise RuntimeError(f"restart round ({'zygote' if zygote else 'fresh'}) did not restart {VICTIM} as asked: "
                            f"{summary['failures']} {summary['node_starts']}\n" + "\n".join(said))
-    return {"seen_to_ready_s": sup.t_ready - sup.t_seen, **sup.memory, "node_starts": summary["node_starts"]}
+    return {"seen_to_ready_s": sup.t_ready - sup.t_seen, "seen_to_first_frame_s": sup.t_first - sup.t_seen,
+            **sup.memory, "node_starts": summary["node_starts"]}
 
 
 def startup(runs: int, restarts: int, cycles: int) -> dict[str, Any]:
@@ -161,6 +167,8 @@ def startup(runs: int, restarts: int, cycles: int) -> dict[str, Any]:
             "ratio_zygote_to_fresh": median["zygote"] / median["fresh"], "target_ratio": TARGET_RATIO,
             "node_starts": starts, "victim": VICTIM, "restart_rounds": rounds,
             "restart_median_s": {m: _median(r, "seen_to_ready_s") for m, r in rounds.items()},
+            "first_frame_median_s": {m: _median(r, "seen_to_first_frame_s") for m, r in rounds.items()},
+            "target_restart_s": TARGET_RESTART_S,
             "pss_median_mb": {m: _median(r, "pss_mb") for m, r in rounds.items()},
             "load_average_at_start": load_before}
 
@@ -189,10 +197,15 @@ def rows(doc: dict) -> list[tuple[str, str, str, str]]:
             f"{m['zygote'] - m['validate']:.2f} / {m['fresh'] - m['validate']:.2f} s", "(reported)", "-")]
     if r["restart_rounds"]["zygote"]:
         t, p = r["restart_median_s"], r["pss_median_mb"]
-        out += [(f"a SIGKILLed {r['victim']}: death seen by the supervisor to its successor's ready report, forked / "
-                 "fresh", f"{t['zygote'] * 1e3:.0f} / {t['fresh'] * 1e3:.0f} ms", "(reported)", "-"),
-                ("the nodes' summed proportional memory (Pss), forked (the zygote's included) / fresh",
-                 f"{p['zygote']:.0f} / {p['fresh']:.0f} MB", "(reported)", "-")]
+        out.append((f"a SIGKILLed {r['victim']}: death seen by the supervisor to its successor's ready report, forked "
+                    "/ fresh", f"{t['zygote'] * 1e3:.0f} / {t['fresh'] * 1e3:.0f} ms", "(reported)", "-"))
+        if "first_frame_median_s" in r:       # records made before the first frame was timed lack it
+            f, target = r["first_frame_median_s"], r["target_restart_s"]
+            out.append(("the same, to the successor's first frame (the time its own report gives), forked / fresh",
+                        f"{f['zygote'] * 1e3:.0f} / {f['fresh'] * 1e3:.0f} ms", f"<= {target * 1e3:.0f} ms forked",
+                        "yes" if f["zygote"] <= target else "**no**"))
+        out.append(("the nodes' summed proportional memory (Pss), forked (the zygote's included) / fresh",
+                    f"{p['zygote']:.0f} / {p['fresh']:.0f} MB", "(reported)", "-"))
     return out
 
 
@@ -205,13 +218,19 @@ def table(doc: dict) -> list[str]:
         starts = ", ".join(f"{k} {v}" for k, v in r["node_starts"].get(mode, {}).items()) or "-"
         lines.append(f"| {mode} | {r['median_s'][mode]:.2f} | {', '.join(f'{w:.2f}' for w in walls)} | {starts} |")
     if r["restart_rounds"]["zygote"]:
-        lines += ["", f"| mode | {r['victim']} death seen to successor ready, ms (median; rounds) | nodes' Pss MB "
-                  "(median; rounds) | their Rss MB | zygote's Pss MB | processes |", "|---|---|---|---:|---:|---:|"]
+        first = "first_frame_median_s" in r
+        lines += ["", f"| mode | {r['victim']} death seen to successor ready, ms (median; rounds) | "
+                  + ("to its first frame, ms (median; rounds) | " if first else "")
+                  + "nodes' Pss MB (median; rounds) | their Rss MB | zygote's Pss MB | processes |",
+                  "|---|---|" + ("---|" if first else "") + "---|---:|---:|---:|"]
         for mode, rounds in r["restart_rounds"].items():
             ms = ", ".join(f"{x['seen_to_ready_s'] * 1e3:.0f}" for x in rounds)
+            to_frame = ", ".join(f"{x['seen_to_first_frame_s'] * 1e3:.0f}" for x in rounds) if first else ""
             pss = ", ".join(f"{x['pss_mb']:.0f}" for x in rounds)
-            lines.append(f"| {mode} | {r['restart_median_s'][mode] * 1e3:.0f}; {ms} | {r['pss_median_mb'][mode]:.0f}; "
-                         f"{pss} | {statistics.median(x['rss_mb'] for x in rounds):.0f} | "
+            rss = statistics.median(x["rss_mb"] for x in rounds)
+            lines.append(f"| {mode} | {r['restart_median_s'][mode] * 1e3:.0f}; {ms} | "
+                         + (f"{r['first_frame_median_s'][mode] * 1e3:.0f}; {to_frame} | " if first else "")
+                         + f"{r['pss_median_mb'][mode]:.0f}; {pss} | {rss:.0f} | "
                          f"{statistics.median(x['zygote_pss_mb'] for x in rounds):.0f} | {rounds[0]['processes']} |")
     return lines
 

@@ -14,6 +14,7 @@ Then it runs the node (`carav_stream.runtime.node`, whose own `python -m` entry 
 the zygote (`carav_stream.runtime.zygote`), whose nodes take the same two steps after the fork.
 """
 import ctypes
+import gc
 import os
 import runpy
 import signal
@@ -46,7 +47,13 @@ def main() -> None:
     # run as a module, not imported: what it imports (numpy, ZeroMQ) comes only now, after the two steps, and the
     # package's own modules keep no import of this launcher's in their graph of imports
     zygote = sys.argv[1:2] == [ZYGOTE_FLAG]
-    runpy.run_module(f"carav_stream.runtime.{'zygote' if zygote else 'node'}", run_name="__main__", alter_sys=True)
+    try:
+        runpy.run_module(f"carav_stream.runtime.{'zygote' if zygote else 'node'}", run_name="__main__",
+                         alter_sys=True)
+    finally:
+        # a short exit, as the carav program's (cli.entry): the interpreter's exit does not walk the object graph
+        # of numpy, scipy and ZeroMQ once more (a node forked from the zygote ends with os._exit, without it)
+        gc.freeze()
 
 
 if __name__ == "__main__":

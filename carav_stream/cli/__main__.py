@@ -1,5 +1,5 @@
 import sys
 
-from carav_stream.cli import main
+from carav_stream.cli import entry
 
-sys.exit(main())
+sys.exit(entry())

@@ -5,20 +5,16 @@ import argparse
 import shutil
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from carav_stream.cli.view import view_graph
-from carav_stream.console import jsonout, matout
 from carav_stream.console.errors import CommandError, Exit, fail
 from carav_stream.console.options import count, output_file
 from carav_stream.console.progress import ProgressBar
-from carav_stream.runtime.curve_keys import split_run_problem
-from carav_stream.runtime.graph import TRANSPORTS, Graph, GraphError
+from carav_stream.runtime import planes
 from carav_stream.runtime.launcher import Launcher
-from carav_stream.runtime.loader import load_graph
-from carav_stream.runtime.rundir import RunRootError
-from carav_stream.runtime.supervisor import Supervisor
-from carav_stream.view.server import free_port, new_token, page_url
+
+if TYPE_CHECKING:
+    from carav_stream.runtime.graph import Graph
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -50,7 +46,7 @@ def run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", type=output_file, metavar="FILE", help="write the summary as JSON")
     p.add_argument("--mat", type=output_file, metavar="FILE", help="write the summary as a MATLAB file (v5), the "
                    "struct `summary` (as carav export makes of the JSON)")
-    p.add_argument("--transport", choices=TRANSPORTS, help="data plane of same-host edges: zmq (arrays in "
+    p.add_argument("--transport", choices=planes.names(), help="data plane of same-host edges: zmq (arrays in "
                    "ZeroMQ messages) or shm (arrays in shared memory, headers over ZeroMQ); default: the graph's "
                    "run.transport, else zmq")
     p.add_argument("--host", help="run only the nodes placed on this host (graphs with [hosts])")
@@ -61,27 +57,39 @@ def run_options(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    # first: the zygote that will fork the nodes imports what they need while the graph is read and validated
+    # first, before this command imports anything heavy: the zygote that will fork the nodes imports what they
+    # need while the graph is read and validated
     launcher = Launcher()
     try:
         graph = load(args.graph, args)
-        if not args.view:
-            return execute(graph, args, launcher=launcher)
-        port = args.port or free_port(args.view_host)
-        token = new_token()
-        path = view_graph(graph, args.view_host, port, token)
-        try:
-            viewed = load(path, args, shown_as=args.graph)
-            print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
-            return execute(viewed, args, launcher=launcher)
-        finally:
-            shutil.rmtree(path.parent, ignore_errors=True)
+        return execute(graph, args, launcher=launcher) if not args.view else _viewed(graph, args, launcher)
     finally:
         launcher.close()
 
 
+def _viewed(graph: Graph, args: argparse.Namespace, launcher: Launcher) -> int:
+    """Run `graph` with a live_view node on its taps (--view)."""
+    # start-up time: the view's modules, for the runs that ask for it
+    from carav_stream.cli.view import view_graph
+    from carav_stream.view.server import free_port, new_token, page_url
+
+    port = args.port or free_port(args.view_host)
+    token = new_token()
+    path = view_graph(graph, args.view_host, port, token)
+    try:
+        viewed = load(path, args, shown_as=args.graph)
+        print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
+        return execute(viewed, args, launcher=launcher)
+    finally:
+        shutil.rmtree(path.parent, ignore_errors=True)
+
+
 def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:
     """The graph file with `overrides`, then the command line's --set and --cycles; CommandError if invalid."""
+    # start-up time: validation imports the blocks (numpy, scipy), after `run` started its zygote
+    from carav_stream.runtime.graph import GraphError
+    from carav_stream.runtime.loader import load_graph
+
     cycles = [] if args.cycles is None else [f"run.cycles={args.cycles}"]   # checked like the file's value
     plane = [] if args.transport is None else [f"run.transport={args.transport}"]
     try:
@@ -96,6 +104,12 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expect
     """Run a loaded graph with the options of `carav run` (host, progress, json, mat) and report it; expected_cycles:
     what the progress counts towards when the graph's run.cycles does not say (a replay: the recording's);
     `launcher`: the one started before the graph was loaded, if any (else the supervisor starts its own)."""
+    # start-up time: after `run` started its zygote (the supervisor imports ZeroMQ, the summary's writer numpy)
+    from carav_stream.console import jsonout
+    from carav_stream.runtime.curve_keys import split_run_problem
+    from carav_stream.runtime.rundir import RunRootError
+    from carav_stream.runtime.supervisor import Supervisor
+
     if args.host is not None and args.host not in graph.hosts:
         return fail(f"--host {args.host!r}: the graph's hosts are {sorted(graph.hosts)}", Exit.USAGE)
     split = split_run_problem(graph, args.host)
@@ -114,6 +128,8 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expect
     if args.json:
         jsonout.write(args.json, summary, indent=2)
     if args.mat:
+        # start-up time: scipy.io, for the runs that ask for a MATLAB file only
+        from carav_stream.console import matout
         matout.write(args.mat, {"summary": jsonout.plain(summary)})
     if summary["failures"]:
         return Exit.FAILED

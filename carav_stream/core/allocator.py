@@ -14,8 +14,10 @@ import ctypes
 import os
 import threading
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 MALLOC_ENV = {"MALLOC_MMAP_THRESHOLD_": str(256 << 20), "MALLOC_TRIM_THRESHOLD_": str(512 << 20),
               "MALLOC_TOP_PAD_": str(64 << 20)}
@@ -42,5 +44,7 @@ def scratch(name: str, n: int, dtype) -> np.ndarray:
     bufs = _local.__dict__.setdefault("bufs", {})
     buf = bufs.get(name)
     if buf is None or buf.size < n or buf.dtype != dtype:
-        buf = bufs[name] = np.empty(n, dtype)
+        # start-up time: `carav run` imports this module before it starts its zygote, and numpy only after
+        import numpy
+        buf = bufs[name] = numpy.empty(n, dtype)
     return buf[:n]

@@ -32,6 +32,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
+import scipy.special._ufuncs as _scipy_ufuncs
 from scipy import integrate, special, stats
 
 from carav_stream.detect.detector import detect_from_rms
@@ -54,6 +55,21 @@ def clopper_pearson(k, n, confidence: float = 0.95) -> tuple[np.ndarray, np.ndar
     return low, high
 
 
+def _ncx2_density(nu: int, nonc: float):
+    """x -> the density of ncx2(nu, nonc > 0) at a point of its support: the very function scipy.stats.ncx2.pdf
+    evaluates there (its ufunc), the same numbers (tests/detect/test_stats.py), without pdf's handling of
+    arguments, shapes and support, which a quadrature calling it one point at a time would pay at every point and
+    which costs far more than the density itself."""
+    ufunc = getattr(_scipy_ufuncs, "_ncx2_pdf", None)     # where this scipy's ncx2 takes its density from
+    if ufunc is None:                                      # another scipy: its own per-distribution method
+        return lambda x: stats.ncx2._pdf(np.float64(x), nu, nonc)
+
+    def density(x: float) -> float:
+        with np.errstate(over="ignore"):                  # as ncx2's own call of it
+            return ufunc(x, nu, nonc)
+    return density
+
+
 @lru_cache(maxsize=256)
 def rms_moments(nu: int, nonc: float, t: float = 1.0) -> tuple[float, float]:
     """Mean and variance of ||R||_r / sigma_n for ||R||_r^2 / sigma_n^2 = t ncx2(nu, nonc) / nu (cached: a threshold
@@ -64,7 +80,8 @@ def rms_moments(nu: int, nonc: float, t: float = 1.0) -> tuple[float, float]:
     else:
         dist = stats.ncx2(nu, nonc)
         lo, hi = dist.ppf(1e-14), dist.isf(1e-14)
-        mean1 = integrate.quad(lambda x: np.sqrt(x) * dist.pdf(x), lo, hi, epsabs=0, epsrel=1e-12, limit=200)[0]
+        pdf = _ncx2_density(nu, nonc)                      # ncx2.pdf's numbers on the support [lo, hi]
+        mean1 = integrate.quad(lambda x: np.sqrt(x) * pdf(x), lo, hi, epsabs=0, epsrel=1e-12, limit=200)[0]
     second = nu + nonc
     return float(scale * mean1), float(scale ** 2 * max(second - mean1 ** 2, 0.0))
 

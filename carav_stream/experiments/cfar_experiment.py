@@ -43,7 +43,9 @@ from carav_stream.radar.scene_loader import load_scene
 from carav_stream.radar.streams import scene_of
 from carav_stream.radar.synth import simulate_cycles
 
-__all__ = ["cfar_experiment"]
+__all__ = ["cfar_experiment", "PARTS"]
+
+PARTS = ("false_alarms", "detection", "refined", "two_targets", "resolution", "migration")   # in the order run
 
 DETECTION_SNR_DB = (5.0, 10.0, 15.0, 20.0, 25.0)
 REFINED_PRESETS, REFINED_SNR_DB = ("table1", "awr1642"), (10.0, 20.0, 30.0)
@@ -53,31 +55,33 @@ MIGRATION_RCS_SCALE, MIGRATION_SPEEDS_MPS = (1.0, 1e-3, 1e-4, 10 ** -4.5), (0.0,
 
 def cfar_experiment(preset: str, trials: int, pfa: float, seed: int,
                     partial: Callable[[str, dict], None] | None = None,
-                    progress: Callable[[int, int], None] | None = None) -> dict:
-    """Every part of the experiment (the module docstring) by name, in this order: false_alarms, detection (1, 2),
-    refined, two_targets, resolution (3), migration (4); each a dict of its settings and "rows". partial(name,
+                    progress: Callable[[int, int], None] | None = None, last: str = PARTS[-1]) -> dict:
+    """Every part of the experiment (the module docstring) by name, in the order of PARTS: false_alarms, detection
+    (1, 2), refined, two_targets, resolution (3), migration (4); each a dict of its settings and "rows". partial(name,
     part) as each part is done, progress(cycles done, cycles in all) as they are measured. `trials` cycles per
     measurement of parts 1 and 2 (a quarter, at least 40, for part 3; at most 64 for part 4), `pfa` the design rate
-    per cell of parts 1 and 2."""
+    per cell of parts 1 and 2. `last`: the parts up to this one only; they share the random stream in their order,
+    so each has the figures it has in the whole experiment."""
+    wanted = PARTS[:PARTS.index(last) + 1]
     scene = load_scene(preset)
     rng = np.random.default_rng(seed)
     c, c_list, c_walk = trials, max(40, trials // 4), min(trials, 64)
-    tally = Tally(c * (1 + len(DETECTION_SNR_DB)) + c_list * (len(REFINED_PRESETS) * len(REFINED_SNR_DB) + 1
-                                                               + len(RESOLUTION_BINS))
-                  + c_walk * len(MIGRATION_RCS_SCALE) * len(MIGRATION_SPEEDS_MPS), progress)
+    cycles = {"false_alarms": c, "detection": c * len(DETECTION_SNR_DB),
+              "refined": c_list * len(REFINED_PRESETS) * len(REFINED_SNR_DB), "two_targets": c_list,
+              "resolution": c_list * len(RESOLUTION_BINS),
+              "migration": c_walk * len(MIGRATION_RCS_SCALE) * len(MIGRATION_SPEEDS_MPS)}
+    tally = Tally(sum(cycles[name] for name in wanted), progress)
+    runs = {"false_alarms": lambda: _false_alarms(scene, rng, c, pfa, seed, tally),
+            "detection": lambda: _detection(scene, rng, c, pfa, tally),
+            "refined": lambda: _refined_list(rng, c_list, tally),
+            "two_targets": lambda: _two_targets(rng, c_list, tally),
+            "resolution": lambda: _resolution(rng, c_list, tally),
+            "migration": lambda: _migration(seed, c_walk, tally)}
     parts: dict[str, dict] = {}
-
-    def done(name: str, part: dict) -> None:
-        parts[name] = part
+    for name in wanted:                  # in this order: they share rng
+        parts[name] = runs[name]()
         if partial is not None:
-            partial(name, part)
-
-    done("false_alarms", _false_alarms(scene, rng, c, pfa, seed, tally))   # the parts share rng, in this order
-    done("detection", _detection(scene, rng, c, pfa, tally))
-    done("refined", _refined_list(rng, c_list, tally))
-    done("two_targets", _two_targets(rng, c_list, tally))
-    done("resolution", _resolution(rng, c_list, tally))
-    done("migration", _migration(seed, c_walk, tally))
+            partial(name, parts[name])
     return parts
 
 

@@ -53,7 +53,7 @@ class Leak:
     pf, pf_free   C(eta)'s false-alarm rate per cycle with the leak (exact, over the balanced random activation),
                   and without
     limit         the rate beyond which it is warned about
-    rcs_limit_m2  the largest RCS at this range for which pf stays within the limit (inf: any)
+    rcs_limit_m2  the largest RCS at this range for which pf stays within the limit (inf: any; nan: not sought)
     ranges_over   at this RCS, the ranges [from, to) in metres where pf exceeds the limit (gaps under a quarter of
                   their range merged: the leak ripples with where the round trip falls between two samples); None
                   when not scanned (the target does not exceed)
@@ -209,9 +209,10 @@ def scene_rate(scene: Scene, eta: float, fidelity: str, sigma_det: float | None 
 
 
 def scene_leaks(scene: Scene, eta: float | None = None, *, pf_design: float = PF_WARN,
-                sigma_det: float | None = None) -> list[Leak]:
+                sigma_det: float | None = None, every_limit: bool = True) -> list[Leak]:
     """Every target's leak at the scene's eta (default: the eta designed for pf_design); the ranges where it
-    exceeds are scanned for the targets that exceed."""
+    exceeds are scanned for the targets that exceed. `every_limit` False: the RCS limit is sought only for the
+    targets that exceed (the others' rcs_limit_m2 nan), which is all a warning states (a root search per target)."""
     if not scene.targets or scene.sigma_n <= 0:
         return []
     law = scene_law(scene)
@@ -235,8 +236,9 @@ def scene_leaks(scene: Scene, eta: float | None = None, *, pf_design: float = PF
                               pf_free, judge.limit, math.nan, None, False, peak))
             continue
         spans = _ranges_over(judge, target, alpha) if pf > judge.limit else None
+        limit = _rcs_limit(judge, target, lams) if every_limit or pf > judge.limit else math.nan
         leaks.append(Leak(i, target.range_m, target.rcs_m2, fidelity, float(fraction), lam, eta, pf, pf_free,
-                          judge.limit, _rcs_limit(judge, target, lams), spans))
+                          judge.limit, limit, spans))
     return leaks
 
 
@@ -248,7 +250,7 @@ def leak_warnings(scene: Scene, eta: float | None = None, *, pf_design: float = 
                   sigma_det: float | None = None, who: str = "C(eta)") -> list[str]:
     """One line per target whose echo leaks enough into the silent slots to raise the false-alarm rate."""
     out = []
-    for k in scene_leaks(scene, eta, pf_design=pf_design, sigma_det=sigma_det):
+    for k in scene_leaks(scene, eta, pf_design=pf_design, sigma_det=sigma_det, every_limit=False):
         if not k.judged and k.peak_steps >= 0.1:
             out.append(f"targets[{k.target}] ({k.range_m:g} m, {k.rcs_m2:g} m^2): up to {k.fraction:.2g} of a slot of "
                        f"its echo leaks into a silent slot after an active one ({k.fidelity} fidelity), up to "

@@ -69,6 +69,7 @@ class NodeRunner:
                 # the same from the first frame on: start-up left out, so working - busy is what the node spends
                 # outside its block (decoding, pairing, sending, the data plane, control)
                 "cpu_working_s": 0.0 if d.cpu_at_first_s is None else time.process_time() - d.cpu_at_first_s,
+                "first_frame_at": d.first_frame_at,     # time.monotonic() at its first frame (None before)
                 "block": d.block_type, "generation": d.generation, "state": self.state(),
                 # what the node can hold: per input, its largest message and the most frames its pairing buffer
                 # held at once (up to pairing.limit), beside ZeroMQ's queue of queue_frames

@@ -51,6 +51,7 @@ class BlockDriver:
         self.next_cycle: int | None = None               # the cycle after the last one handled (frames' headers)
         self.busy_s = 0.0                                # CPU time spent inside the block's own code
         self.cpu_at_first_s: float | None = None          # the process's CPU time when the first frame came
+        self.first_frame_at: float | None = None          # and time.monotonic() then (the host's one clock)
         self.history: list[dict[str, Any]] = []         # blocks this node ran, for provenance and summary
         self.first_seq_of_block = None
         self.seq = spec.start_seq
@@ -152,6 +153,12 @@ class BlockDriver:
             msgs.append(self.eos_message(port, edge))
         return msgs
 
+    def first_frame(self) -> None:
+        """Note when this process's block takes its first frame: CPU time, and the monotonic clock (CLOCK_MONOTONIC,
+        one clock for every process of the host: the supervisor times a restart to its successor's first frame)."""
+        self.cpu_at_first_s = time.process_time()
+        self.first_frame_at = time.monotonic()
+
     # -- filters -------------------------------------------------------------------------------------------
     def pump(self) -> None:
         """Hand the block every frame set that is complete (all inputs at the same seq) or can never complete."""
@@ -172,7 +179,7 @@ class BlockDriver:
         if self.first_seq_of_block is None:
             self.first_seq_of_block = seq
         if self.cpu_at_first_s is None:
-            self.cpu_at_first_s = time.process_time()
+            self.first_frame()
         t0 = time.thread_time()
         if what == "process":
             if self.direct:
@@ -251,7 +258,7 @@ class BlockDriver:
                 continue
             self.block.cycle_budget = max_cycles - self.cycles_before - self.cycles if max_cycles else None
             if self.cpu_at_first_s is None:
-                self.cpu_at_first_s = time.process_time()
+                self.first_frame()
             t0 = time.thread_time()
             result = self.block.generate(self.seq)
             self.busy_s += time.thread_time() - t0

@@ -13,18 +13,24 @@ def test_proportional_memory_comes_from_proc_and_is_at_most_the_resident():
     assert 1 < pss <= rss
 
 
-def record(ratio: float) -> dict:
+def record(ratio: float, first_frame_s: float | None = None) -> dict:
+    """A record; with `first_frame_s`, the forked successor's first frame that long after the death was seen (a
+    record made before the first frame was timed has none)."""
     walls = {"zygote": [ratio], "fresh": [3.0], "import": [1.0], "validate": [0.8]}
     rounds = {"zygote": [{"seen_to_ready_s": 0.05, "pss_mb": 200.0, "rss_mb": 500.0, "zygote_pss_mb": 12.0,
                           "processes": 9}],
               "fresh": [{"seen_to_ready_s": 0.5, "pss_mb": 350.0, "rss_mb": 520.0, "zygote_pss_mb": 0.0,
                          "processes": 8}]}
-    return {"records": [{"graph": "graphs/demo.toml", "cycles": 32, "runs": 1, "wall_s": walls,
-                         "median_s": {m: w[0] for m, w in walls.items()}, "ratio_zygote_to_import": ratio,
-                         "ratio_fresh_to_import": 3.0, "ratio_zygote_to_fresh": ratio / 3.0, "target_ratio": 1.3,
-                         "node_starts": {"zygote": {"forked": 8, "fresh": 0}}, "victim": "detector",
-                         "restart_rounds": rounds, "restart_median_s": {"zygote": 0.05, "fresh": 0.5},
-                         "pss_median_mb": {"zygote": 200.0, "fresh": 350.0}, "load_average_at_start": [0.5, 1, 2]}]}
+    rec = {"graph": "graphs/demo.toml", "cycles": 32, "runs": 1, "wall_s": walls,
+           "median_s": {m: w[0] for m, w in walls.items()}, "ratio_zygote_to_import": ratio,
+           "ratio_fresh_to_import": 3.0, "ratio_zygote_to_fresh": ratio / 3.0, "target_ratio": 1.3,
+           "node_starts": {"zygote": {"forked": 8, "fresh": 0}}, "victim": "detector",
+           "restart_rounds": rounds, "restart_median_s": {"zygote": 0.05, "fresh": 0.5},
+           "pss_median_mb": {"zygote": 200.0, "fresh": 350.0}, "load_average_at_start": [0.5, 1, 2]}
+    if first_frame_s is not None:
+        rounds["zygote"][0]["seen_to_first_frame_s"], rounds["fresh"][0]["seen_to_first_frame_s"] = first_frame_s, 0.7
+        rec.update(first_frame_median_s={"zygote": first_frame_s, "fresh": 0.7}, target_restart_s=0.1)
+    return {"records": [rec]}
 
 
 @pytest.mark.parametrize("ratio, met", [(1.2, "yes"), (1.4, "**no**")])
@@ -38,6 +44,17 @@ def test_the_zygote_run_is_judged_against_the_imports_of_one_interpreter(ratio, 
         in "\n".join(lines)
 
 
+@pytest.mark.parametrize("first_frame_s, met", [(0.08, "yes"), (0.12, "**no**")])
+def test_the_forked_successors_first_frame_is_judged_against_the_restart_target(first_frame_s, met):
+    *_, ready, first, memory = rows(record(1.2, first_frame_s))
+    assert "ready report" in ready[0] and "50 / 500 ms" in ready[1]
+    assert "first frame" in first[0] and first[1:] == (f"{first_frame_s * 1e3:.0f} / 700 ms", "<= 100 ms forked", met)
+    assert "200 / 350 MB" in memory[1]
+    lines = "\n".join(table(record(1.2, first_frame_s)))
+    assert "to its first frame" in lines and f"| zygote | 50; 50 | {first_frame_s * 1e3:.0f}; " \
+        f"{first_frame_s * 1e3:.0f} | 200; 200 | 500 |" in lines
+
+
 @pytest.mark.integration
 def test_a_short_startup_benchmark_forks_every_node_and_restarts_the_detector(tmp_path):
     out = tmp_path / "startup.json"
@@ -48,4 +65,5 @@ def test_a_short_startup_benchmark_forks_every_node_and_restarts_the_detector(tm
     assert rec["node_starts"]["fresh"] == {"forked": 0, "fresh": 8}
     zygote, fresh = rec["restart_rounds"]["zygote"][0], rec["restart_rounds"]["fresh"][0]
     assert zygote["processes"] == 9 and fresh["processes"] == 8 and zygote["zygote_pss_mb"] > 0
-    assert 0 < zygote["seen_to_ready_s"] and 0 < fresh["seen_to_ready_s"]
+    assert 0 < zygote["seen_to_ready_s"] < zygote["seen_to_first_frame_s"]
+    assert 0 < fresh["seen_to_ready_s"] < fresh["seen_to_first_frame_s"]

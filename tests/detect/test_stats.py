@@ -1,6 +1,8 @@
 """Closed forms, Clopper-Pearson, importance sampling and threshold design against independent references."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -78,6 +80,25 @@ def test_rms_moments_match_sampling():
     x = np.sqrt(stats.ncx2.rvs(40, 12.0, size=400_000, random_state=rng) / 40)
     mean, var = rms_moments(40, 12.0)
     assert mean == pytest.approx(x.mean(), rel=1e-3) and var == pytest.approx(x.var(), rel=2e-2)
+
+
+@pytest.mark.parametrize("nu, nonc", [(40, 12.0), (256, 3.3), (1080, 50.0), (2160, 1e4)])
+def test_the_moments_quadrature_takes_the_numbers_of_ncx2_pdf(nu, nonc, monkeypatch):
+    """rms_moments integrates the density ncx2.pdf evaluates, called directly: the same numbers on the support, by
+    the ufunc of this scipy and by the fallback of another, so the moments are those of the pdf, bit for bit."""
+    from carav_stream.detect import stats as cs
+
+    lo, hi = stats.ncx2.ppf(1e-14, nu, nonc), stats.ncx2.isf(1e-14, nu, nonc)
+    xs = np.linspace(lo, hi, 257)
+    pdf = stats.ncx2.pdf(xs, nu, nonc)
+    assert [cs._ncx2_density(nu, nonc)(float(x)) for x in xs] == pdf.tolist()
+    monkeypatch.setattr(cs, "_scipy_ufuncs", SimpleNamespace())      # a scipy whose ufuncs have no _ncx2_pdf
+    assert [float(cs._ncx2_density(nu, nonc)(float(x))) for x in xs] == pdf.tolist()
+    cs.rms_moments.cache_clear()
+    by_fallback = cs.rms_moments(nu, nonc)
+    monkeypatch.undo()
+    cs.rms_moments.cache_clear()
+    assert cs.rms_moments(nu, nonc) == by_fallback
 
 
 def test_cfar_closed_form_threshold_gives_target_pf():
