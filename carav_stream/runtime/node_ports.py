@@ -50,7 +50,7 @@ class NodePorts:
         self.ipc_inputs = {p for p in in_ports if spec.inputs[p].startswith("ipc://")}
         self.header_only_endpoints = {e.connect for port in spec.plane_out for e in spec.outputs.get(port, ())
                                       if header_only}
-        self.outputs = Outputs(spec.outputs, self.connect, link.idle)
+        self.outputs = Outputs(spec.outputs, self.connect, link.idle, wait_room=transport.wait_room)
         self.taps = PortTaps(ctx, spec.name, spec.incarnation)
         self.readers = {port: plane.reader(res) for port, res in spec.plane_in.items() if port in self.inputs}
         ctl = link.ctl

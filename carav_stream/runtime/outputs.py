@@ -33,10 +33,13 @@ from carav_stream.runtime.protocol import OutEdge
 class Outputs:
     def __init__(self, edges: dict[str, tuple[OutEdge, ...]], connect: Callable[[str], Any],
                  idle: Callable[[], None], send: Callable[..., None] = transport.send_message,
-                 tick_s: float = transport.TICK_S) -> None:
+                 tick_s: float = transport.TICK_S, wait_room: Callable[[Any, float], None] | None = None) -> None:
         self.endpoints = {e.edge: e.connect for port_edges in edges.values() for e in port_edges}
         self.taps = {e.edge for port_edges in edges.values() for e in port_edges if e.tap}
         self._connect, self.idle, self._send, self.tick_s = connect, idle, send, tick_s
+        # how a send waiting to resume waits: until the fresh connection can take a message (transport.wait_room),
+        # a tick at most; a stand-in's sockets in a test: the tick
+        self._wait_room = wait_room or (lambda sock, timeout_s: time.sleep(timeout_s))
         self.sockets: dict[str, list[tuple[str, Any]]] = {
             port: [(e.edge, connect(e.connect)) for e in port_edges] for port, port_edges in edges.items()}
         self.edge_of = {edge: (port, i) for port, es in self.sockets.items() for i, (edge, _) in enumerate(es)}
@@ -100,7 +103,7 @@ class Outputs:
                     return False
                 if edge in self.reconnect:          # not resumed yet (no room for the marker): resume retries
                     self.blocked_on = f"{edge} (waiting to resume)"
-                    time.sleep(self.tick_s)
+                    self._wait_room(sock, self.tick_s)
                     self.idle()
                     continue
                 try:

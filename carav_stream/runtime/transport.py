@@ -17,6 +17,7 @@ import zmq
 
 MAX_MESSAGE_BYTES = (1 << 30) + (1 << 21)   # arrays limit plus header room: zmq drops the peer beyond this
 TICK_S = 0.1            # longest a node waits inside one ZeroMQ send or receive before serving heartbeats and control
+RECONNECT_MS, RECONNECT_MAX_MS = 5, 100   # an output's tries to reach its consumer: after 5 ms, doubling up to 100
 
 # pyzmq's compiled send: the Python wrapper around it only adds routing_id/group options and, with
 # send_multipart, a type check per part and enum arithmetic per frame, a cost per message that the compiled
@@ -60,10 +61,19 @@ def connect_output(ctx: zmq.Context, endpoint: str, hwm: int, curve: Any = None,
     # queue only towards a consumer reached: a connection to one that died drops what it held when it breaks,
     # so a restarted consumer bound at the same address never gets frames meant for its dead incarnation
     sock.immediate = True
+    # a restarted consumer binds its endpoint anew: tried again soon, then less and less often (ZeroMQ's default
+    # is one try every RECONNECT_MAX_MS, a tenth of a second of every restart spent waiting for the next try)
+    sock.reconnect_ivl, sock.reconnect_ivl_max = RECONNECT_MS, RECONNECT_MAX_MS
     if curve is not None and endpoint.startswith("tcp://"):
         curve.connect_as_client(sock, name)
     sock.connect(endpoint)
     return sock
+
+
+def wait_room(sock: zmq.Socket, timeout_s: float) -> None:
+    """Wait until `sock` can take a message (an `immediate` PUSH socket: it reached its consumer and has room), for
+    `timeout_s` at most."""
+    sock.poll(int(timeout_s * 1000), zmq.POLLOUT)
 
 
 def send_message(sock: zmq.Socket, parts: list[Any], flags: int = 0) -> None:
