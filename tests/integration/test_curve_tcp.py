@@ -193,10 +193,12 @@ def test_rogue_push_gets_nothing_into_a_curve_protected_input(tmp_path, carav, k
             assert sink_seqs(tmp_path) == list(range(n))
             # each attempt refused and counted on t's input, with its reason
             assert s["security"]["refused_connections"]["t.inp"] >= 1, s["security"]
-            why = ("the peer does not use CURVE" if who == "plain" else
-                   f"its CURVE key {keys['rogue'][0].decode()} is not in curve_authorized")
+            # a plain peer is refused for its mechanism; on a loaded machine libzmq may first see one of its
+            # connections end mid-handshake, which it reports without detail: refused all the same, said as such
+            why = (("the peer does not use CURVE", "its handshake failed") if who == "plain" else
+                   (f"its CURVE key {keys['rogue'][0].decode()} is not in curve_authorized",))
             assert "node 't' input 'inp': refused connection #1: refused a tcp connection" in run.stderr()
-            assert why in run.stderr(), run.stderr()
+            assert any(w in run.stderr() for w in why), run.stderr()
     finally:
         ctx.destroy(linger=0)
 
