@@ -20,11 +20,11 @@ def adc_frame(seq: int, value: float = 1e-4, cycles: int = 1) -> Frame:
     return wire(Frame.of(np.full((cycles, 64, N_S), value, np.float32), cycles=cycles), seq)
 
 
-def front_end(fidelity: str, seed: int = 4, **attack):
+def front_end(fidelity: str, seed: int = 4, scene: str = SCENE, **attack):
     """channel -> attacker -> adc in-process, every frame through the codec: a function of (rho, cycle0, seq)."""
-    channel = Channel(scene=SCENE, seed=seed, fidelity=fidelity)
-    attacker = AttackerBlock(scene=SCENE, seed=seed, fidelity=fidelity, **attack)
-    adc = AdcFramer(scene=SCENE)
+    channel = Channel(scene=scene, seed=seed, fidelity=fidelity)
+    attacker = AttackerBlock(scene=scene, seed=seed, fidelity=fidelity, **attack)
+    adc = AdcFramer(scene=scene)
     channel.start()
     attacker.start()
 

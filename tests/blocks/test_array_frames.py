@@ -3,9 +3,6 @@ chirp's RMS over all its receivers, the gate passes them, ranging reads receiver
 import numpy as np
 import pytest
 
-from carav_blocks.adc_framer import AdcFramer
-from carav_blocks.attacker import AttackerBlock
-from carav_blocks.channel import Channel
 from carav_blocks.chirp_source import ChirpSource
 from carav_blocks.gate import Gate
 from carav_blocks.range_estimator import RangeEstimator
@@ -18,23 +15,9 @@ from carav_stream.radar.streams import scene_of, seed_streams
 from carav_stream.radar.synth import simulate_cycles
 from carav_stream.runtime import Frame
 from carav_stream.testing.harness import wire
+from tests.blocks.helpers import front_end
 
 SCENE = "awr1642_mimo"       # 2 TX x 4 RX, TDM, I-only, 16-bit ADC
-
-
-def blocks_front_end(fidelity, **attack):
-    channel = Channel(scene=SCENE, seed=4, fidelity=fidelity)
-    attacker = AttackerBlock(scene=SCENE, seed=4, fidelity=fidelity, **attack)
-    adc = AdcFramer(scene=SCENE)
-    channel.start()
-    attacker.start()
-
-    def run(rho, cycle0, seq):
-        out = channel.process(wire(Frame.of(rho, cycle=cycle0, cycles=rho.shape[0]), seq))
-        rx, air = wire(out["rx"], seq), wire(out["air"], seq)
-        sent = wire(attacker.process(air), seq)
-        return rx, sent, adc.process(rx, sent)
-    return run
 
 
 @pytest.mark.parametrize("fidelity, attack", [
@@ -45,12 +28,12 @@ def blocks_front_end(fidelity, **attack):
 def test_the_array_front_end_through_the_blocks_equals_the_library_bit_for_bit(fidelity, attack):
     scene = scene_of(SCENE)
     params = {k: v for k, v in attack.items() if k != "model"}
-    run = blocks_front_end(fidelity, azimuth_deg=-30.0, **attack)
+    run = front_end(fidelity, scene=SCENE, azimuth_deg=-30.0, **attack)
     streams, lib = seed_streams(4), seed_streams(4)
     lib_attacker = make_attacker(attack["model"], scene, azimuth_deg=-30.0, **params)
     for seq, cycle0 in enumerate((0, 2)):
         rho = streams.activation.next(2, scene.n_chirps, scene.n_slots)
-        rx, sent, frames = run(rho, cycle0, seq)
+        rx, _, sent, frames = run(rho, cycle0, seq)
         want = simulate_cycles(scene, rho, lib.noise, attacker=lib_attacker, rng_attack=lib.attack,
                                fidelity=fidelity, cycle0=cycle0)
         assert rx.payload.shape == (2, 4, 128, 256) and frames.payload.dtype == np.int16

@@ -171,17 +171,15 @@ rec = {{ type = "sigmf_sink", path = "rec/sent" }}
     assert "carav_rho" not in tags                                                   # the secret stays home
 
 
-def test_the_example_flowgraphs_compile_and_the_feeding_one_is_judged_clean_and_ranged(carav, flowgraph, tmp_path):
-    for grc in sorted(set(EXAMPLES.glob("*.grc")) - {GR_RADAR_EXAMPLE}):       # that one needs gr-radar: below
-        done = subprocess.run(["grcc", "-o", str(tmp_path), str(grc)], capture_output=True, text=True, timeout=300)
-        assert done.returncode == 0, done.stderr
-        assert (tmp_path / f"{grc.stem}.py").is_file()
+def fed_by_flowgraph(carav, script: Path, graph: str, cycles: int) -> dict:
+    """Run a compiled flowgraph `script` (GNU Radio's Python) sending `cycles` cycles to the carav graph
+    graphs/`graph`, whose source connects to it; the carav run's summary once both ended well."""
     address = f"tcp://127.0.0.1:{free_port('127.0.0.1')}"
-    sender = subprocess.Popen([SYSTEM_PYTHON, str(tmp_path / "gnuradio_to_carav.py"), "--address", address,
-                               "--n-cycles", "20", "--slowdown", "10"], stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True, start_new_session=True)
+    sender = subprocess.Popen([SYSTEM_PYTHON, str(script), "--address", address, "--n-cycles", str(cycles),
+                               "--slowdown", "10"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              start_new_session=True)
     try:
-        run = carav.run(ROOT / "graphs" / "gnuradio.toml", "--set", f"source.address={address}")
+        run = carav.run(ROOT / "graphs" / graph, "--set", f"source.address={address}")
         assert run.wait() == 0, run.stderr()
         wait_until(lambda: sender.poll() is not None, "the flowgraph's end", lambda: group_cpu_s(sender.pid))
         assert sender.returncode == 0, sender.stderr.read()
@@ -189,7 +187,15 @@ def test_the_example_flowgraphs_compile_and_the_feeding_one_is_judged_clean_and_
         if sender.poll() is None:
             os.killpg(sender.pid, 9)
             sender.wait()
-    s = run.summary()
+    return run.summary()
+
+
+def test_the_example_flowgraphs_compile_and_the_feeding_one_is_judged_clean_and_ranged(carav, flowgraph, tmp_path):
+    for grc in sorted(set(EXAMPLES.glob("*.grc")) - {GR_RADAR_EXAMPLE}):       # that one needs gr-radar: below
+        done = subprocess.run(["grcc", "-o", str(tmp_path), str(grc)], capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        assert (tmp_path / f"{grc.stem}.py").is_file()
+    s = fed_by_flowgraph(carav, tmp_path / "gnuradio_to_carav.py", "gnuradio.toml", 20)
     assert s["gr_stream"]["cycles"] == 20 and s["gr_stream"]["damaged_cycles"] == 0
     assert s["cycles_judged"] == 20 and s["alarms"] == 0
     assert s["range_error_m"]["rmse"] < 0.01 and s["velocity_error_mps"]["rmse"] < 0.1
@@ -203,20 +209,9 @@ def test_gr_radar_s_fmcw_radar_is_framed_into_cycles_judged_and_ranged_by_carav(
     done = subprocess.run(["grcc", "-o", str(tmp_path), str(GR_RADAR_EXAMPLE)], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stderr
-    address, cycles = f"tcp://127.0.0.1:{free_port('127.0.0.1')}", 20
-    sender = subprocess.Popen([SYSTEM_PYTHON, str(tmp_path / "gr_radar_to_carav.py"), "--address", address,
-                               "--n-cycles", str(cycles), "--slowdown", "10"], stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        run = carav.run(ROOT / "graphs" / "gr_radar.toml", "--set", f"source.address={address}")
-        assert run.wait() == 0, run.stderr()
-        wait_until(lambda: sender.poll() is not None, "the flowgraph's end", lambda: group_cpu_s(sender.pid))
-        assert sender.returncode == 0, sender.stderr.read()
-    finally:
-        if sender.poll() is None:
-            os.killpg(sender.pid, 9)
-            sender.wait()
-    s, scene = run.summary(), load_scene(str(ROOT / "examples" / "gnuradio" / "gr_radar_fmcw.toml"))
+    cycles = 20
+    s = fed_by_flowgraph(carav, tmp_path / "gr_radar_to_carav.py", "gr_radar.toml", cycles)
+    scene = load_scene(str(ROOT / "examples" / "gnuradio" / "gr_radar_fmcw.toml"))
     n = scene.n_chirps * scene.n_samples
     assert s["gr_stream"]["cycles"] == cycles and s["gr_stream"]["damaged_cycles"] == 0
     assert s["gr_stream"]["items"] == cycles * n and s["gr_stream"]["tags"] == cycles * scene.n_chirps
