@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from carav_stream.core.arrays import virtual_positions
+
 __all__ = ["VirtualArray", "tdm_max_velocity_mps"]
 
 _TOL_WL = 1e-9     # positions closer than this [wavelengths] are the same position
@@ -68,8 +70,7 @@ class VirtualArray:
     @property
     def positions_wl(self) -> np.ndarray:
         """Virtual positions x_v [wavelengths], float64 (n_virtual,), slot-major."""
-        tx = np.asarray(self.tx_positions_wl)[list(self.tdm_schedule)]
-        return (tx[:, None] + np.asarray(self.rx_positions_wl)[None, :]).reshape(-1)
+        return virtual_positions(self.tx_positions_wl, self.rx_positions_wl, self.tdm_schedule)
 
     @property
     def slot_of_channel(self) -> np.ndarray:

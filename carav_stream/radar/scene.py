@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from carav_stream.core.arrays import virtual_positions
 from carav_stream.core.units import C_MPS
 
 IF_SETTLE_SAMPLES = 16     # the IF filter's half length in ADC samples (the waveform fidelity's FIR: 32 samples long)
@@ -172,8 +173,7 @@ class Scene:
     @property
     def virtual_positions_wl(self) -> np.ndarray:
         """float64 (n_slots * n_rx,): the virtual array, slot-major: tx_positions_wl[tdm_schedule[j]] + rx r."""
-        tx = np.asarray(self.tx_positions_wl, dtype=np.float64)[list(self.tdm_schedule)]
-        return (tx[:, None] + np.asarray(self.rx_positions_wl, dtype=np.float64)[None, :]).ravel()
+        return virtual_positions(self.tx_positions_wl, self.rx_positions_wl, self.tdm_schedule)
 
     def frame_shape(self, n_cycles: int) -> tuple[int, ...]:
         """Shape of the ADC frames of n_cycles cycles: a receiver axis only when there is more than one receiver."""
