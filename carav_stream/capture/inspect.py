@@ -48,14 +48,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.ndimage import maximum_filter
 
 from carav_stream.capture.dca1000 import Layout, check_loops, signed_codes
 from carav_stream.core.units import C_MPS
-from carav_stream.estimate.angle import angle_spectrum, sin_grid, virtual_cube
-from carav_stream.estimate.virtual_array import VirtualArray
+
+if TYPE_CHECKING:
+    from carav_stream.estimate.virtual_array import VirtualArray
 
 SPREAD_DB = 10.0       # receivers, lanes, slots or active chirps further apart than this: the layout is doubted
 
@@ -70,6 +72,9 @@ def capture_array(scene, n_rx: int) -> tuple[VirtualArray, bool]:
     """The virtual array of a capture of n_rx receivers under the scene's TDM schedule, and whether the scene
     places those receivers (its rx_positions_wl has n_rx entries; else they stand at half-wave steps, which the
     power does not depend on, and no azimuth is given)."""
+    # start-up time: the estimators' package is imported by the inspection only, not by dca1000_source's warnings
+    from carav_stream.estimate.virtual_array import VirtualArray
+
     scene_array = VirtualArray.from_scene(scene)
     placed = scene_array.n_rx == n_rx
     rx = scene_array.rx_positions_wl if placed else tuple(0.5 * r for r in range(n_rx))
@@ -80,6 +85,9 @@ def virtual_channels(codes: np.ndarray, array: VirtualArray, active: np.ndarray)
     """Z complex64 (cycles, n_slots * n_rx, n_loops, n_bins) of codes (cycles, n_chirps, n_rx, n_samples[, 2]):
     the angle kernels' virtual_cube (Doppler FFT over each slot's loops, TDM-compensated), silent chirps (active
     False, bool (cycles, n_chirps)) zeroed; real data keeps FFT bins 1 .. ceil(n_samples/2) - 1."""
+    # start-up time: lazy, as in capture_array
+    from carav_stream.estimate.angle import virtual_cube
+
     if codes.ndim == 5:
         x = codes[..., 0].astype(np.complex64)
         x.imag = codes[..., 1]
@@ -188,6 +196,9 @@ def _strongest(rd: np.ndarray, scene, complex_data: bool, n_samples: int, n_slot
 def _azimuths(cells: list[dict], z: np.ndarray, array: VirtualArray, complex_data: bool) -> None:
     """Each cell's azimuth_deg: the beamscan peak of its snapshots over the virtual array, power summed over
     cycles (module docstring)."""
+    # start-up time: lazy, as in capture_array
+    from carav_stream.estimate.angle import angle_spectrum, sin_grid
+
     n_angle = max(64, 2 * array.n_virtual)
     grid = sin_grid(n_angle)
     first = 0 if complex_data else 1
