@@ -41,8 +41,7 @@ layout_warnings(...) on the raw words and the file size: the likely fix for a la
   slots     given n_slots > 1, the slots' RMS over their active chirps differ by more than 10 dB: a transmitter
             is weaker or does not fire (its txEnable, the scene's tdm_schedule)
 
-Cost: two FFTs over the capture's samples (scipy.fft, complex64) and a few passes; a 128 x 256 x 4-receiver real
-cycle takes a few ms.
+Cost: two FFTs over the capture's samples (scipy.fft, complex64) and a few passes.
 """
 from __future__ import annotations
 
