@@ -59,7 +59,8 @@ class Dca1000Source(Block):
             raise ValueError(f"path: {self.path}: capture file not found")
         self.cycles, self.left = complete_cycles(self.path, self.layout)
         fixed, self.log_cycles, self.rho = capture_activation(self.activation, self.pattern, scene.n_chirps)
-        check_loops(fixed[None] if fixed is not None else self.rho, scene.n_slots,
+        self.n_slots = scene.n_slots
+        check_loops(fixed[None] if fixed is not None else self.rho, self.n_slots,
                     "pattern" if fixed is not None else f"activation: {self.activation}")
         if fixed is not None:
             self.log_cycles, self.rho = np.arange(self.cycles), np.tile(fixed, (self.cycles, 1))
@@ -77,7 +78,7 @@ class Dca1000Source(Block):
         words = np.fromfile(self.path, dtype="<i2", count=first * self.layout.bytes_per_cycle // 2)
         codes = read_cycles(self.path, self.layout, 0, first, None)
         doubts = layout_warnings(self.path, Path(self.path).stat().st_size, words, self.layout, codes,
-                                 self.rho[:first])
+                                 self.rho[:first], self.n_slots)
         return ([self._truncated()] if self.left else []) + [w for w in doubts if "whole number of cycles" not in w]
 
     def _truncated(self) -> str:

@@ -126,3 +126,34 @@ def test_a_transmitter_that_does_not_fire_is_named_not_taken_for_chirps_cut_wron
     assert any("cut at the wrong places" in w for w in warnings_for(codes, rho, 1))
     both, rho = tdm_capture(np.random.default_rng(27), True, 0.2 * MAX_V, 0.1, sigma=4.0, amplitude=2000.0, cycles=2)
     assert warnings_for(both, rho, 2) == []
+
+
+def test_the_capture_source_warns_of_a_transmitter_that_does_not_fire(tmp_path):
+    """What `carav validate` says of a dca1000_source graph: the block's warnings carry the slots' check."""
+    from blocks.dca1000_source import Dca1000Source
+
+    codes, rho = tdm_capture(np.random.default_rng(28), True, 0.2 * MAX_V, 0.1, sigma=4.0, amplitude=2000.0,
+                             cycles=1, silent_slot=1)
+    path = tmp_path / "adc_data.bin"
+    path.write_bytes(capture_bytes(codes.reshape(-1, *codes.shape[2:]), True))
+    scene = tmp_path / "mimo.toml"
+    scene.write_text(f"""name = "mimo"
+fc_hz = 77e9
+bandwidth_hz = {SCENE.slope_hz_per_s * 50e-6}
+t_sweep_s = 50e-6
+t_chirp_s = {SCENE.t_chirp_s}
+fs_hz = {SCENE.fs_hz}
+n_chirps = {N_CHIRPS}
+n_samples = {N_SAMPLES}
+iq = true
+adc_bits = 16
+adc_full_scale = 1.0
+sigma_n = 1e-3
+tx_positions_wl = [0.0, 2.0]
+rx_positions_wl = [0.0, 0.5, 1.0, 1.5]
+tdm_schedule = [0, 1]
+""")
+    pattern = "".join("1" if a else "0" for a in rho[0])
+    block = Dca1000Source(path=str(path), scene=str(scene), pattern=pattern, n_rx=4)
+    warnings = block.param_warnings()
+    assert any("a transmitter is much weaker or does not fire" in w for w in warnings), warnings
