@@ -41,7 +41,7 @@ from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, even_count, float_list, number, output_file
 from carav_stream.console.progress import ProgressBar
 from carav_stream.detect.detector import PAPER_ETA
-from carav_stream.detect.opt_in import cusum_threshold, exact_bins, spectral_threshold
+from carav_stream.detect.opt_in import cusum_threshold, exact_bins, integrated_threshold, spectral_threshold
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
@@ -120,7 +120,9 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
     eta = rms_threshold(law, pf)
     m = scene.n_chirps // 2
     bins = exact_bins(scene.n_samples, scene.iq)                          # the spectral test's bins per chirp
-    spectral = spectral_threshold(pf, m * bins) if bins else None
+    spectral = None
+    if bins:                      # a bin's power summed over the receivers: Gamma(n_rx, 1) under noise
+        spectral = spectral_threshold(pf, m * bins) if n_rx == 1 else integrated_threshold(pf, m * bins, n_rx)
     chain = n_rx == own                             # the radar chain renders the scene's own receivers only
     if chain:
         source = RadarSource(scene, fidelity=fidelity)
@@ -201,7 +203,7 @@ def _print(d: dict, stream=None) -> None:
     else:
         print(f"  spectral silent-chirp test       {sp['threshold']:.2f} x noise power per bin "
               f"({sp['threshold_db']:.1f} dB) over {sp['bins_tested']} bins"
-              + (" of each receiver" if s["n_rx"] > 1 else ""), file=stream)
+              + (f", each bin's power summed over the {s['n_rx']} receivers" if s["n_rx"] > 1 else ""), file=stream)
     cu = d["cusum_silent_power"]
     print(f"  CUSUM of silent power (k = {cu['k']:g})  h = {cu['h']:.2f} for an in-control run of "
           f"{cu['arl0_cycles']:.3g} cycles", file=stream)

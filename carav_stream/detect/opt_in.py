@@ -24,7 +24,31 @@ spill_test             energy a reply still carries into a silent slot after the
 cusum_silent_power     CUSUM across cycles of the normalised mean silent-chirp power, against slowly ramping
                        attackers; sigma_n comes from calibration and is never re-estimated under attack.
 
-All are pure functions on numpy arrays, vectorised over cycles, with the shapes and dtypes of `detector.detect`.
+Receiver arrays (``receivers=True``: frames (n_cycles, n_rx, n_chirps, n_samples), rho shared by the receivers, the
+noise independent per receiver with the same sigma_n). Every normalised bin power |X_{r,b}|^2 / (N_s sigma_n^2) is
+Exp(1) under noise, independent over receivers, so a sum over the n_rx receivers is Gamma(n_rx, 1): the degrees of
+freedom add, as in the RMS detector's combined law (detect/receivers.py), and the tests sum over the receivers
+non-coherently:
+
+    spectral     per (silent chirp, bin) the sum over receivers, Gamma(n_rx, 1), independent over chirps and bins:
+                 the threshold of the max over them is exact, as for one receiver
+    integrated   per bin the sum over receivers and silent chirps, Gamma(n_rx M, 1): exact
+    spill        per bin the sum over receivers and used slots, Gamma(n_rx M, 1): exact
+    coherent     per range-Doppler cell the sum of the receivers' maps, Gamma(n_rx, 1) per cell; cells correlated
+                 across Doppler as for one receiver, so the same union bound: P(Gamma(n_rx, 1) >= t) = pf / cells
+    CUSUM        `silent_power_z` of the combined chirp RMS (`chirp_rms(..., receivers=True)`) with n_rx nu real
+                 degrees of freedom per chirp (``n_rx=``)
+
+Why the sum and not the largest receiver. One attacker (a ghost) reaches every receiver with the same power (unit
+modulus steering, the contract's far field), so the sum holds n_rx times its power in the bin against a noise whose
+mean grows n_rx times but whose spread grows only sqrt(n_rx) times: the sum gains the receivers' integration. The max
+over receivers (n_rx times as many Exp(1) cells, exact too since they are independent) gains nothing from a signal on
+every receiver and only raises its threshold by the larger count; it would win only against energy on one receiver
+alone, which a single far-field transmitter does not make. With one receiver every test is the one-receiver test,
+bit for bit.
+
+All are pure functions on numpy arrays, vectorised over cycles (and receivers), with the shapes and dtypes of
+`detector.detect`.
 """
 from __future__ import annotations
 
@@ -44,14 +68,16 @@ __all__ = ["exact_bins", "spectral_silent_test", "spectral_threshold", "Spectral
 
 @dataclass(frozen=True)
 class SpectralResult:
-    """stat float64 (n_cycles,): max normalised silent-chirp bin power; peak_bin int (n_cycles,); threshold float;
-    alarm bool (n_cycles,); n_bins_tested int (silent chirps x bins per chirp)."""
+    """stat float64 (n_cycles,): max normalised silent-chirp bin power (summed over the receivers); peak_bin int
+    (n_cycles,); threshold float; alarm bool (n_cycles,); n_bins_tested int (silent chirps x bins per chirp);
+    n_rx int: the receivers summed in every bin."""
 
     stat: np.ndarray
     peak_bin: np.ndarray
     threshold: float
     alarm: np.ndarray
     n_bins_tested: int
+    n_rx: int = 1
 
 
 def exact_bins(n_samples: int, iq: bool) -> int:
@@ -77,6 +103,38 @@ def spectral_threshold(pf: float, n_bins_tested: int) -> float:
     return float(-np.log(-np.expm1(np.log1p(-pf) / n_bins_tested)))
 
 
+def _cycles(frames, rho, receivers: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Checked frames as (n_cycles, n_rx, n_chirps, n_samples) (n_rx = 1 without receivers: a view) and the active
+    chirps bool (n_cycles, n_chirps); one cycle's frames (no cycle axis) become a batch of one."""
+    x = _check_frames(frames)
+    lead = 1 if receivers else 0
+    if x.ndim not in (2 + lead, 3 + lead):
+        rx = "n_rx, " if receivers else ""
+        hint = "; a receiver array's frames take receivers=True" if x.ndim == 4 and not receivers else ""
+        raise ValueError(f"frames: expected shape ({rx}n_chirps, n_samples) or (n_cycles, {rx}n_chirps, n_samples), "
+                         f"got {x.shape}{hint}")
+    if x.ndim == 2 + lead:
+        x = x[None]
+    if not receivers:
+        x = x[:, None]
+    active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[2], x.shape[0])), (x.shape[0], x.shape[2]))
+    return x, active
+
+
+def _silent_powers(x: np.ndarray, active: np.ndarray) -> np.ndarray:
+    """Bin powers |X_b|^2 of the silent chirps summed over the receivers, float64 (n_cycles, M, bins): x from
+    `_cycles`, M = n_chirps / 2 silent chirps per cycle in chirp order."""
+    m = x.shape[2] // 2
+    silent = np.swapaxes(x, 1, 2)[~active].reshape(x.shape[0], m, x.shape[1], x.shape[-1])
+    return np.sum(_bin_powers(silent), axis=2)
+
+
+def _gamma_threshold(pf: float, n_bins: int, n_rx: int) -> float:
+    """The exact threshold of the max of n_bins i.i.d. Gamma(n_rx, 1): `spectral_threshold`'s closed form for
+    n_rx = 1, `integrated_threshold` otherwise."""
+    return spectral_threshold(pf, n_bins) if n_rx == 1 else integrated_threshold(pf, n_bins, n_rx)
+
+
 def _bin_powers(frames: np.ndarray) -> np.ndarray:
     """|X_b|^2 over the bins with an exact Exp law: all bins for I/Q, bins 1..N/2-1 of the rfft for I-only."""
     n_s = frames.shape[-1]
@@ -87,31 +145,28 @@ def _bin_powers(frames: np.ndarray) -> np.ndarray:
     return spec.real.astype(np.float64) ** 2 + spec.imag.astype(np.float64) ** 2
 
 
-def spectral_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> SpectralResult:
+def spectral_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6, receivers: bool = False
+                          ) -> SpectralResult:
     """Spectral silent-chirp test.
 
-    frames  float32/64 | complex64/128 (n_cycles, n_chirps, n_samples);  rho  (n_cycles, n_chirps) or (n_chirps,)
-    sigma_n noise RMS per sample (> 0);  pf  false-alarm probability per cycle (exact under white Gaussian noise)
-    stat    max over silent chirps and tested bins of |X_b|^2 / (N_s sigma_n^2)
+    frames  float32/64 | complex64/128 (n_cycles, n_chirps, n_samples), or (n_cycles, n_rx, n_chirps, n_samples)
+            with receivers=True (either without its cycle axis for one cycle);  rho  (n_cycles, n_chirps) or
+            (n_chirps,);  sigma_n noise RMS per sample (> 0, every receiver's);  pf  false-alarm probability per
+            cycle (exact under white Gaussian noise)
+    stat    max over silent chirps and tested bins of sum_r |X_{r,b}|^2 / (N_s sigma_n^2) (Gamma(n_rx, 1) per bin)
     """
-    x = _check_frames(frames)
-    if x.ndim == 2:
-        x = x[None]
-    active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
+    x, active = _cycles(frames, rho, receivers)
     if not sigma_n > 0:
         raise ValueError(f"sigma_n: must be > 0 for the spectral test, got {sigma_n!r}")
     _need_bins(x, "spectral")
-    n_s = x.shape[-1]
-    m = x.shape[1] // 2
-    silent = x[~active].reshape(x.shape[0], m, n_s)
-    power = _bin_powers(silent) / (n_s * sigma_n ** 2)
+    power = _silent_powers(x, active) / (x.shape[-1] * sigma_n ** 2)
     flat = power.reshape(x.shape[0], -1)
     idx = np.argmax(flat, axis=1)
     stat = flat[np.arange(x.shape[0]), idx]
     n_tested = flat.shape[1]
-    thr = spectral_threshold(pf, n_tested)
+    thr = _gamma_threshold(pf, n_tested, x.shape[1])
     stat = np.where(np.isnan(stat), np.inf, stat)
-    return SpectralResult(stat, idx % power.shape[-1], thr, stat >= thr, n_tested)
+    return SpectralResult(stat, idx % power.shape[-1], thr, stat >= thr, n_tested, x.shape[1])
 
 
 def integrated_threshold(pf: float, n_bins: int, n_summed: int) -> float:
@@ -122,49 +177,50 @@ def integrated_threshold(pf: float, n_bins: int, n_summed: int) -> float:
     return float(stats.gamma.isf(per_bin, n_summed))
 
 
-def integrated_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> SpectralResult:
+def integrated_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6, receivers: bool = False
+                           ) -> SpectralResult:
     """Non-coherent integration of the silent chirps' range spectra.
 
-    frames, rho, sigma_n, pf  as `spectral_silent_test`
-    stat    max over tested bins of sum over the M silent chirps of |X_b|^2 / (N_s sigma_n^2) (Gamma(M, 1) per bin
-            under white Gaussian noise); n_bins_tested = bins per chirp; threshold from `integrated_threshold`
+    frames, rho, sigma_n, pf, receivers  as `spectral_silent_test`
+    stat    max over tested bins of sum over the M silent chirps (and the n_rx receivers) of |X_b|^2 / (N_s sigma_n^2)
+            (Gamma(n_rx M, 1) per bin under white Gaussian noise); n_bins_tested = bins per chirp; threshold from
+            `integrated_threshold`
     """
-    x = _check_frames(frames)
-    if x.ndim == 2:
-        x = x[None]
-    active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
+    x, active = _cycles(frames, rho, receivers)
     if not sigma_n > 0:
         raise ValueError(f"sigma_n: must be > 0 for the integrated test, got {sigma_n!r}")
     _need_bins(x, "integrated")
-    n_s, m = x.shape[-1], x.shape[1] // 2
-    silent = x[~active].reshape(x.shape[0], m, n_s)
-    power = np.sum(_bin_powers(silent), axis=1) / (n_s * sigma_n ** 2)          # (cycles, bins)
+    n_s, m = x.shape[-1], x.shape[2] // 2
+    power = np.sum(_silent_powers(x, active), axis=1) / (n_s * sigma_n ** 2)   # (cycles, bins)
     idx = np.argmax(power, axis=1)
     stat = power[np.arange(x.shape[0]), idx]
-    thr = integrated_threshold(pf, power.shape[1], m)
+    thr = integrated_threshold(pf, power.shape[1], x.shape[1] * m)
     stat = np.where(np.isnan(stat), np.inf, stat)
-    return SpectralResult(stat, idx, thr, stat >= thr, power.shape[1])
+    return SpectralResult(stat, idx, thr, stat >= thr, power.shape[1], x.shape[1])
 
 
-def coherent_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6) -> SpectralResult:
-    """The silent chirps' own range-Doppler map (Hann in range, zeros at the active chirps).
+def coherent_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6, receivers: bool = False
+                         ) -> SpectralResult:
+    """The silent chirps' own range-Doppler map (Hann in range, zeros at the active chirps), summed over receivers.
 
-    stat    max cell of the normalised map (Exp(1) per cell under white Gaussian noise); peak_bin is the cell's
-            flat index doppler * n_range_bins + range_bin; threshold ln(n_cells / pf) (union bound: PF <= pf)
+    frames, rho, sigma_n, pf, receivers  as `spectral_silent_test`
+    stat    max cell of the normalised map summed over the n_rx receivers' maps (Gamma(n_rx, 1) per cell under white
+            Gaussian noise); peak_bin is the cell's flat index doppler * n_range_bins + range_bin; threshold t with
+            P(Gamma(n_rx, 1) >= t) = pf / n_cells, ln(n_cells / pf) for one receiver (union bound: PF <= pf)
     """
-    x = _check_frames(frames)
-    if x.ndim == 2:
-        x = x[None]
-    active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
+    x, active = _cycles(frames, rho, receivers)
     if not 0 < pf < 1:
         raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
     _need_bins(x, "coherent")
-    power = rd_power(x, ~active, sigma_n).reshape(x.shape[0], -1)
+    n, n_rx = x.shape[:2]
+    maps = rd_power(x.reshape(n * n_rx, *x.shape[2:]), np.repeat(~active, n_rx, axis=0), sigma_n)
+    power = np.sum(maps.reshape(n, n_rx, -1), axis=1)
     idx = np.argmax(power, axis=1)
-    stat = power[np.arange(x.shape[0]), idx]
+    stat = power[np.arange(n), idx]
     stat = np.where(np.isnan(stat), np.inf, stat)
-    thr = float(np.log(power.shape[1] / pf))
-    return SpectralResult(stat, idx, thr, stat >= thr, power.shape[1])
+    cells = power.shape[1]
+    thr = float(np.log(cells / pf)) if n_rx == 1 else float(stats.gamma.isf(pf / cells, n_rx))
+    return SpectralResult(stat, idx, thr, stat >= thr, cells, n_rx)
 
 
 @dataclass(frozen=True)
@@ -172,48 +228,53 @@ class SpillResult:
     """stat float64 (n_cycles,): max over tested bins of the bin powers summed over the slots used, in units of the
     cycle's own threshold (alarm iff stat >= 1; 0 for a cycle without a silent slot after an active one);
     threshold float64 (n_cycles,): that threshold in noise-power units; n_slots int (n_cycles,): M, the silent slots
-    after active ones (chirps 1..); first_sample int; alarm bool (n_cycles,)."""
+    after active ones (chirps 1..); first_sample int; alarm bool (n_cycles,); n_rx int: the receivers summed in
+    every bin (Gamma(n_rx M, 1) under noise)."""
 
     stat: np.ndarray
     threshold: np.ndarray
     n_slots: np.ndarray
     first_sample: int
     alarm: np.ndarray
+    n_rx: int = 1
 
 
-def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e-6) -> SpillResult:
+def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e-6, receivers: bool = False
+               ) -> SpillResult:
     """Energy still arriving in a silent slot after the longest visible round trip (a repeater's spill).
 
-    frames  float32/64 | complex64/128 (n_cycles, n_chirps, n_samples);  rho  (n_cycles, n_chirps) or (n_chirps,)
-    sigma_n noise RMS per sample (> 0);  first_sample  first sample of the window (0 .. n_samples - 4), from
-            ``physics.max_visible_delay_s`` plus the IF filter's settling (``experiments/latency.py: window_start``)
+    frames  float32/64 | complex64/128 (n_cycles, n_chirps, n_samples), or (n_cycles, n_rx, n_chirps, n_samples)
+            with receivers=True (either without its cycle axis for one cycle);  rho  (n_cycles, n_chirps) or
+            (n_chirps,);  sigma_n noise RMS per sample (> 0, every receiver's);  first_sample  first sample of the
+            window (0 .. n_samples - 4), from ``physics.max_visible_delay_s`` plus the IF filter's settling
+            (``experiments/latency.py: window_start``)
     pf      false-alarm probability per cycle, exact under white Gaussian noise for any echo within the range
-    Slot k (k >= 1) is used iff rho[k - 1] and not rho[k]; the chirp before chirp 0 belongs to another cycle.
+    Slot k (k >= 1) is used iff rho[k - 1] and not rho[k]; the chirp before chirp 0 belongs to another cycle. A bin's
+    powers are summed over the used slots and the receivers.
     """
-    x = _check_frames(frames)
-    if x.ndim == 2:
-        x = x[None]
-    active = np.broadcast_to(np.atleast_2d(check_rho(rho, x.shape[1], x.shape[0])), x.shape[:2])
+    x, active = _cycles(frames, rho, receivers)
     if not sigma_n > 0:
         raise ValueError(f"sigma_n: must be > 0 for the spill test, got {sigma_n!r}")
     if not 0 <= first_sample <= x.shape[-1] - 4:
         raise ValueError(f"first_sample: must be in 0..{x.shape[-1] - 4}, got {first_sample}")
     if not 0 < pf < 1:
         raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
-    used = np.zeros(x.shape[:2], dtype=bool)
+    n_rx = x.shape[1]
+    used = np.zeros(active.shape, dtype=bool)
     used[:, 1:] = active[:, :-1] & ~active[:, 1:]
     n_w = x.shape[-1] - first_sample
-    power = _bin_powers(x[:, :, first_sample:]) / (n_w * sigma_n ** 2)        # (cycles, chirps, bins)
+    power = _bin_powers(x[..., first_sample:]) / (n_w * sigma_n ** 2)         # (cycles, receivers, chirps, bins)
+    power = np.sum(power, axis=1)                                            # over the receivers
     summed = np.sum(np.where(used[:, :, None], power, 0.0), axis=1)           # per cycle: batch-independent
     n_slots = used.sum(axis=1)
     thr = np.full(x.shape[0], np.inf)
     for m in np.unique(n_slots[n_slots > 0]).tolist():
-        thr[n_slots == m] = integrated_threshold(pf, power.shape[-1], m)
+        thr[n_slots == m] = integrated_threshold(pf, power.shape[-1], n_rx * m)
     peak = summed.max(axis=1)
     peak = np.where(np.isnan(peak), np.inf, peak)
     with np.errstate(invalid="ignore"):
         stat = np.where(n_slots > 0, peak / thr, 0.0)
-    return SpillResult(stat, thr, n_slots, int(first_sample), stat >= 1.0)
+    return SpillResult(stat, thr, n_slots, int(first_sample), stat >= 1.0, n_rx)
 
 
 def calibrate_threshold(null_stats, pf: float) -> float:
@@ -225,15 +286,20 @@ def calibrate_threshold(null_stats, pf: float) -> float:
     return float(np.quantile(s, 1 - pf, method="higher"))
 
 
-def silent_power_z(rms, rho, sigma_n: float, dof: int) -> np.ndarray:
-    """Per-cycle z-score of the mean silent-chirp power: (mean ||R_k||_r^2 / sigma_n^2 - 1) sqrt(M nu / 2).
+def silent_power_z(rms, rho, sigma_n: float, dof: int, *, n_rx: int = 1) -> np.ndarray:
+    """Per-cycle z-score of the mean silent-chirp power: (mean ||R_k||_r^2 / sigma_n^2 - 1) sqrt(M n_rx nu / 2).
 
-    Exactly standardised under white Gaussian noise (M nu u ~ chi2(M nu), nu real dof per chirp), ~N(0, 1)."""
+    rms  float (n_cycles, n_chirps): each chirp's RMS, over all its n_rx receivers' samples for an array
+    (`chirp_rms(frames, receivers=True)`); dof  nu, real degrees of freedom per chirp of one receiver.
+    Exactly standardised under white Gaussian noise (M n_rx nu u ~ chi2(M n_rx nu): the receivers' degrees of
+    freedom add), ~N(0, 1)."""
+    if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
+        raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
     r = np.atleast_2d(np.asarray(rms, dtype=np.float64))
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, r.shape[1], r.shape[0])), r.shape)
     m = r.shape[1] // 2
     u = np.sum(np.where(active, 0.0, r ** 2), axis=1) / m / sigma_n ** 2
-    return (u - 1.0) * np.sqrt(m * dof / 2.0)
+    return (u - 1.0) * np.sqrt(m * dof * int(n_rx) / 2.0)
 
 
 def cusum_threshold(arl0_cycles: float, k: float = 0.5) -> float:

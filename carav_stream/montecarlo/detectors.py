@@ -9,7 +9,8 @@
 
 The opt-in statistics are divided by their threshold for PF = 1e-6 per cycle (white Gaussian noise; exact, or a
 union bound for `coherent`), so a sweep's eta grid reads the same for every detector: an alarm is
-statistic >= eta, and eta = 1 is the 1e-6 design.
+statistic >= eta, and eta = 1 is the 1e-6 design. A receiver array's frames (n_cycles, n_rx, n_chirps, n_samples)
+are judged on the bin powers summed over its receivers (opt_in's ``receivers=True``).
 """
 from __future__ import annotations
 
@@ -23,18 +24,23 @@ __all__ = ["DETECTORS", "OPT_IN", "statistic"]
 DESIGN_PF = 1e-6
 
 
+def _receivers(frames) -> bool:
+    """Whether a batch of frames has a receiver axis (n_cycles, n_rx, n_chirps, n_samples)."""
+    return np.ndim(frames) == 4
+
+
 def _spectral(frames, rho, sigma_n):
-    res = opt_in.spectral_silent_test(frames, rho, sigma_n, pf=DESIGN_PF)
+    res = opt_in.spectral_silent_test(frames, rho, sigma_n, pf=DESIGN_PF, receivers=_receivers(frames))
     return res.stat / res.threshold
 
 
 def _integrated(frames, rho, sigma_n):
-    res = opt_in.integrated_silent_test(frames, rho, sigma_n, pf=DESIGN_PF)
+    res = opt_in.integrated_silent_test(frames, rho, sigma_n, pf=DESIGN_PF, receivers=_receivers(frames))
     return res.stat / res.threshold
 
 
 def _coherent(frames, rho, sigma_n):
-    res = opt_in.coherent_silent_test(frames, rho, sigma_n, pf=DESIGN_PF)
+    res = opt_in.coherent_silent_test(frames, rho, sigma_n, pf=DESIGN_PF, receivers=_receivers(frames))
     return res.stat / res.threshold
 
 
@@ -46,7 +52,7 @@ def _spill(frames, rho, sigma_n, scene):
         raise ValueError(f"the spill test's window starts at sample {first} (after the longest round trip the "
                          f"receiver passes, and the IF filter's settling), and N_s = {n_s} leaves fewer than the 4 "
                          f"samples it needs: it takes N_s >= {first + 4}")
-    return opt_in.spill_test(frames, rho, sigma_n, first, pf=DESIGN_PF).stat
+    return opt_in.spill_test(frames, rho, sigma_n, first, pf=DESIGN_PF, receivers=_receivers(frames)).stat
 
 
 OPT_IN = {"spectral": _spectral, "integrated": _integrated, "coherent": _coherent, "spill": _spill}
@@ -54,7 +60,8 @@ DETECTORS = ("carav", *OPT_IN)
 
 
 def statistic(detector: str, frames, rho, sigma_n: float, scene=None) -> np.ndarray:
-    """float64 (n_cycles,) statistic of an opt-in detector, in units of its PF = 1e-6 threshold (``scene``: the
+    """float64 (n_cycles,) statistic of an opt-in detector, in units of its PF = 1e-6 threshold; frames
+    (n_cycles, n_chirps, n_samples), or a receiver array's (n_cycles, n_rx, n_chirps, n_samples) (``scene``: the
     frames' scene, which `spill` needs)."""
     if detector not in OPT_IN:
         raise ValueError(f"detector: unknown {detector!r}, expected one of {', '.join(DETECTORS)}")

@@ -134,11 +134,9 @@ class RadarSource:
         return chirp_rms(frames, receivers=self.n_rx > 1), rho
 
     def draw_stat(self, n_cycles, attack, rarms, rng, detector: str):
-        """An opt-in detector's statistic (carav_stream.montecarlo.detectors) on n_cycles full-sample cycles."""
+        """An opt-in detector's statistic (carav_stream.montecarlo.detectors) on n_cycles full-sample cycles (a
+        receiver array's judged over all its receivers)."""
 
-        if self.n_rx > 1:
-            raise ValueError(f"detector {detector!r} takes one receiver's frames; scene {self.name} has "
-                             f"{self.n_rx} receivers")
         frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
         return statistic(detector, frames, rho, self.opt_in_sigma, self.scene)
 

@@ -194,6 +194,10 @@ def test_design_for_four_receivers_is_the_one_receiver_design_with_four_times_th
     assert f"{eta4:.4g}" == f"{eta_chi2:.4g}"
     assert four["scene"]["n_rx"] == 4 and four["scene"]["array_paper_model"] and four["leaks"] == []
     assert "nu = 256 per receiver, 4 receivers: 1024 per chirp" in text
+    # the spectral test sums each bin over the receivers: the max of 64 x 127 Gamma(4, 1) bins
+    assert four["spectral_silent_test"]["threshold"] == pytest.approx(
+        stats.gamma.isf(-np.expm1(np.log1p(-1e-6) / (64 * 127)), 4), rel=1e-9)
+    assert "over 8128 bins, each bin's power summed over the 4 receivers" in text
     assert "the scene has 1 receiver, the radar chain renders no other count" in text
     # the random attack: one attacker on the four receivers, not an attack independent on each
     law = scene_law(load_scene("awr1642"), 4)

@@ -105,3 +105,17 @@ def test_radar_source_falls_back_to_samples_for_quantised_adc():
     assert simulate_q(src, "random", 1.0, 10, np.random.SeedSequence(1)).method == "samples"
     with pytest.raises(ValueError, match="no exact energy path for attack 'random'"):
         simulate_q(src, "random", 1.0, 10, np.random.SeedSequence(1), method="energy")
+
+
+def test_radar_source_scores_the_opt_in_detectors_on_a_receiver_array():
+    # every receiver judged: a ghost one receiver's integrated test misses in most cycles shows on four in all
+    import carav_stream.radar.scene_loader as radar
+    from carav_stream.montecarlo.radar_source import RadarSource
+
+    def stat(n_rx: int, rarms: float) -> np.ndarray:
+        scene = radar.load_scene("table1", {"n_rx": n_rx, "n_chirps": 32, "n_samples": 64})
+        src = RadarSource(scene, fidelity="beat")
+        return src.draw_stat(60, "ghost", rarms, np.random.default_rng(4), "integrated")
+
+    assert stat(4, 0.0).max() < 1.0 and (stat(4, 0.3) >= 1.0).all()
+    assert (stat(1, 0.3) >= 1.0).mean() < 0.2
