@@ -112,7 +112,8 @@ def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[s
     from sigmf.sigmffile import SigMFFile
 
     glob = {"core:datatype": datatype, "core:sample_rate": scene.fs_hz, "core:version": sigmf.__specification__,
-            "core:num_channels": scene.n_rx, "core:recorder": f"carav-stream {__version__}", "core:extensions": [EXTENSION],
+            "core:num_channels": scene.n_rx, "core:recorder": f"carav-stream {__version__}",
+            "core:extensions": [EXTENSION],
             "core:description": f"ADC output of a carav-stream radar graph, scene {scene.name}",
             **scene_globals(scene), **{f"{NS}:{k}": plain(v) for k, v in extra.items()}}
     meta = {"global": glob, "captures": [{"core:sample_start": 0, "core:frequency": scene.fc_hz}],
