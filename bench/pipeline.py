@@ -276,14 +276,9 @@ def run(args: argparse.Namespace) -> int:
         scene = scene_of(preset)
         rate_radar = scene.cycles_per_s
         samples = scene.n_rx * scene.n_chirps * scene.n_samples * (2 if scene.iq else 1)    # real values a cycle
-        case_modes = modes
-        if scene.n_rx > 1 and modes & {"record", "replay"}:    # sigmf_sink records frames of one receiver
-            case_modes = modes - {"record", "replay"}
-            print(f"{preset:<8} {fidelity:<8} record and replay left out: the recorder takes one receiver's frames, "
-                  f"{preset} has {scene.n_rx}", flush=True)
         for batch in batches:
             # (mode, transport) -> rates; the fused chain has no data plane, the extra modes run on the first plane
-            runs = _Runs({(m, t): [] for m in MODES if m in case_modes
+            runs = _Runs({(m, t): [] for m in MODES if m in modes
                           for t in (args.transport if m == "pipeline" else ["none"] if m == "fused"
                                     else [args.transport[0]])})
             for _ in range(args.repeats):

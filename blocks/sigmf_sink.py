@@ -1,12 +1,16 @@
 """SigMF recorder: the ADC's output of every cycle as a SigMF recording, the activation sequences in a private log.
 
-    BASE.sigmf-data   the ADC's codes, cycle after cycle (ri16_le | ci16_le; rf32_le | cf32_le for an ideal ADC)
-    BASE.sigmf-meta   sample rate, carrier, the scene's chirp structure, the graph and its seed, the software
+    BASE.sigmf-data   the ADC's codes, cycle after cycle (ri16_le | ci16_le; rf32_le | cf32_le for an ideal ADC);
+                      a receiver array's as SigMF's channels, core:num_channels = n_rx, interleaved sample by
+                      sample: each cycle (n_chirps, n_samples, n_rx) in C order
+    BASE.sigmf-meta   sample rate, carrier, the scene's chirp structure (with an array its geometry: carav:n_rx,
+                      rx_positions_wl, tx_positions_wl, tdm_schedule), the graph and its seed, the software
                       version; one annotation per cycle: attack on or off and its model, clipped and non-finite
-                      counts, the detector's verdict and Q, the gate's decision, the estimates, and with a tracker
-                      the tracks after the cycle (track_id, track_status, track_range_m, track_velocity_mps,
-                      track_var_range_m2, track_var_velocity_m2ps2, and track_nis_alarm when the alarm is on: one
-                      value per live track)
+                      counts, the detector's verdict and Q (an array's also: the attacker's azimuth, its
+                      deviation and reason), the gate's decision, the estimates (an array's also: the targets'
+                      azimuths and deviations), and with a tracker the tracks after the cycle (track_id,
+                      track_status, track_range_m, track_velocity_mps, track_var_range_m2,
+                      track_var_velocity_m2ps2, and track_nis_alarm when the alarm is on: one value per live track)
     BASE.activation   the activation sequence of every cycle: firmware state, mode 0600, never in the two above
 
 The samples are written as they arrive; the metadata and the log when the stream ends (format: carav_stream/
@@ -16,7 +20,8 @@ its recording has no metadata, which `carav replay` refuses). `carav record GRAP
 a graph and wires it, with restart "never"; `carav replay DIR` runs the recording through detection and ranging
 again.
 
-Ports   in  frames     ADC frames (int16 codes, or float32 | complex64 samples of an ideal ADC)
+Ports   in  frames     ADC frames (cycles, [n_rx,] n_chirps, n_samples[, 2]): int16 codes, or float32 | complex64
+                       samples of an ideal ADC
         in  rho        the activation sequences (the private edge the detector reads)
         in  verdict    the detector's verdicts (optional)           (inputs merged in arrival order,
         in  estimates  the range estimator's records (optional)      matched by cycle index)
@@ -32,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from carav_stream.capture.activation_log import log_path, write_log
-from carav_stream.capture.sigmf_io import NS, datatype_of, plain, write_meta
+from carav_stream.capture.sigmf_io import NS, datatype_of, file_layout, plain, write_meta
 from carav_stream.radar.scene_loader import preset_names
 from carav_stream.radar.streams import NO_SEED, SCENE, SEED, scene_of
 from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cycle, writing
@@ -40,7 +45,7 @@ from carav_stream.runtime import Block, Frame, In, Param, cycle_indices, per_cyc
 VERDICT_FIELDS = ("alarm", "invalid", "q", "c", "raised_by",   # k_max and rbar stay out: they speak of rho
                   "attack_azimuth_deg", "attack_azimuth_std_deg", "attack_reason")   # a receiver array's only
 ADC_FIELDS = ("attack_active", "clipped", "nonfinite")
-ESTIMATE_FIELDS = ("range_m", "velocity_mps")
+ESTIMATE_FIELDS = ("range_m", "velocity_mps", "azimuth_deg", "azimuth_std_deg")   # the azimuths: an array's
 # the tracker's per-cycle fields -> the annotation's (track_ in front: the estimates have range_m and velocity_mps)
 TRACK_FIELDS = {"track_id": "track_id", "status": "track_status", "range_m": "track_range_m",
                 "velocity_mps": "track_velocity_mps", "var_range_m2": "track_var_range_m2",
@@ -117,12 +122,12 @@ class SigmfSink(Block):
     def _samples(self, frames: Frame) -> None:
         x = frames.payload
         datatype = datatype_of(x, self.scene_obj.iq)
-        shape = (self.scene_obj.n_chirps, self.scene_obj.n_samples, *((2,) if datatype == "ci16_le" else ()))
+        shape = (*self.scene_obj.frame_shape(1)[1:], *((2,) if datatype == "ci16_le" else ()))
         if self.datatype not in (None, datatype) or x.shape[1:] != shape:
             raise ValueError(f"frame seq {frames.seq}: {x.dtype} {x.shape} does not continue the recording of "
                              f"{self.datatype or datatype} cycles of shape {shape}")
         self.datatype = datatype
-        raw = np.ascontiguousarray(x.astype(x.dtype.newbyteorder("<"), copy=False))
+        raw = file_layout(x, self.scene_obj.n_rx)
         with writing(self.data.name):
             self.data.write(raw.data)
         self.hash.update(raw.data)             # hashed as written: no second pass over the file at the end

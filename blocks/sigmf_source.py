@@ -8,9 +8,11 @@ verdicts, Q and estimates, bit for bit, when the batch is the recording's (`cara
 Before anything runs the recording is checked (carav_stream/capture/sigmf_io.py): metadata valid SigMF, datatype
 one an ADC writes, data size equal to what the metadata describes, sha512 (verify = true), the log present and
 covering every recorded cycle, and the graph's scene describing the recorded samples (chirps, samples, I/Q, ADC
-bits and full scale, sample rate). Each problem is one error naming the file and the field.
+bits and full scale, sample rate, receivers and array geometry). Each problem is one error naming the file and the
+field. A receiver array's recording (core:num_channels = n_rx, the receivers interleaved in the data file) is
+replayed with the receiver axis after the cycles, as the ADC framer sent it.
 
-Ports   out frames   ADC frames: int16 (cycles, n_chirps, n_samples[, 2]) or float32 | complex64 samples
+Ports   out frames   ADC frames: int16 (cycles, [n_rx,] n_chirps, n_samples[, 2]) or float32 | complex64 samples
         out rho      bool (cycles, n_chirps): the recorded activation sequences (private edge to the detector)
 Graph   source = { type = "sigmf_source", path = "rec" }   (graphs/replay.toml)
 """
@@ -63,7 +65,7 @@ class SigmfSource(Block):
         models = set(self.model[rows]) - {None}
         if len(models) == 1:
             header["attack_model"] = models.pop()
-        frames = Frame.of(np.array(self.rec.samples[rows]), **header)
+        frames = Frame.of(np.array(self.rec.samples[rows], order="C"), **header)   # an array's: deinterleaved
         return {"frames": frames, "rho": Frame.of(self.rec.rho[rows].copy(), cycle=cycles[0], cycles=n,
                                                    **({"per_cycle": {"cycle_index": cycles}}
                                                       if "cycle_index" in per else {}))}

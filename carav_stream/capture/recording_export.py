@@ -1,16 +1,18 @@
 """A recording as plain arrays for another tool (`carav export REC --mat OUT.mat`): its samples as one array read a
 slab at a time, its per-cycle annotations as columns, its scene and its metadata.
 
-    adc          (cycles, n_chirps, n_samples), one row per recorded cycle: int16 codes (ri16_le), float32
-                 (rf32_le), complex64 (cf32_le); I + jQ as complex64 for ci16_le (every int16 is exact in a single,
-                 and Octave has no complex integers)
+    adc          (cycles, n_chirps, n_samples), one row per recorded cycle, (cycles, n_rx, n_chirps, n_samples) for
+                 a receiver array (the recording's interleaved channels as the frames' receiver axis): int16 codes
+                 (ri16_le), float32 (rf32_le), complex64 (cf32_le); I + jQ as complex64 for ci16_le (every int16 is
+                 exact in a single, and Octave has no complex integers)
     cycle_index  int64 (cycles,): the recorded cycle of every row
     activation   bool (cycles, n_chirps): rho from the private log, when the recording was opened with it
     per_cycle    the annotations' carav: fields, one column each, one row per cycle: a flag as bool (float with
                  NaN where a cycle lacks it), a number as float64 (NaN where missing), a list of numbers per cycle
                  (the estimates of several targets) as a float64 matrix padded with NaN, text as an object column
                  ("" where missing)
-    scene        the scene's parameters, its targets and attackers, and what follows from them
+    scene        the scene's parameters (an array's positions and TDM schedule among them), its targets and
+                 attackers, and what follows from them
     meta         the recording's global metadata; captures: its capture segments
 """
 from __future__ import annotations
@@ -33,21 +35,22 @@ MISSING = object()
 
 
 class AdcSlabs:
-    """The samples of some rows of a recording as one array (rows, n_chirps, n_samples) of `dtype`, read a slab of
-    samples at a time from the recording's map (console/matout.py writes it so, without holding it whole)."""
+    """The samples of some rows of a recording as one array (rows, [n_rx,] n_chirps, n_samples) of `dtype`, read a
+    slab of samples at a time from the recording's map (console/matout.py writes it so, without holding it whole)."""
 
-    def __init__(self, samples: np.ndarray, rows: slice | np.ndarray):
+    def __init__(self, samples: np.ndarray, rows: slice | np.ndarray, n_rx: int = 1):
         self.samples, self.rows = samples, rows
-        self.pairs = samples.ndim == 4                      # ci16_le: I and Q as a last axis of 2
+        self.axes = 4 if n_rx > 1 else 3                    # rows, [receivers,] chirps, samples
+        self.pairs = samples.ndim == self.axes + 1          # ci16_le: I and Q as a last axis of 2
         n = len(range(*rows.indices(len(samples)))) if isinstance(rows, slice) else len(rows)
-        self.shape = (n, *samples.shape[1:3])
+        self.shape = (n, *samples.shape[1:self.axes])
         self.dtype = np.dtype(np.complex64) if self.pairs else samples.dtype.newbyteorder("=")
 
     def columns(self, k0: int, k1: int) -> np.ndarray:
-        part = self.samples[self.rows, :, k0:k1]
+        part = self.samples[(self.rows, *[slice(None)] * (self.axes - 2), slice(k0, k1))]
         if not self.pairs:
             return np.asarray(part, dtype=self.dtype)
-        out = np.empty(part.shape[:3], dtype=np.complex64)
+        out = np.empty(part.shape[:self.axes], dtype=np.complex64)
         out.real, out.imag = part[..., 0], part[..., 1]
         return out
 
@@ -123,4 +126,4 @@ def recording_variables(rec: Recording, rows: slice | np.ndarray) -> tuple[dict[
                                  "captures": rec.meta.get("captures", [])}
     if rec.rho is not None:
         variables["activation"] = np.asarray(rec.rho[rows], dtype=bool)
-    return variables, AdcSlabs(rec.samples, rows)
+    return variables, AdcSlabs(rec.samples, rows, rec.n_rx)

@@ -13,6 +13,16 @@ A recording is three files with one base name (SigMF 1.2, written and validated 
                         The detector's k_max (the chirp that decided) is left out of the annotations too: with
                         raised_by it would tell whether that chirp was silent, one bit of the sequence per cycle.
 
+A receiver array (a scene with n_rx > 1, frames (cycles, n_rx, n_chirps, n_samples)) is one recording of n_rx
+channels, as SigMF lays several channels out in one dataset: global core:num_channels = n_rx and the channels
+interleaved sample by sample, so that the data file is (cycles, n_chirps, n_samples, n_rx[, 2]) in C order, what
+the sigmf package's reader returns as (samples, n_rx) (a SigMF "sample" spans every channel: the annotations'
+core:sample_start and core:sample_count count n_chirps x n_samples per cycle, as for one receiver). The scene's
+array geometry goes into the global metadata too (carav:n_rx, carav:rx_positions_wl, carav:tx_positions_wl,
+carav:tdm_schedule; written for a scene with an array only, so a one-antenna recording's metadata is as it
+was), and a replay's scene must have the same. `open_recording` gives the samples back in the frames' layout,
+the receiver axis after the cycles. One receiver: core:num_channels = 1, no geometry fields.
+
 A scene that is not a preset is copied beside the recording (BASE.scene.toml), so a recording travels whole.
 Non-finite floats (Q of an invalid cycle is infinite) are written as the strings "inf", "-inf", "nan": JSON has
 no such numbers. Every float is written with Python's shortest round-trip repr, so Q reads back bit for bit.
@@ -39,6 +49,8 @@ DATATYPES = {"ri16_le": ("<i2", False), "ci16_le": ("<i2", True), "rf32_le": ("<
 SCENE_FIELDS = ("n_chirps", "n_samples", "iq", "adc_bits", "adc_full_scale", "fc_hz", "bandwidth_hz", "t_sweep_s",
                 "t_chirp_s", "t_cycle_s", "t_adc_start_s")
 CHECKED_FIELDS = ("n_chirps", "n_samples", "iq", "adc_bits", "adc_full_scale")   # what a replay's scene must match
+# the array geometry, written for a scene with an array (absent: one antenna, transmitter and slot at 0)
+ARRAY_FIELDS = {"rx_positions_wl": (0.0,), "tx_positions_wl": (0.0,), "tdm_schedule": (0,)}
 
 
 class RecordingError(ValueError):
@@ -46,7 +58,7 @@ class RecordingError(ValueError):
 
 
 def datatype_of(frames: np.ndarray, iq: bool) -> str:
-    """The SigMF datatype of an ADC frame payload (cycles, n_chirps, n_samples[, 2])."""
+    """The SigMF datatype of an ADC frame payload (cycles, [n_rx,] n_chirps, n_samples[, 2])."""
     if frames.dtype == np.int16:
         return "ci16_le" if iq else "ri16_le"
     if frames.dtype == np.float32:
@@ -77,7 +89,19 @@ def unplain(value: Any) -> Any:
 
 
 def scene_globals(scene: Scene) -> dict[str, Any]:
-    return {f"{NS}:{k}": getattr(scene, k) for k in SCENE_FIELDS}
+    """The scene's chirp structure, and for a scene with an array its geometry, as carav: global fields."""
+    out = {f"{NS}:{k}": getattr(scene, k) for k in SCENE_FIELDS}
+    if scene.has_array:
+        out[f"{NS}:n_rx"] = scene.n_rx
+        out.update({f"{NS}:{k}": list(getattr(scene, k)) for k in ARRAY_FIELDS})
+    return out
+
+
+def file_layout(frames: np.ndarray, n_rx: int) -> np.ndarray:
+    """ADC frames (cycles, [n_rx,] n_chirps, n_samples[, 2]) as the data file holds them: little-endian, C order,
+    the receivers interleaved innermost (cycles, n_chirps, n_samples, n_rx[, 2]) for n_rx > 1."""
+    x = frames.astype(frames.dtype.newbyteorder("<"), copy=False)
+    return np.ascontiguousarray(np.moveaxis(x, 1, 3) if n_rx > 1 else x)
 
 
 def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[str, Any]],
@@ -88,7 +112,8 @@ def write_meta(base: Path, datatype: str, scene: Scene, annotations: list[dict[s
     from sigmf.sigmffile import SigMFFile
 
     glob = {"core:datatype": datatype, "core:sample_rate": scene.fs_hz, "core:version": sigmf.__specification__,
-            "core:num_channels": 1, "core:recorder": f"carav-stream {__version__}", "core:extensions": [EXTENSION],
+            "core:num_channels": scene.n_rx, "core:recorder": f"carav-stream {__version__}",
+            "core:extensions": [EXTENSION],
             "core:description": f"ADC output of a carav-stream radar graph, scene {scene.name}",
             **scene_globals(scene), **{f"{NS}:{k}": plain(v) for k, v in extra.items()}}
     meta = {"global": glob, "captures": [{"core:sample_start": 0, "core:frequency": scene.fc_hz}],
@@ -119,14 +144,16 @@ def base_of(path: str | Path) -> Path:
 
 @dataclass
 class Recording:
-    """A recording, checked: its samples as a read-only map (cycles, n_chirps, n_samples[, 2]), one annotation
-    per recorded cycle, the global metadata, and (with the log) the activation sequence of every cycle."""
+    """A recording, checked: its samples as a read-only map in the frames' layout (cycles, [n_rx,] n_chirps,
+    n_samples[, 2]; the receiver axis a view of the file's interleaved channels), one annotation per recorded
+    cycle, the global metadata, and (with the log) the activation sequence of every cycle."""
 
     base: Path
     meta: dict[str, Any]
     samples: np.ndarray
     cycles: np.ndarray                       # recorded cycle index of every row of `samples`
     annotations: list[dict[str, Any]]
+    n_rx: int = 1                            # receivers (core:num_channels)
     rho: np.ndarray | None = None            # bool (cycles, n_chirps), from the private log
     scene_file: Path | None = None           # the copied scene, when the recording's scene is not a preset
     problems: list[str] = field(default_factory=list)
@@ -159,6 +186,23 @@ def _carav_globals(meta_path: Path, glob: dict) -> None:
     if type(nodes) is not dict or not all(type(n) is dict for n in nodes.values()):
         raise RecordingError(f"{meta_path}: global {NS}:graph: nodes: expected a table of tables (node: its "
                              f"parameters), got {nodes!r:.60}")
+
+
+def _receivers(meta_path: Path, glob: dict) -> int:
+    """The receivers of a recording: core:num_channels (1 when absent), which carav:n_rx must repeat when given;
+    the array geometry's fields, when given, lists of numbers (the transmitters' schedule of integers)."""
+    n_rx = glob.get("core:num_channels", 1)
+    recorded = _field(meta_path, glob, f"{NS}:n_rx", int, optional=True)
+    if recorded is not None and recorded != n_rx:
+        raise RecordingError(f"{meta_path}: global {NS}:n_rx = {recorded}, but core:num_channels = {n_rx}: the "
+                             "receivers and the data's channels must be the same")
+    for key, default in ARRAY_FIELDS.items():
+        value = _field(meta_path, glob, f"{NS}:{key}", list, optional=True)
+        kinds = (int,) if isinstance(default[0], int) else (int, float)
+        if value is not None and (not value or not all(type(v) in kinds for v in value)):
+            raise RecordingError(f"{meta_path}: global {NS}:{key}: expected a list of "
+                                 f"{'integers' if kinds == (int,) else 'numbers'}, got {value!r:.60}")
+    return n_rx
 
 
 def _check_layout(meta_path: Path, meta: Any) -> None:
@@ -194,17 +238,18 @@ def _read_meta(meta_path: Path) -> tuple[dict[str, Any], Any]:
 
 
 def _cycles(meta_path: Path, data_path: Path, annotations: list, datatype: str, n_chirps: int,
-            n_samples: int) -> np.ndarray:
+            n_samples: int, n_rx: int = 1) -> np.ndarray:
     """The recorded cycle index of every row, once the data file's size fits the annotations and every annotation
-    covers its own cycle's samples."""
+    covers its own cycle's samples (a sample: every receiver's)."""
     dtype, pair = DATATYPES[datatype]
     per_cycle = n_chirps * n_samples
-    cycle_bytes = per_cycle * np.dtype(dtype).itemsize * (2 if pair else 1)
+    cycle_bytes = per_cycle * n_rx * np.dtype(dtype).itemsize * (2 if pair else 1)
     size = data_path.stat().st_size
     if size != len(annotations) * cycle_bytes:
+        receivers = f" x {n_rx} receivers" if n_rx > 1 else ""
         raise RecordingError(f"{data_path}: {size} bytes, but the metadata ({meta_path.name}: annotations) describes "
                              f"{len(annotations)} cycles of {cycle_bytes} bytes ({n_chirps} chirps x {n_samples} "
-                             f"samples, {datatype}) = {len(annotations) * cycle_bytes} bytes")
+                             f"samples{receivers}, {datatype}) = {len(annotations) * cycle_bytes} bytes")
     cycles = []
     for i, a in enumerate(annotations):
         start, count, cycle = a.get("core:sample_start"), a.get("core:sample_count"), a.get(f"{NS}:cycle")
@@ -275,14 +320,17 @@ def open_recording(path: str | Path, activation: str | Path | None = None, *, wi
     dtype, pair = DATATYPES[datatype]
     if datatype.startswith("c") != iq:
         raise RecordingError(f"{meta_path}: global core:datatype {datatype} does not fit carav:iq = {iq}")
+    n_rx = _receivers(meta_path, glob)
     annotations = meta.get("annotations", [])
-    cycles = _cycles(meta_path, data_path, annotations, datatype, n_chirps, n_samples)
+    cycles = _cycles(meta_path, data_path, annotations, datatype, n_chirps, n_samples, n_rx)
     if verify_hash:
         _verify_hash(rec, data_path)
-    shape = (n_chirps, n_samples, 2) if pair else (n_chirps, n_samples)
+    shape = (n_chirps, n_samples, *((n_rx,) if n_rx > 1 else ()), *((2,) if pair else ()))
     samples = np.memmap(data_path, dtype=dtype, mode="r", shape=(len(annotations), *shape)) if annotations else \
         np.zeros((0, *shape), dtype=dtype)
-    out = Recording(base, meta, samples, cycles, annotations)
+    if n_rx > 1:                           # the file's interleaved channels as the frames' receiver axis (a view)
+        samples = np.moveaxis(samples, 3, 1)
+    out = Recording(base, meta, samples, cycles, annotations, n_rx)
     scene_file = glob.get(f"{NS}:scene_file")
     if scene_file:
         out.scene_file = base.parent / scene_file
@@ -296,13 +344,23 @@ def open_recording(path: str | Path, activation: str | Path | None = None, *, wi
 
 
 def check_scene(rec: Recording, scene: Scene) -> None:
-    """A replay's scene must describe the recorded samples: RecordingError naming the field otherwise."""
+    """A replay's scene must describe the recorded samples (their chirp structure, ADC, receivers and the array
+    geometry): RecordingError naming the field otherwise."""
     for key in CHECKED_FIELDS:
         recorded, own = rec.global_field(key), getattr(scene, key)
         if recorded != own and not (isinstance(own, float) and isinstance(recorded, (int, float))
                                     and math.isclose(recorded, own, rel_tol=1e-12)):
             raise RecordingError(f"{rec.base}.sigmf-meta: global {NS}:{key} = {recorded!r}, but scene {scene.name} "
                                  f"has {key} = {own!r}")
+    if rec.n_rx != scene.n_rx:
+        raise RecordingError(f"{rec.base}.sigmf-meta: global core:num_channels = {rec.n_rx} receivers, but scene "
+                             f"{scene.name} has n_rx = {scene.n_rx}")
+    for key, default in ARRAY_FIELDS.items():
+        recorded, own = tuple(rec.global_field(key, default)), getattr(scene, key)
+        if recorded != own:
+            raise RecordingError(f"{rec.base}.sigmf-meta: global {NS}:{key} = {list(recorded)}"
+                                 f"{'' if rec.global_field(key) is not None else ' (absent: one antenna)'}, but "
+                                 f"scene {scene.name} has {key} = {list(own)}")
     rate = rec.meta["global"]["core:sample_rate"]
     if not math.isclose(rate, scene.fs_hz, rel_tol=1e-12):
         raise RecordingError(f"{rec.base}.sigmf-meta: global core:sample_rate = {rate}, but scene {scene.name} "

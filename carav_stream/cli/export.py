@@ -91,9 +91,9 @@ def _export_recording(args: argparse.Namespace) -> int:
         raise CommandError(f"{rec.base}: its ADC frames ({adc.shape[0]} cycles) take {exc.nbytes / 2 ** 30:.2f} GiB, "
                            f"over the 2 GiB a MATLAB v5 variable holds; export at most {fit} cycles at a time with "
                            "--cycles A:B") from None
-    n, n_chirps, n_samples = adc.shape
+    shape = " x ".join(str(d) for d in adc.shape)          # cycles x [receivers x] chirps x samples
     also = ", activation (the file is mode 0600: it holds the activation sequence)" if rec.rho is not None else \
         ", no activation (" + ("--no-activation" if args.no_activation else f"no {log_path(rec.base).name}") + ")"
-    print(f"wrote {args.mat}: adc {n} x {n_chirps} x {n_samples} {CLASS_WORDS[adc.dtype.name]}, cycle_index, "
+    print(f"wrote {args.mat}: adc {shape} {CLASS_WORDS[adc.dtype.name]}, cycle_index, "
           f"per_cycle, scene, meta, captures{also}")
     return Exit.OK

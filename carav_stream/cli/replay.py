@@ -1,10 +1,11 @@
 """`carav replay DIR`: a recording made by `carav record` through detection, gate and ranging again.
 
 By default through the packaged graphs/replay.toml, with the recording's scene and batch and the recorded
-detector's and estimator's settings (eta, sigma_n, method, n_targets, detection, pfa, max_targets), so that the
-verdicts, Q and estimates are those of the live run, bit for bit; `--graph FILE` replays through another graph
-(its sigmf_source node gets the recording; the scene and batch are set as well). `--set` comes last and overrides
-all of it. The run summary is printed (and written with --json) as by `carav run`.
+detector's and estimator's settings (eta, sigma_n, direction_chirps, method, n_targets, detection, pfa,
+max_targets; the run summary's azimuth_floor_deg), so that the verdicts, Q and estimates are those of the live run,
+bit for bit (a receiver array's too: the attacker's azimuth, the targets' azimuths); `--graph FILE` replays
+through another graph (its sigmf_source node gets the recording; the scene and batch are set as well). `--set`
+comes last and overrides all of it. The run summary is printed (and written with --json) as by `carav run`.
 
 A recording of a graph with a tracker (its tracks are in the annotations) is replayed with that tracker too, its
 recorded settings, on the gate's refusals and the estimates: the replay's estimates are the live run's, so its
@@ -29,9 +30,10 @@ from carav_stream.runtime.loader import read_graph_file
 from carav_stream.runtime.registry import Registry
 
 TRACKER, TRACKS_LOG = "tracker", "tracks_log"       # the nodes a replay of a recording with tracks adds
-RECORDED = {"rms_detector": ("eta", "sigma_n"),
+RECORDED = {"rms_detector": ("eta", "sigma_n", "direction_chirps"),
             "range_estimator": ("method", "n_targets", "detection", "pfa", "max_targets", "sigma_n",
-                                "max_speed_mps")}
+                                "max_speed_mps"),
+            "run_summary": ("azimuth_floor_deg",)}
 
 
 def configure(p: argparse.ArgumentParser) -> None:
