@@ -128,7 +128,7 @@ class RadarSource:
     def draw(self, n_cycles, attack, rarms, rng, method):
         if method == "energy":
             pm = self.paper_equivalent()
-            rho = balanced_rows(rng, n_cycles, self.n_chirps)
+            rho = balanced_rows(rng, n_cycles, self.n_chirps, self.scene.n_slots)
             return paper_model.sample_rms(pm, rho, rng, attack, rarms), rho
         frames, rho = self.draw_frames(n_cycles, attack, rarms, rng)
         return chirp_rms(frames, receivers=self.n_rx > 1), rho
@@ -146,10 +146,10 @@ class RadarSource:
         if self._job is None or self._job["key"] != (attack, rarms):
             self.begin_job(attack, rarms)
         job = self._job
-        if job["activation"] is None:
-            rho = balanced_rows(rng, n_cycles, self.n_chirps)
+        if job["activation"] is None:       # drawn per TDM loop, as the radar's firmware draws it
+            rho = balanced_rows(rng, n_cycles, self.n_chirps, self.scene.n_slots)
         else:
-            rho = job["activation"].next(n_cycles, self.n_chirps)
+            rho = job["activation"].next(n_cycles, self.n_chirps, self.scene.n_slots)
         rng_attack = np.random.default_rng(rng.integers(2 ** 63))
         cyc = simulate_cycles(self.scene, rho, rng, attacker=job["attacker"], rng_attack=rng_attack,
                               fidelity=self.fidelity, cycle0=job["cycle0"])

@@ -119,3 +119,21 @@ def test_radar_source_scores_the_opt_in_detectors_on_a_receiver_array():
 
     assert stat(4, 0.0).max() < 1.0 and (stat(4, 0.3) >= 1.0).all()
     assert (stat(1, 0.3) >= 1.0).mean() < 0.2
+
+
+@pytest.mark.parametrize("activation", ["seeded", "lfsr", "secure"])
+def test_radar_source_activates_whole_tdm_loops(activation):
+    """A TDM scene's activation is drawn per loop (radar/activation.py): every active loop fires the whole virtual
+    array, exactly half the loops active, on the samples path and the energy path alike."""
+    import carav_stream.radar.scene_loader as radar
+    from carav_stream.montecarlo.radar_source import RadarSource
+
+    scene = radar.load_scene("awr1642_mimo", {"n_chirps": 32, "n_samples": 32})
+    src = RadarSource(scene, fidelity="beat", activation=activation)
+    rhos = [src.draw_frames(5, "none", 0.0, np.random.default_rng(2))[1]]
+    if activation == "seeded":
+        rhos.append(src.draw(5, "none", 0.0, np.random.default_rng(3), "energy")[1])
+    for rho in rhos:
+        loops = rho.reshape(5, -1, scene.n_slots)
+        assert (loops == loops[:, :, :1]).all(), rho.astype(int)
+        assert (loops[:, :, 0].sum(axis=1) == loops.shape[1] // 2).all()
