@@ -80,7 +80,8 @@ AVX2_ENV = {"NUMBA_CPU_NAME": "haswell", "NUMBA_CPU_FEATURES": "",
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=output_file, metavar="FILE", help="write the records as JSON to FILE")
     parser.add_argument("--repeats", type=count(1), default=15, help="alternated rounds per kernel (default 15)")
-    parser.add_argument("--starts", type=count(1), default=3, help="fresh processes per start case (default 3)")
+    parser.add_argument("--starts", type=count(1), default=3,
+                        help="processes per start case: fresh nodes, zygotes, graph starts (default 3)")
     parser.add_argument("--targets", default="native,avx2", help="comma-separated: native, avx2 (default both)")
 
 

@@ -1,5 +1,6 @@
-"""`python3 dev.py bench compiled`: numba's loops give the package's results, the benchmark writes its records, and
-the package runs what the records choose (not a timing test)."""
+"""`python3 dev.py bench compiled`: numba's loops give the package's results, a node forked from a zygote that
+compiled them calls them without compiling, the rule weighs the zygote's CPU and the wall it adds to a graph's start,
+the benchmark writes its records, and the package runs what the records choose (not a timing test)."""
 import argparse
 import ast
 import json
@@ -129,6 +130,7 @@ def test_the_choice_takes_numba_when_repaid_within_a_run_and_the_start_stays_wit
     assert bench_compiled.choice(same, "noise", 20_000) == "keep numpy: numba is not faster on native, avx2"
 
 
+@pytest.mark.slow
 def test_a_node_forked_from_a_zygote_that_compiled_the_loops_calls_them_without_compiling(tmp_path):
     """A real zygote's imports, numba's loops compiled in it (an empty cache), a node forked from it: the node is
     the zygote's child, and its first call of each loop takes a small part of what compiling it took."""
@@ -144,6 +146,7 @@ def test_a_node_forked_from_a_zygote_that_compiled_the_loops_calls_them_without_
     assert got["ready_wall_s"] > ready["preload_cpu_s"] / 2
 
 
+@pytest.mark.slow
 def test_a_zygote_without_numba_neither_imports_it_nor_forks():
     got = bench_compiled.zygote_start("numpy", "/nonexistent")
     assert got["node"] is None and not got["ready"]["numba_imported"] and got["ready"]["threads"] == 1
