@@ -6,6 +6,7 @@ transport    frames/s and CPU per hop through a chain of processes, against raw 
 synth        signal-chain time per cycle by preset, fidelity and attacker
 detector     detector: numerical stability, ns/sample, Monte Carlo speed
 compiled     the hot kernels in numpy against numba-compiled loops (AVX-512 and AVX2 code), numba's start cost
+compiled_loops  numba's loops of compiled, and what a process running them pays at start (a node, a zygote)
 estimators   run time against error, beside the Cramer-Rao bound
 pipeline     the multi-process radar graph against the same chain in one process
 study        carav study on 1 and 2 local Dask workers; the scheduler's cost per task

@@ -215,7 +215,8 @@ def compiled_rows(doc: dict) -> list[Row]:
              for r in recs if r["bench"] == "start"]
     runs = doc["default_run_cycles"]
     rows += [(f"{kernel}: numpy or numba", choice(recs, kernel, runs),
-              f"numba if faster on every target and repaid within a default run ({runs} cycles)", "-")
+              f"numba if faster on every target, its CPU in the zygote repaid within a default run ({runs} "
+              "cycles) and a graph's start kept within the start-up target", "-")
              for kernel in KERNELS]
     return rows
 
@@ -235,6 +236,32 @@ def compiled_table(doc: dict) -> list[str]:
               "| loop | cache | processes | CPU s | of which import s | wall s |", "|---|---|---:|---:|---:|---:|"]
     lines += [f"| {r['kernel']} | {r['cache']} | {r['processes']} | {r['cpu_s']:.2f} | {r['import_cpu_s']:.2f} "
               f"| {r['wall_s']:.2f} |" for r in doc["records"] if r["bench"] == "start"]
+    return lines + _zygote_table(doc["records"])
+
+
+def _zygote_table(records: list[dict]) -> list[str]:
+    """numba imported and the loops called in the zygote before it forks (bench compiled's records, if any)."""
+    zygotes = [r for r in records if r["bench"] == "zygote"]
+    graph = [r for r in records if r["bench"] == "graph_start"]
+    if not zygotes or not graph:
+        return []
+    lines = ["", "numba in the zygote, before it forks the nodes (median of the processes; a node's first calls: "
+             "all three loops, in a node forked from it):", "",
+             "| numba | processes | ready after s | zygote's imports CPU s | numba CPU s | loaded from the cache "
+             "| a node's first calls ms | compiled again in the node |", "|---|---:|---:|---:|---:|---|---:|---|"]
+    for r in zygotes:
+        case = f"| {'cache ' + r['cache'] if r['cache'] != 'none' else 'not imported'} | {r['processes']} " \
+               f"| {r['ready_wall_median_s']:.2f} | {r['preload_cpu_s']:.2f} "
+        if r["cache"] == "none":
+            lines.append(case + "| - | - | - | - |")
+            continue
+        lines.append(case + f"| {r['import_cpu_s'] + sum(r['loop_cpu_s'].values()):.2f} "
+                     f"| {', '.join(r['from_cache']) or '-'} | {sum(r['node_wall_s'].values()) * 1e3:.1f} "
+                     f"| {', '.join(r['recompiled']) or 'none'} |")
+    g = graph[0]
+    lines += ["", f"A graph's start in the same sitting (bench startup's runs, median of {g['runs']}): "
+              f"{g['graph_s']:.2f} s, one interpreter's imports {g['import_s']:.2f} s "
+              f"({g['graph_s'] / g['import_s']:.2f} x; target <= {g['target_ratio']:g} x)."]
     return lines
 
 
