@@ -162,83 +162,87 @@ class CycleReport:
     """What one cycle did: the live tracks after it (in the order of `Tracks`) and the ids that were born or
     deleted in it. Held as plain lists (what a header takes); the properties give arrays over the tracks."""
 
-    __slots__ = ("_id", "_r", "_v", "_var_r", "_var_v", "status", "_updated", "_nis", "_alarm", "born", "deleted",
-                 "measured")
+    __slots__ = ("lists", "status", "born", "deleted", "measured")
 
-    def __init__(self, ids: list[int], states: list, status: tuple[str, ...], updated: list[bool], nis: list,
-                 alarm: list[bool] | None, born: tuple[int, ...], deleted: tuple[int, ...], measured: bool) -> None:
-        self._id, self.status, self._updated, self._alarm = ids, status, updated, alarm
-        self._r, self._v, self._var_r, _, self._var_v = (list(c) for c in zip(*states)) if states else ([],) * 5
-        self._nis = [math.nan if v is None else v for v in nis]
-        self.born, self.deleted, self.measured = born, deleted, measured
+    def __init__(self, lists: dict[str, list | None], status: tuple[str, ...], born: tuple[int, ...],
+                 deleted: tuple[int, ...], measured: bool) -> None:
+        self.lists = lists    # the per-track values as plain lists by the properties' names; nis NaN if not updated
+        self.status, self.born, self.deleted, self.measured = status, born, deleted, measured
 
-    id = property(lambda self: np.array(self._id, np.int64), doc="int64 (n,)")
-    range_m = property(lambda self: np.array(self._r, float), doc="float64 (n,)")
-    velocity_mps = property(lambda self: np.array(self._v, float), doc="float64 (n,)")
-    var_range_m2 = property(lambda self: np.array(self._var_r, float), doc="float64 (n,)")
-    var_velocity_m2ps2 = property(lambda self: np.array(self._var_v, float), doc="float64 (n,)")
-    updated = property(lambda self: np.array(self._updated, bool),
+    id = property(lambda self: np.array(self.lists["id"], np.int64), doc="int64 (n,)")
+    range_m = property(lambda self: np.array(self.lists["range_m"], float), doc="float64 (n,)")
+    velocity_mps = property(lambda self: np.array(self.lists["velocity_mps"], float), doc="float64 (n,)")
+    var_range_m2 = property(lambda self: np.array(self.lists["var_range_m2"], float), doc="float64 (n,)")
+    var_velocity_m2ps2 = property(lambda self: np.array(self.lists["var_velocity_m2ps2"], float), doc="float64 (n,)")
+    updated = property(lambda self: np.array(self.lists["updated"], bool),
                        doc="bool (n,): a measurement of this cycle updated the track")
-    nis = property(lambda self: np.array(self._nis, float),
+    nis = property(lambda self: np.array(self.lists["nis"], float),
                    doc="float64 (n,): this cycle's NIS of an updated track, else NaN")
-    nis_alarm = property(lambda self: None if self._alarm is None else np.array(self._alarm, bool),
-                         doc="bool (n,), None when the alarm is off")
+    nis_alarm = property(lambda self: None if self.lists["nis_alarm"] is None
+                         else np.array(self.lists["nis_alarm"], bool), doc="bool (n,), None when the alarm is off")
 
     def plain(self) -> dict[str, list | None]:
         """The live tracks' fields as plain lists, one value per track (NaN as None), for a header or a JSON line."""
-        def floats(values: list) -> list:
-            return [None if v != v else v for v in values]
-        return {"track_id": list(self._id), "status": list(self.status), "range_m": floats(self._r),
-                "velocity_mps": floats(self._v), "var_range_m2": floats(self._var_r),
-                "var_velocity_m2ps2": floats(self._var_v), "nis": floats(self._nis),
-                "nis_alarm": None if self._alarm is None else list(self._alarm)}
+        lists = self.lists
+
+        def floats(name: str) -> list:
+            return [None if v != v else v for v in lists[name]]
+        return {"track_id": list(lists["id"]), "status": list(self.status), "range_m": floats("range_m"),
+                "velocity_mps": floats("velocity_mps"), "var_range_m2": floats("var_range_m2"),
+                "var_velocity_m2ps2": floats("var_velocity_m2ps2"), "nis": floats("nis"),
+                "nis_alarm": None if lists["nis_alarm"] is None else list(lists["nis_alarm"])}
 
 
 def step(tracks: Tracks, z, config: TrackerConfig) -> tuple[Tracks, CycleReport]:
     """One cycle: z the (range, range rate) pairs of a measured cycle, float (m, 2) or a sequence of pairs (m may be
     0), None for an unmeasured one. Returns the tracks after the cycle and its report."""
     measured = z is not None
-    zs = [] if z is None else _measurements(z)
-    rows, w = tracks.rows, config.nis_window
-    n = len(rows)
+    zs = _measurements(z) if measured else []
+    rows, next_id, nan = tracks.rows, tracks.next_id, math.nan
     states = [t[1] for t in rows]
-    if n * (len(zs) + 1) <= SCALAR_MAX_PAIRS:
+    if len(rows) * (len(zs) + 1) <= SCALAR_MAX_PAIRS:
         states, nis, taken = filter_cycle(states, zs, *config.plain)
     else:
         states, nis, taken = _filter_arrays(states, zs, config)
+    # (track, NIS of this cycle or NaN, updated) after the filter: the old tracks, then one born per untaken z
+    cycle = [((t[0], x, t[2], t[3], t[4] + measured, t[5] + measured, t[6] + 1, t[7]), nan, False) if d is None
+             else ((t[0], x, t[2], t[3] + 1, t[4] + measured, 0, 0, t[7][1:] + (d,)), d, True)
+             for t, x, d in zip(rows, states, nis)]
+    if len(zs) > sum(taken):
+        r0, r1 = config.plain[2]
+        blank = (nan,) * config.nis_window
+        cycle += [((i, (zr, zv, r0, 0.0, r1), False, 1, 1, 0, 0, blank), nan, True)
+                  for i, (zr, zv) in enumerate((zz for zz, t in zip(zs, taken) if not t), start=next_id)]
     m_confirm, n_confirm, threshold = config.confirm_m, config.confirm_n, config.nis_threshold
-    after, kept, born, deleted, nis_kept, updated = [], [], [], [], [], []
-    next_id = tracks.next_id
-    r0, r1 = config.plain[2]
-    news = [(i, (zr, zv, r0, 0.0, r1), False, 1, 1, 0, 0, (math.nan,) * w)
-            for i, (zr, zv) in enumerate((zz for zz, t in zip(zs, taken) if not t), start=next_id)]
-    olds = []
-    for t, x, d in zip(rows, states, nis):
-        if d is None:
-            olds.append((t[0], x, t[2], t[3], t[4] + measured, t[5] + measured, t[6] + 1, t[7]))
-        else:
-            olds.append((t[0], x, t[2], t[3] + 1, t[4] + measured, 0, 0, t[7][1:] + (d,)))
-    for t, d in zip(olds + news, nis + [None] * len(news)):
+    after, status, born, deleted = [], [], [], []
+    ids, r, v, var_r, var_v, updated, nis_out = [], [], [], [], [], [], []
+    alarm = None if threshold is None else []
+    for t, d, up in cycle:
         tid, x, confirmed, hits, n_measured, misses, idle, window = t
-        up = d is not None or tid >= next_id
-        confirmed = confirmed or (hits >= m_confirm and n_measured <= n_confirm)
+        if not confirmed and hits >= m_confirm and n_measured <= n_confirm:
+            confirmed = True
+            t = (tid, x, True, hits, n_measured, misses, idle, window)
         if ((not confirmed and n_measured - hits > n_confirm - m_confirm)
                 or (confirmed and misses >= config.delete_misses) or idle > config.coast_cycles):
             deleted.append(tid)
             continue
-        after.append((tid, x, confirmed, hits, n_measured, misses, idle, window) if confirmed != t[2] else t)
-        kept.append(x)
-        nis_kept.append(d)
+        after.append(t)
+        ids.append(tid)
+        r.append(x[0])
+        v.append(x[1])
+        var_r.append(x[2])
+        var_v.append(x[4])
         updated.append(up)
+        nis_out.append(d)
+        status.append("tentative" if not confirmed else "confirmed" if up else "coasting")
+        if alarm is not None:            # a window not full holds NaN: its sum is NaN, no alarm
+            alarm.append(up and sum(window) > threshold)
         if tid >= next_id:
             born.append(tid)
-    status = tuple("tentative" if not t[2] else "confirmed" if u else "coasting" for t, u in zip(after, updated))
-    alarm = None
-    if threshold is not None:                   # a window not full holds NaN: its sum is NaN, no alarm
-        alarm = [u and sum(t[7]) > threshold for t, u in zip(after, updated)]
-    report = CycleReport([t[0] for t in after], kept, status, updated, nis_kept, alarm, tuple(born),
-                         tuple(deleted), measured)
-    return Tracks(tuple(after), next_id + len(news), w), report
+    lists = {"id": ids, "range_m": r, "velocity_mps": v, "var_range_m2": var_r, "var_velocity_m2ps2": var_v,
+             "updated": updated, "nis": nis_out, "nis_alarm": alarm}
+    return (Tracks(tuple(after), next_id + len(cycle) - len(rows), config.nis_window),
+            CycleReport(lists, tuple(status), tuple(born), tuple(deleted), measured))
 
 
 def _measurements(z) -> list[tuple[float, float]]:
