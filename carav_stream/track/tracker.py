@@ -23,15 +23,23 @@ not there). Per cycle, on every live track:
                  nis_pfa per update on a target that moves as modelled
 
 Status of a live track after its cycle: "tentative", "confirmed" (updated this cycle) or "coasting" (confirmed,
-not updated this cycle). The tracks live in a `Tracks` value (arrays over tracks, sorted by id); `step` returns
-the next one and what the cycle did, without changing its inputs.
+not updated this cycle). The tracks live in a `Tracks` value (one tuple per track, sorted by id, with array views);
+`step` returns the next one and what the cycle did, without changing its inputs.
 
-Written in numpy rather than on Stone Soup (the field's tracking framework): Stone Soup keeps every track, state,
+The filter and the association come in two formulations, chosen by size. For n tracks and m measurements with
+n (m + 1) <= SCALAR_MAX_PAIRS, scalar.py's plain Python floats: a radar's cycle holds one to three of each, where
+numpy's dispatch on tiny arrays costs more than the arithmetic. Above it, kalman.py's and association.py's arrays
+over all tracks at once, whose cost grows more slowly with the pairs. SCALAR_MAX_PAIRS is where the two cross
+(measured with `step` on n targets, each measured every cycle, n from 1 to 48: the plain floats cost less up to about
+24 tracks); tests/track/test_scalar_equivalence.py holds the two to the same tracks. Track management and the
+cycle's report are one pass of plain Python over the tracks.
+
+Written here rather than on Stone Soup (the field's tracking framework): Stone Soup keeps every track, state,
 detection and hypothesis as a Python object and predicts, hypothesises and updates track by track, so its cost per
-cycle grows with the tracks at Python's pace, where a cycle here is a few array operations over all tracks at once
-(measured with the same model, gate and GNN association: slower per cycle for one track, and by a factor that grows
-with the number of tracks). The radar gives a cycle every fraction of a millisecond (Table I), so per-cycle cost
-decides; the filter itself is a few lines of textbook equations, which its tests check against closed forms.
+cycle grows with the tracks at Python's pace (measured against the array formulation with the same model, gate and
+GNN association: slower per cycle for one track, and by a factor that grows with the number of tracks). The radar
+gives a cycle every fraction of a millisecond (Table I), so per-cycle cost decides; the filter itself is a few lines
+of textbook equations, which its tests check against closed forms.
 """
 from __future__ import annotations
 
@@ -46,7 +54,7 @@ from carav_stream.track.kalman import cv_model, measurement_noise, predict, upda
 from carav_stream.track.scalar import filter_cycle
 
 STATUSES = ("tentative", "confirmed", "coasting")
-SCALAR_MAX_PAIRS = 64    # n tracks, m measurements: plain floats while n (m + 1) <= this, else arrays (docstring)
+SCALAR_MAX_PAIRS = 512   # n tracks, m measurements: plain floats while n (m + 1) <= this, else arrays (docstring)
 
 
 @dataclass(frozen=True)
