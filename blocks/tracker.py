@@ -28,8 +28,6 @@ Ports   in  estimates   range_estimator records (per_cycle range_m, velocity_mps
                         when nis_pfa = 0)
 Graph   tracker = { type = "tracker", sigma_range_m = 0.0025, sigma_velocity_mps = 0.01 }
 """
-import numpy as np
-
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, cycle_indices, n_cycles, per_cycle
 from carav_stream.track import NEAR_M, NEAR_MPS, CycleReport, TrackerConfig, TrackFigures, Tracks, step
@@ -71,8 +69,8 @@ class Tracker(Block):
             sigma_velocity_mps=self.sigma_velocity_mps, gate_probability=self.gate_probability,
             confirm_m=self.confirm_m, confirm_n=self.confirm_n, delete_misses=self.delete_misses,
             coast_cycles=self.coast_cycles, nis_pfa=self.nis_pfa, nis_window=self.nis_window)
-        self.truth = (np.array([t.range_m for t in scene.targets], float),
-                      np.array([scene.range_rate_mps(t) for t in scene.targets], float))
+        self.truth = ([float(t.range_m) for t in scene.targets],
+                      [float(scene.range_rate_mps(t)) for t in scene.targets])
 
     def param_warnings(self) -> list[str]:
         scene = scene_of(self.scene)
@@ -131,8 +129,8 @@ class Tracker(Block):
                 continue
             self.newest = max(self.newest, c)
             if measured:
-                z = [(r, v) for r, v in zip(ranges[i] or [], speeds[i] or []) if r is not None and v is not None]
-                self.pending[c] = (np.array(z, dtype=float).reshape(-1, 2), None, active[i])
+                self.pending[c] = ([(float(r), float(v)) for r, v in zip(ranges[i] or (), speeds[i] or ())
+                                    if r is not None and v is not None], None, active[i])
             else:
                 self.pending[c] = (None, "refused_by_estimator" if frame.header.get("refused") else reasons[i],
                                    active[i])
@@ -155,14 +153,16 @@ class Tracker(Block):
             self.next_cycle = c + 1
 
     def _row(self, cycle: int, r: CycleReport, reason: str | None, active) -> dict:
-        tracks = r.plain()
-        for key, n in (("cycles", 1), ("measured", r.measured), ("born", len(r.born)), ("deleted", len(r.deleted)),
-                       ("nis_alarms", sum(tracks["nis_alarm"] or []))):
-            self.counts[key] += n
+        tracks, lists, counts = r.plain(), r.lists, self.counts
+        counts["cycles"] += 1
+        counts["measured"] += r.measured
+        counts["born"] += len(r.born)
+        counts["deleted"] += len(r.deleted)
+        counts["nis_alarms"] += sum(lists["nis_alarm"] or ())
         if reason is not None:
             self.reasons[reason] = self.reasons.get(reason, 0) + 1
-        self.figures.add(cycle, r.id, r.status, r.range_m, r.velocity_mps, r.deleted, self.truth, reason, active,
-                         r.nis_alarm)
+        self.figures.add(cycle, lists["id"], r.status, lists["range_m"], lists["velocity_mps"], r.deleted, self.truth,
+                         reason, active, lists["nis_alarm"])
         return {"cycle_index": cycle, "measured": r.measured, "reason": reason, "attack_active": active,
                 "born": list(r.born), "deleted": list(r.deleted), **tracks}
 

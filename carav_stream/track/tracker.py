@@ -23,18 +23,27 @@ not there). Per cycle, on every live track:
                  nis_pfa per update on a target that moves as modelled
 
 Status of a live track after its cycle: "tentative", "confirmed" (updated this cycle) or "coasting" (confirmed,
-not updated this cycle). The tracks live in a `Tracks` value (arrays over tracks, sorted by id); `step` returns
-the next one and what the cycle did, without changing its inputs.
+not updated this cycle). The tracks live in a `Tracks` value (one tuple per track, sorted by id, with array views);
+`step` returns the next one and what the cycle did, without changing its inputs.
 
-Written in numpy rather than on Stone Soup (the field's tracking framework): Stone Soup keeps every track, state,
+The filter and the association come in two formulations, chosen by size. For n tracks and m measurements with
+n (m + 1) <= SCALAR_MAX_PAIRS, scalar.py's plain Python floats: a radar's cycle holds one to three of each, where
+numpy's dispatch on tiny arrays costs more than the arithmetic. Above it, kalman.py's and association.py's arrays
+over all tracks at once, whose cost grows more slowly with the pairs. SCALAR_MAX_PAIRS is where the two cross
+(measured with `step` on n targets, each measured every cycle, n from 1 to 48: the plain floats cost less up to about
+24 tracks); tests/track/test_scalar_equivalence.py holds the two to the same tracks. Track management and the
+cycle's report are one pass of plain Python over the tracks.
+
+Written here rather than on Stone Soup (the field's tracking framework): Stone Soup keeps every track, state,
 detection and hypothesis as a Python object and predicts, hypothesises and updates track by track, so its cost per
-cycle grows with the tracks at Python's pace, where a cycle here is a few array operations over all tracks at once
-(measured with the same model, gate and GNN association: slower per cycle for one track, and by a factor that grows
-with the number of tracks). The radar gives a cycle every fraction of a millisecond (Table I), so per-cycle cost
-decides; the filter itself is a few lines of textbook equations, which its tests check against closed forms.
+cycle grows with the tracks at Python's pace (measured against the array formulation with the same model, gate and
+GNN association: slower per cycle for one track, and by a factor that grows with the number of tracks). The radar
+gives a cycle every fraction of a millisecond (Table I), so per-cycle cost decides; the filter itself is a few lines
+of textbook equations, which its tests check against closed forms.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -42,8 +51,10 @@ from scipy.stats import chi2
 
 from carav_stream.track.association import distances, gate_threshold, gnn
 from carav_stream.track.kalman import cv_model, measurement_noise, predict, update
+from carav_stream.track.scalar import filter_cycle
 
 STATUSES = ("tentative", "confirmed", "coasting")
+SCALAR_MAX_PAIRS = 512   # n tracks, m measurements: plain floats while n (m + 1) <= this, else arrays (docstring)
 
 
 @dataclass(frozen=True)
@@ -66,6 +77,7 @@ class TrackerConfig:
     r: np.ndarray = field(init=False, repr=False, compare=False)
     gamma: float = field(init=False, repr=False, compare=False)
     nis_threshold: float | None = field(init=False, repr=False, compare=False)
+    plain: tuple = field(init=False, repr=False, compare=False)   # (dt, Q's entries, R's diagonal, gamma): floats
 
     def __post_init__(self) -> None:
         problems = [f"{name}: must be an int >= {low}, got {getattr(self, name)!r}"
@@ -84,137 +96,188 @@ class TrackerConfig:
                             ("gamma", gate_threshold(self.gate_probability)),
                             ("nis_threshold", float(chi2.isf(self.nis_pfa, dof)) if self.nis_pfa > 0 else None)):
             object.__setattr__(self, name, value)
+        object.__setattr__(self, "plain", (self.dt_s, (float(q[0, 0]), float(q[0, 1]), float(q[1, 1])),
+                                           (float(self.r[0, 0]), float(self.r[1, 1])), self.gamma))
 
 
-@dataclass(frozen=True)
 class Tracks:
-    """The live tracks, sorted by id: arrays over tracks (n,)."""
+    """The live tracks, sorted by id. Held as one tuple per track, (id, (r, v, var r, cov, var v), confirmed, hits,
+    measured, misses, idle, nis window), which a cycle of a few tracks reads and writes at Python's speed; the
+    properties give them as arrays over tracks (n,)."""
 
-    id: np.ndarray          # int64 (n,)
-    x: np.ndarray           # float64 (n, 2): range [m], range rate [m/s]
-    p: np.ndarray           # float64 (n, 2, 2): its covariance
-    confirmed: np.ndarray   # bool (n,)
-    hits: np.ndarray        # int64 (n,): measured cycles with an update, since birth (the birth counts)
-    measured: np.ndarray    # int64 (n,): measured cycles since birth (the birth counts)
-    misses: np.ndarray      # int64 (n,): consecutive measured cycles without an update
-    idle: np.ndarray        # int64 (n,): consecutive cycles without an update, measured or not
-    nis: np.ndarray         # float64 (n, nis_window): the last NIS values, newest last, NaN until there
-    next_id: int = 0
+    __slots__ = ("rows", "next_id", "nis_window")
+
+    def __init__(self, rows: tuple, next_id: int, nis_window: int) -> None:
+        self.rows, self.next_id, self.nis_window = rows, next_id, nis_window
 
     @classmethod
     def empty(cls, config: TrackerConfig) -> Tracks:
-        i = np.zeros(0, np.int64)
-        return cls(i, np.zeros((0, 2)), np.zeros((0, 2, 2)), np.zeros(0, bool), i, i, i, i,
-                   np.zeros((0, config.nis_window)))
+        return cls((), 0, config.nis_window)
 
     def __len__(self) -> int:
-        return int(self.id.size)
+        return len(self.rows)
 
-    def keep(self, rows: np.ndarray) -> Tracks:
-        """The tracks at `rows` (indices or a bool mask), next_id unchanged."""
-        return self.changed(**{k: getattr(self, k)[rows] for k in _ARRAYS})
+    def _column(self, k: int, dtype: type) -> np.ndarray:
+        return np.array([t[k] for t in self.rows], dtype)
 
-    def changed(self, **fields) -> Tracks:
-        """A copy with these fields replaced: dataclasses.replace without its checks, which cost more than the
-        rest of a cycle's bookkeeping (the fields are this class's own, given by this module)."""
-        out = object.__new__(Tracks)
-        out.__dict__.update(self.__dict__, **fields)
-        return out
+    @property
+    def id(self) -> np.ndarray:
+        """int64 (n,)"""
+        return self._column(0, np.int64)
+
+    @property
+    def x(self) -> np.ndarray:
+        """float64 (n, 2): range [m], range rate [m/s]"""
+        return np.array([t[1][:2] for t in self.rows], float).reshape(-1, 2)
+
+    @property
+    def p(self) -> np.ndarray:
+        """float64 (n, 2, 2): the state's covariance"""
+        return np.array([((a, b), (b, c)) for _, (_, _, a, b, c), *_ in self.rows], float).reshape(-1, 2, 2)
+
+    @property
+    def confirmed(self) -> np.ndarray:
+        """bool (n,)"""
+        return self._column(2, bool)
+
+    @property
+    def hits(self) -> np.ndarray:
+        """int64 (n,): measured cycles with an update, since birth (the birth counts)"""
+        return self._column(3, np.int64)
+
+    @property
+    def measured(self) -> np.ndarray:
+        """int64 (n,): measured cycles since birth (the birth counts)"""
+        return self._column(4, np.int64)
+
+    @property
+    def misses(self) -> np.ndarray:
+        """int64 (n,): consecutive measured cycles without an update"""
+        return self._column(5, np.int64)
+
+    @property
+    def idle(self) -> np.ndarray:
+        """int64 (n,): consecutive cycles without an update, measured or not"""
+        return self._column(6, np.int64)
+
+    @property
+    def nis(self) -> np.ndarray:
+        """float64 (n, nis_window): the last NIS values, newest last, NaN until there"""
+        return np.array([t[7] for t in self.rows], float).reshape(-1, self.nis_window)
 
 
-_ARRAYS = ("id", "x", "p", "confirmed", "hits", "measured", "misses", "idle", "nis")
-
-
-@dataclass(frozen=True)
 class CycleReport:
-    """What one cycle did: the live tracks after it (arrays over them, in the order of `Tracks`), and the ids
-    that were born or deleted in it."""
+    """What one cycle did: the live tracks after it (in the order of `Tracks`) and the ids that were born or
+    deleted in it. Held as plain lists (what a header takes); the properties give arrays over the tracks."""
 
-    id: np.ndarray          # int64 (n,)
-    range_m: np.ndarray     # float64 (n,)
-    velocity_mps: np.ndarray
-    var_range_m2: np.ndarray
-    var_velocity_m2ps2: np.ndarray
-    status: tuple[str, ...]
-    updated: np.ndarray     # bool (n,): a measurement of this cycle updated the track
-    nis: np.ndarray         # float64 (n,): this cycle's NIS of an updated track, else NaN
-    nis_alarm: np.ndarray | None   # bool (n,), None when the alarm is off
-    born: tuple[int, ...]
-    deleted: tuple[int, ...]
-    measured: bool
+    __slots__ = ("lists", "status", "born", "deleted", "measured")
+
+    def __init__(self, lists: dict[str, list | None], status: tuple[str, ...], born: tuple[int, ...],
+                 deleted: tuple[int, ...], measured: bool) -> None:
+        self.lists = lists    # the per-track values as plain lists by the properties' names; nis NaN if not updated
+        self.status, self.born, self.deleted, self.measured = status, born, deleted, measured
+
+    id = property(lambda self: np.array(self.lists["id"], np.int64), doc="int64 (n,)")
+    range_m = property(lambda self: np.array(self.lists["range_m"], float), doc="float64 (n,)")
+    velocity_mps = property(lambda self: np.array(self.lists["velocity_mps"], float), doc="float64 (n,)")
+    var_range_m2 = property(lambda self: np.array(self.lists["var_range_m2"], float), doc="float64 (n,)")
+    var_velocity_m2ps2 = property(lambda self: np.array(self.lists["var_velocity_m2ps2"], float), doc="float64 (n,)")
+    updated = property(lambda self: np.array(self.lists["updated"], bool),
+                       doc="bool (n,): a measurement of this cycle updated the track")
+    nis = property(lambda self: np.array(self.lists["nis"], float),
+                   doc="float64 (n,): this cycle's NIS of an updated track, else NaN")
+    nis_alarm = property(lambda self: None if self.lists["nis_alarm"] is None
+                         else np.array(self.lists["nis_alarm"], bool), doc="bool (n,), None when the alarm is off")
 
     def plain(self) -> dict[str, list | None]:
         """The live tracks' fields as plain lists, one value per track (NaN as None), for a header or a JSON line."""
-        def floats(values: np.ndarray) -> list:
-            return [None if np.isnan(v) else float(v) for v in values]
-        return {"track_id": [int(i) for i in self.id], "status": list(self.status), "range_m": floats(self.range_m),
-                "velocity_mps": floats(self.velocity_mps), "var_range_m2": floats(self.var_range_m2),
-                "var_velocity_m2ps2": floats(self.var_velocity_m2ps2), "nis": floats(self.nis),
-                "nis_alarm": None if self.nis_alarm is None else [bool(a) for a in self.nis_alarm]}
+        lists = self.lists
+
+        def floats(name: str) -> list:
+            return [None if v != v else v for v in lists[name]]
+        return {"track_id": list(lists["id"]), "status": list(self.status), "range_m": floats("range_m"),
+                "velocity_mps": floats("velocity_mps"), "var_range_m2": floats("var_range_m2"),
+                "var_velocity_m2ps2": floats("var_velocity_m2ps2"), "nis": floats("nis"),
+                "nis_alarm": None if lists["nis_alarm"] is None else list(lists["nis_alarm"])}
 
 
-def step(tracks: Tracks, z: np.ndarray | None, config: TrackerConfig) -> tuple[Tracks, CycleReport]:
-    """One cycle: z float (m, 2) of (range, range rate) for a measured cycle (m may be 0), None for an unmeasured
-    one. Returns the tracks after the cycle and its report."""
-    x, p = predict(tracks.x, tracks.p, config.f, config.q)
-    n = len(tracks)
+def step(tracks: Tracks, z, config: TrackerConfig) -> tuple[Tracks, CycleReport]:
+    """One cycle: z the (range, range rate) pairs of a measured cycle, float (m, 2) or a sequence of pairs (m may be
+    0), None for an unmeasured one. Returns the tracks after the cycle and its report."""
     measured = z is not None
-    z = np.zeros((0, 2)) if z is None else np.asarray(z, dtype=float).reshape(-1, 2)
-    nis_now = np.full(n, np.nan)
-    updated = np.zeros(n, bool)
-    taken = np.zeros(z.shape[0], bool)
-    if measured and n and z.shape[0]:
+    zs = _measurements(z) if measured else []
+    rows, next_id, nan = tracks.rows, tracks.next_id, math.nan
+    states = [t[1] for t in rows]
+    if len(rows) * (len(zs) + 1) <= SCALAR_MAX_PAIRS:
+        states, nis, taken = filter_cycle(states, zs, *config.plain)
+    else:
+        states, nis, taken = _filter_arrays(states, zs, config)
+    # (track, NIS of this cycle or NaN, updated) after the filter: the old tracks, then one born per untaken z
+    cycle = [((t[0], x, t[2], t[3], t[4] + measured, t[5] + measured, t[6] + 1, t[7]), nan, False) if d is None
+             else ((t[0], x, t[2], t[3] + 1, t[4] + measured, 0, 0, t[7][1:] + (d,)), d, True)
+             for t, x, d in zip(rows, states, nis)]
+    if len(zs) > sum(taken):
+        r0, r1 = config.plain[2]
+        blank = (nan,) * config.nis_window
+        cycle += [((i, (zr, zv, r0, 0.0, r1), False, 1, 1, 0, 0, blank), nan, True)
+                  for i, (zr, zv) in enumerate((zz for zz, t in zip(zs, taken) if not t), start=next_id)]
+    m_confirm, n_confirm, threshold = config.confirm_m, config.confirm_n, config.nis_threshold
+    after, status, born, deleted = [], [], [], []
+    ids, r, v, var_r, var_v, updated, nis_out = [], [], [], [], [], [], []
+    alarm = None if threshold is None else []
+    for t, d, up in cycle:
+        tid, x, confirmed, hits, n_measured, misses, idle, window = t
+        if not confirmed and hits >= m_confirm and n_measured <= n_confirm:
+            confirmed = True
+            t = (tid, x, True, hits, n_measured, misses, idle, window)
+        if ((not confirmed and n_measured - hits > n_confirm - m_confirm)
+                or (confirmed and misses >= config.delete_misses) or idle > config.coast_cycles):
+            deleted.append(tid)
+            continue
+        after.append(t)
+        ids.append(tid)
+        r.append(x[0])
+        v.append(x[1])
+        var_r.append(x[2])
+        var_v.append(x[4])
+        updated.append(up)
+        nis_out.append(d)
+        status.append("tentative" if not confirmed else "confirmed" if up else "coasting")
+        if alarm is not None:            # a window not full holds NaN: its sum is NaN, no alarm
+            alarm.append(up and sum(window) > threshold)
+        if tid >= next_id:
+            born.append(tid)
+    lists = {"id": ids, "range_m": r, "velocity_mps": v, "var_range_m2": var_r, "var_velocity_m2ps2": var_v,
+             "updated": updated, "nis": nis_out, "nis_alarm": alarm}
+    return (Tracks(tuple(after), next_id + len(cycle) - len(rows), config.nis_window),
+            CycleReport(lists, tuple(status), tuple(born), tuple(deleted), measured))
+
+
+def _measurements(z) -> list[tuple[float, float]]:
+    """The measurements as (range, range rate) pairs of Python floats."""
+    if isinstance(z, np.ndarray):
+        return [tuple(p) for p in np.asarray(z, dtype=float).reshape(-1, 2).tolist()]
+    return [(float(r), float(v)) for r, v in z]
+
+
+def _filter_arrays(states: list, zs: list, config: TrackerConfig) -> tuple[list, list, list]:
+    """scalar.filter_cycle's result by the array formulation (kalman.py, association.py) over all tracks at once."""
+    n = len(states)
+    a = np.array(states, float).reshape(n, 5)
+    x = a[:, :2]
+    p = np.stack([a[:, 2], a[:, 3], a[:, 3], a[:, 4]], axis=1).reshape(n, 2, 2)
+    x, p = predict(x, p, config.f, config.q)
+    nis: list[float | None] = [None] * n
+    taken = [False] * len(zs)
+    if n and zs:
         s = p + config.r
-        d2, nu, log_det_s = distances(x, s, z)
+        d2, nu, log_det_s = distances(x, s, np.array(zs, float))
         rows, cols = gnn(d2, log_det_s, config.gamma)
         x[rows], p[rows] = update(x[rows], p[rows], nu[rows, cols], s[rows], config.r)
-        nis_now[rows], updated[rows], taken[cols] = d2[rows, cols], True, True
-    hits = tracks.hits + updated
-    misses = np.where(updated, 0, tracks.misses + measured)
-    window = tracks.nis
-    if updated.any():
-        window = window.copy()
-        window[updated] = np.concatenate([window[updated, 1:], nis_now[updated, None]], axis=1)
-    after = tracks.changed(x=x, p=p, hits=hits, measured=tracks.measured + measured, misses=misses,
-                           idle=np.where(updated, 0, tracks.idle + 1), nis=window)
-    after = _born(after, z[~taken], config)
-    n_all = len(after)
-    updated = np.concatenate([updated, np.ones(n_all - n, bool)])
-    nis_now = np.concatenate([nis_now, np.full(n_all - n, np.nan)])
-    confirmed = after.confirmed | ((after.hits >= config.confirm_m) & (after.measured <= config.confirm_n))
-    hopeless = ~confirmed & (after.measured - after.hits > config.confirm_n - config.confirm_m)
-    gone = hopeless | (confirmed & (after.misses >= config.delete_misses)) | (after.idle > config.coast_cycles)
-    after = after.changed(confirmed=confirmed)
-    deleted = tuple(int(i) for i in after.id[gone])
-    if gone.any():
-        live = ~gone
-        after, updated, nis_now = after.keep(live), updated[live], nis_now[live]
-    born = tuple(int(i) for i in after.id[after.id >= tracks.next_id])
-    return after, _report(after, updated, nis_now, born, deleted, measured, config)
-
-
-def _born(tracks: Tracks, z: np.ndarray, config: TrackerConfig) -> Tracks:
-    """Tentative tracks at the measurements no track took: x = z, P = R (both components are measured)."""
-    m = z.shape[0]
-    if not m:
-        return tracks
-    ones = np.ones(m, np.int64)
-    new = {"id": tracks.next_id + np.arange(m, dtype=np.int64), "x": z, "p": np.broadcast_to(config.r, (m, 2, 2)),
-           "confirmed": np.zeros(m, bool), "hits": ones, "measured": ones, "misses": 0 * ones, "idle": 0 * ones,
-           "nis": np.full((m, config.nis_window), np.nan)}
-    return tracks.changed(next_id=tracks.next_id + m,
-                          **{k: np.concatenate([getattr(tracks, k), new[k]]) for k in _ARRAYS})
-
-
-def _report(tracks: Tracks, updated: np.ndarray, nis_now: np.ndarray, born: tuple[int, ...],
-            deleted: tuple[int, ...], measured: bool, config: TrackerConfig) -> CycleReport:
-    status = tuple("tentative" if not c else "confirmed" if u else "coasting"
-                   for c, u in zip(tracks.confirmed, updated))
-    alarm = None
-    if config.nis_threshold is not None:
-        alarm = updated & (np.sum(tracks.nis, axis=1) > config.nis_threshold)   # NaN (window not full): False
-    return CycleReport(tracks.id.copy(), tracks.x[:, 0].copy(), tracks.x[:, 1].copy(), tracks.p[:, 0, 0].copy(),
-                       tracks.p[:, 1, 1].copy(), status, updated, nis_now, alarm, born, deleted, measured)
+        for i, j, d in zip(rows.tolist(), cols.tolist(), d2[rows, cols].tolist()):
+            nis[i], taken[j] = d, True
+    out = np.stack([x[:, 0], x[:, 1], p[:, 0, 0], p[:, 0, 1], p[:, 1, 1]], axis=1)
+    return [tuple(t) for t in out.tolist()], nis, taken
 
 
 def run(measurements: list[np.ndarray | None], config: TrackerConfig,
