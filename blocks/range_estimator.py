@@ -25,7 +25,10 @@ Ports   in  frames      clean_frame: ADC frames (int16 codes or float32 | comple
                         cycles, (cycles, [n_rx,] n_chirps, n_samples[, 2]), + array rho
         out estimates   header method, detection, per_cycle range_m, velocity_mps (lists, one value per target;
                         "strongest": n_targets values, None where no target was found; CFAR: the listed
-                        targets only, and snr_db, amplitude beside them) beside the frame's own per-cycle fields;
+                        targets only, and snr_db, amplitude beside them), range_time_s (the instant since the
+                        cycle's start the ranges refer to: the active chirps' mean start plus twice the fast-time
+                        centre, or that alone with max_speed_mps; estimate/virtual_element.py) beside
+                        the frame's own per-cycle fields;
                         with an antenna array also azimuth_deg and azimuth_std_deg, one value per target
 Graph   ranging = { type = "range_estimator", method = "root_music" }
         ranging = { type = "range_estimator", detection = "ca_cfar", pfa = 1e-6 }
@@ -36,7 +39,7 @@ import numpy as np
 
 from carav_stream.estimate.estimators import METHODS, estimate
 from carav_stream.estimate.target_azimuth import target_azimuths
-from carav_stream.estimate.virtual_element import element_geometry, reference_element
+from carav_stream.estimate.virtual_element import element_geometry, range_instant_s, reference_element
 from carav_stream.firmware.target_list import KINDS, target_list
 from carav_stream.radar.adc import adc_step, from_codes
 from carav_stream.radar.scene import aliased_targets, velocity_warning
@@ -90,6 +93,7 @@ class RangeEstimator(Block):
             raise ValueError(f"frame seq {frames.seq}: {n} cycles, frames {x.shape} and rho {rho.shape} disagree")
         full, rho_full = x, np.asarray(rho, dtype=bool)
         x, rho = reference_element(full, rho_full, sc)
+        instant = range_instant_s(rho, self.geometry, migration=self.max_speed_mps > 0).tolist()
         if x.dtype == np.int16 and self.detection == "strongest":   # the estimator reads the active chirps' codes
             lsb = adc_step(sc)
         else:
@@ -97,7 +101,8 @@ class RangeEstimator(Block):
         if self.detection == "strongest":
             est = estimate(x, rho, self.geometry, method=self.method, n_targets=self.n_targets,
                            max_speed_mps=self.max_speed_mps, lsb=lsb)
-            fields = {"range_m": _plain(est.range_m), "velocity_mps": _plain(est.velocity_mps)}
+            fields = {"range_m": _plain(est.range_m), "velocity_mps": _plain(est.velocity_mps),
+                      "range_time_s": instant}
             fields.update(self._azimuths(full, rho_full, est.range_m, est.velocity_mps))
             return frames.derive(None, method=self.method, detection=self.detection,
                                  per_cycle=pick(frames, range(n), **fields))
@@ -112,7 +117,7 @@ class RangeEstimator(Block):
                 from_codes(sc, full), rho_full, sc, tl.range_m, tl.velocity_mps)
         lists = {name: [_plain(values[i:i + 1, s])[0] for i, s in enumerate(found)] for name, values in columns.items()}
         return frames.derive(None, method=self.method, detection=self.detection, pfa=self.pfa,
-                             per_cycle=pick(frames, range(n), **lists))
+                             per_cycle=pick(frames, range(n), range_time_s=instant, **lists))
 
     def _azimuths(self, frames: np.ndarray, rho: np.ndarray, range_m: np.ndarray, velocity_mps: np.ndarray) -> dict:
         """per_cycle azimuth_deg and azimuth_std_deg of the targets of an array scene; none for one antenna."""

@@ -9,7 +9,9 @@ detections nor false alarms, and the rates are over the cycles the detector judg
 duration and rate (the scene's t_cycle and 1 / t_cycle: `carav run` reports cycles x t_cycle as the radar time
 simulated and its ratio to the wall time as the real-time factor), and the range and velocity errors of the
 estimates against the scene's first target (n, mean, rmse, abs_max = the largest |error|, also under its older
-key max), split into attacked and clean cycles. The velocity error is the estimate minus the
+key max), split into attacked and clean cycles. The target moves during a cycle: the range error is taken against
+its range at the instant the cycle's estimate refers to (the estimator's range_time_s: the scene's range plus its
+range rate times that instant; records without it are scored at the cycle's start). The velocity error is the estimate minus the
 true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_c) (AWR1642's Table II car) is
 seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
 unambiguous interval (how well the alias was measured) is reported beside it. With an antenna array the azimuth
@@ -221,9 +223,11 @@ class RunSummary(Block):
                 self.detection = frame.header["detection"]
                 for i in range(n):
                     self._score(ranges[i] or [], velocities[i] or [], "attacked_missed" if attacked[i] else "clean")
+            instants = per.get("range_time_s") or [0.0] * n
             for i in range(n):
                 if ranges[i] and ranges[i][0] is not None:
-                    self.range_err["attacked" if attacked[i] else "clean"].add(ranges[i][0] - self.true_range_m)
+                    truth = self.true_range_m + self.true_velocity_mps * (instants[i] or 0.0)
+                    self.range_err["attacked" if attacked[i] else "clean"].add(ranges[i][0] - truth)
                 if velocities[i] and velocities[i][0] is not None:
                     err = velocities[i][0] - self.true_velocity_mps
                     self.velocity_err.add(err)
