@@ -11,9 +11,9 @@ simulated and its ratio to the wall time as the real-time factor), and the range
 estimates against the scene's first target (n, mean, rmse, abs_max = the largest |error|, also under its older
 key max), split into attacked and clean cycles. The target moves during a cycle: the range error is taken against
 its range at the instant the cycle's estimate refers to (the estimator's range_time_s: the scene's range plus its
-range rate times that instant; records without it are scored at the cycle's start). The velocity error is the estimate minus the
-true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_c) (AWR1642's Table II car) is
-seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
+range rate times that instant; records without it are scored at the cycle's start). The velocity error is the
+estimate minus the true range rate, unfolded: a target faster than the unambiguous +-lambda / (4 T_c) (AWR1642's
+Table II car) is seen at its alias, so its error is tens of m/s, and `velocity_ambiguous` says so; the error modulo the
 unambiguous interval (how well the alias was measured) is reported beside it. With an antenna array the azimuth
 error of the first target (estimate minus the scene's target azimuth, degrees) beside them, and the RMS of the
 Cramer-Rao standard deviations the estimator reported with it: one target of one scene, no other.
