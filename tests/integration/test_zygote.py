@@ -81,10 +81,11 @@ def test_a_node_restarts_forked_and_fresh_once_the_zygote_is_gone_saying_so_once
     code = run.wait()
     s = run.summary()
     assert code == exit_code_after_a_kill(s, "t"), run.stderr()
-    assert s["node_starts"] == {"forked": 4, "fresh": 1} and s["restarts"] == 2
     said = [line for line in run.stderr().splitlines() if "zygote" in line]
     assert said == [f"carav: the zygote (pid {zygote}) ended with signal SIGKILL; every node starts as a fresh "
-                    "interpreter from now on"]
+                    "interpreter from now on"], run.stderr()
+    assert s["node_starts"] == {"forked": 4, "fresh": 1} and s["restarts"] == 2, (s["node_starts"], s["restarts"],
+                                                                                 run.stderr())
 
 
 def test_a_graph_can_start_its_nodes_as_fresh_interpreters(carav):
