@@ -41,7 +41,7 @@ from carav_stream.console.errors import CommandError, Exit
 from carav_stream.console.options import count, even_count, float_list, number, output_file
 from carav_stream.console.progress import ProgressBar
 from carav_stream.detect.detector import PAPER_ETA
-from carav_stream.detect.opt_in import cusum_threshold, exact_bins, integrated_threshold, spectral_threshold
+from carav_stream.detect.opt_in import cusum_threshold, exact_bins, gamma_threshold
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.experiments.reporting import Tally
 from carav_stream.firmware.blind_zone import miss_rates, weakest_caught
@@ -122,7 +122,7 @@ def design(scene, pf: float, rarms: list[float], trials: int, seed: int, fidelit
     bins = exact_bins(scene.n_samples, scene.iq)                          # the spectral test's bins per chirp
     spectral = None
     if bins:                      # a bin's power summed over the receivers: Gamma(n_rx, 1) under noise
-        spectral = spectral_threshold(pf, m * bins) if n_rx == 1 else integrated_threshold(pf, m * bins, n_rx)
+        spectral = gamma_threshold(pf, m * bins, n_rx)
     chain = n_rx == own                             # the radar chain renders the scene's own receivers only
     if chain:
         source = RadarSource(scene, fidelity=fidelity)

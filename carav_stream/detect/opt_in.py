@@ -61,8 +61,8 @@ from scipy import optimize, stats
 from carav_stream.detect.detector import _check_frames, check_rho
 from carav_stream.detect.rdmap import rd_power
 
-__all__ = ["exact_bins", "spectral_silent_test", "spectral_threshold", "SpectralResult", "integrated_silent_test",
-           "integrated_threshold", "coherent_silent_test", "spill_test", "SpillResult",
+__all__ = ["exact_bins", "gamma_threshold", "spectral_silent_test", "spectral_threshold", "SpectralResult",
+           "integrated_silent_test", "integrated_threshold", "coherent_silent_test", "spill_test", "SpillResult",
            "calibrate_threshold", "cusum_silent_power", "cusum_threshold", "silent_power_z"]
 
 
@@ -129,7 +129,7 @@ def _silent_powers(x: np.ndarray, active: np.ndarray) -> np.ndarray:
     return np.sum(_bin_powers(silent), axis=2)
 
 
-def _gamma_threshold(pf: float, n_bins: int, n_rx: int) -> float:
+def gamma_threshold(pf: float, n_bins: int, n_rx: int) -> float:
     """The exact threshold of the max of n_bins i.i.d. Gamma(n_rx, 1): `spectral_threshold`'s closed form for
     n_rx = 1, `integrated_threshold` otherwise."""
     return spectral_threshold(pf, n_bins) if n_rx == 1 else integrated_threshold(pf, n_bins, n_rx)
@@ -164,7 +164,7 @@ def spectral_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6, recei
     idx = np.argmax(flat, axis=1)
     stat = flat[np.arange(x.shape[0]), idx]
     n_tested = flat.shape[1]
-    thr = _gamma_threshold(pf, n_tested, x.shape[1])
+    thr = gamma_threshold(pf, n_tested, x.shape[1])
     stat = np.where(np.isnan(stat), np.inf, stat)
     return SpectralResult(stat, idx % power.shape[-1], thr, stat >= thr, n_tested, x.shape[1])
 
