@@ -100,6 +100,11 @@ class TrackerConfig:
                                            (float(self.r[0, 0]), float(self.r[1, 1])), self.gamma))
 
 
+def _column(k: int, dtype: type, doc: str) -> property:
+    """A property of `Tracks`: field k of every track's tuple, as an array over tracks."""
+    return property(lambda self: np.array([t[k] for t in self.rows], dtype), doc=doc)
+
+
 class Tracks:
     """The live tracks, sorted by id. Held as one tuple per track, (id, (r, v, var r, cov, var v), confirmed, hits,
     measured, misses, idle, nis window), which a cycle of a few tracks reads and writes at Python's speed; the
@@ -117,48 +122,16 @@ class Tracks:
     def __len__(self) -> int:
         return len(self.rows)
 
-    def _column(self, k: int, dtype: type) -> np.ndarray:
-        return np.array([t[k] for t in self.rows], dtype)
-
-    @property
-    def id(self) -> np.ndarray:
-        """int64 (n,)"""
-        return self._column(0, np.int64)
-
-    @property
-    def x(self) -> np.ndarray:
-        """float64 (n, 2): range [m], range rate [m/s]"""
-        return np.array([t[1][:2] for t in self.rows], float).reshape(-1, 2)
-
-    @property
-    def p(self) -> np.ndarray:
-        """float64 (n, 2, 2): the state's covariance"""
-        return np.array([((a, b), (b, c)) for _, (_, _, a, b, c), *_ in self.rows], float).reshape(-1, 2, 2)
-
-    @property
-    def confirmed(self) -> np.ndarray:
-        """bool (n,)"""
-        return self._column(2, bool)
-
-    @property
-    def hits(self) -> np.ndarray:
-        """int64 (n,): measured cycles with an update, since birth (the birth counts)"""
-        return self._column(3, np.int64)
-
-    @property
-    def measured(self) -> np.ndarray:
-        """int64 (n,): measured cycles since birth (the birth counts)"""
-        return self._column(4, np.int64)
-
-    @property
-    def misses(self) -> np.ndarray:
-        """int64 (n,): consecutive measured cycles without an update"""
-        return self._column(5, np.int64)
-
-    @property
-    def idle(self) -> np.ndarray:
-        """int64 (n,): consecutive cycles without an update, measured or not"""
-        return self._column(6, np.int64)
+    id = _column(0, np.int64, "int64 (n,)")
+    x = property(lambda self: np.array([t[1][:2] for t in self.rows], float).reshape(-1, 2),
+                 doc="float64 (n, 2): range [m], range rate [m/s]")
+    p = property(lambda self: np.array([((a, b), (b, c)) for _, (_, _, a, b, c), *_ in self.rows],
+                                       float).reshape(-1, 2, 2), doc="float64 (n, 2, 2): the state's covariance")
+    confirmed = _column(2, bool, "bool (n,)")
+    hits = _column(3, np.int64, "int64 (n,): measured cycles with an update, since birth (the birth counts)")
+    measured = _column(4, np.int64, "int64 (n,): measured cycles since birth (the birth counts)")
+    misses = _column(5, np.int64, "int64 (n,): consecutive measured cycles without an update")
+    idle = _column(6, np.int64, "int64 (n,): consecutive cycles without an update, measured or not")
 
     @property
     def nis(self) -> np.ndarray:
