@@ -126,7 +126,13 @@ def _silent_powers(x: np.ndarray, active: np.ndarray) -> np.ndarray:
     `_cycles`, M = n_chirps / 2 silent chirps per cycle in chirp order."""
     m = x.shape[2] // 2
     silent = np.swapaxes(x, 1, 2)[~active].reshape(x.shape[0], m, x.shape[1], x.shape[-1])
-    return np.sum(_bin_powers(silent), axis=2)
+    return _over_receivers(_bin_powers(silent), 2)
+
+
+def _over_receivers(power: np.ndarray, axis: int) -> np.ndarray:
+    """`power` summed over its receiver axis; with one receiver that axis dropped, a view (no pass over the data:
+    the one-receiver tests cost what they did before arrays)."""
+    return np.squeeze(power, axis) if power.shape[axis] == 1 else np.sum(power, axis=axis)
 
 
 def gamma_threshold(pf: float, n_bins: int, n_rx: int) -> float:
@@ -214,7 +220,7 @@ def coherent_silent_test(frames, rho, sigma_n: float, *, pf: float = 1e-6, recei
     _need_bins(x, "coherent")
     n, n_rx = x.shape[:2]
     maps = rd_power(x.reshape(n * n_rx, *x.shape[2:]), np.repeat(~active, n_rx, axis=0), sigma_n)
-    power = np.sum(maps.reshape(n, n_rx, -1), axis=1)
+    power = _over_receivers(maps.reshape(n, n_rx, -1), 1)
     idx = np.argmax(power, axis=1)
     stat = power[np.arange(n), idx]
     stat = np.where(np.isnan(stat), np.inf, stat)
@@ -264,7 +270,7 @@ def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e
     used[:, 1:] = active[:, :-1] & ~active[:, 1:]
     n_w = x.shape[-1] - first_sample
     power = _bin_powers(x[..., first_sample:]) / (n_w * sigma_n ** 2)         # (cycles, receivers, chirps, bins)
-    power = np.sum(power, axis=1)                                            # over the receivers
+    power = _over_receivers(power, 1)
     summed = np.sum(np.where(used[:, :, None], power, 0.0), axis=1)           # per cycle: batch-independent
     n_slots = used.sum(axis=1)
     thr = np.full(x.shape[0], np.inf)
