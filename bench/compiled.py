@@ -173,7 +173,8 @@ def child_kernels(repeats: int) -> dict[str, Any]:
 def zygote_start(mode: str, cache: str) -> dict[str, Any]:
     """One zygote of `mode` (child_zygote) with numba's cache in `cache`: its lines, and the wall seconds from its
     start (the interpreter's) to its line that it is ready."""
-    code = f"from bench import compiled_loops as c; c.child_zygote({mode!r})"
+    blocks = sorted({node.type for node in load_graph(DEFAULT_GRAPH).nodes.values()})   # what its zygote imports
+    code = f"from bench import compiled_loops as c; c.child_zygote({mode!r}, {blocks!r})"
     t0 = time.perf_counter()
     env = {**node_env(), "NUMBA_CACHE_DIR": cache}             # a zygote's: the nodes' environment
     with subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, env=env,

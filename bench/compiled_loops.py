@@ -148,15 +148,16 @@ def child_start(kernel: str) -> dict[str, float]:
     return {"cpu_s": time.process_time() - c0, "import_cpu_s": c1 - c0, "wall_s": time.perf_counter() - w0}
 
 
-def child_zygote(mode: str) -> None:
-    """A zygote as runtime/zygote.py makes one (its imports: zygote.preload, its check that one thread is left,
-    gc.freeze), with numba imported and every loop called once after its imports unless `mode` is "numpy"; prints
-    a JSON line when ready (what a forked node would find: CPU seconds of each step, threads), then forks a node,
-    which calls every loop once, and prints a line of what that node measured: each call's wall and CPU seconds,
-    and the loops compiled again in it (overloads added to a dispatcher)."""
+def child_zygote(mode: str, blocks: list[str]) -> None:
+    """A zygote as runtime/zygote.py makes one for a graph of these `blocks` (its imports: zygote.preload, then the
+    graph's blocks, zygote.import_blocks; its check that one thread is left, gc.freeze), with numba imported and
+    every loop called once after its imports unless `mode` is "numpy"; prints a JSON line when ready (what a forked
+    node would find: CPU seconds of each step, threads), then forks a node, which calls every loop once, and prints
+    a line of what that node measured: each call's wall and CPU seconds, and the loops compiled again in it
+    (overloads added to a dispatcher)."""
     scene = load_scene("table1")
     c0 = time.process_time()
-    problems = zygote.preload()
+    problems = zygote.preload() + zygote.import_blocks(blocks)
     ready: dict[str, Any] = {"pid": os.getpid(), "preload_cpu_s": time.process_time() - c0, "problems": problems}
     kernels: dict[str, Any] = {}
     if mode != "numpy":

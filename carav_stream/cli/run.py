@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     # need while the graph is read and validated
     launcher = Launcher()
     try:
-        graph = load(args.graph, args)
+        graph = load(args.graph, args, launcher=launcher)
         return execute(graph, args, launcher=launcher) if not args.view else _viewed(graph, args, launcher)
     finally:
         launcher.close()
@@ -77,15 +77,19 @@ def _viewed(graph: Graph, args: argparse.Namespace, launcher: Launcher) -> int:
     token = new_token()
     path = view_graph(graph, args.view_host, port, token)
     try:
-        viewed = load(path, args, shown_as=args.graph)
+        viewed = load(path, args, shown_as=args.graph, launcher=launcher)
         print(f"carav run: live view at {page_url(args.view_host, port, token)}", file=sys.stderr, flush=True)
         return execute(viewed, args, launcher=launcher)
     finally:
         shutil.rmtree(path.parent, ignore_errors=True)
 
 
-def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None) -> Graph:
-    """The graph file with `overrides`, then the command line's --set and --cycles; CommandError if invalid."""
+def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_as: Path | None = None,
+         launcher: Launcher | None = None) -> Graph:
+    """The graph file with `overrides`, then the command line's --set and --cycles; CommandError if invalid. The
+    `launcher`'s zygote is told the graph's block types as soon as they are read, to import them meanwhile; the
+    blocks' param_warnings() are left for later: the run's supervisor runs them while the nodes start, before
+    any frame flows (execute)."""
     # start-up time: validation imports the blocks (numpy, scipy), after `run` started its zygote
     from carav_stream.runtime.graph import GraphError
     from carav_stream.runtime.loader import load_graph
@@ -93,7 +97,8 @@ def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_
     cycles = [] if args.cycles is None else [f"run.cycles={args.cycles}"]   # checked like the file's value
     plane = [] if args.transport is None else [f"run.transport={args.transport}"]
     try:
-        return load_graph(path, [*overrides, *args.set, *cycles, *plane], args.blocks)
+        return load_graph(path, [*overrides, *args.set, *cycles, *plane], args.blocks,
+                          on_types=launcher.import_blocks if launcher is not None else None, checks_later=True)
     except GraphError as exc:
         raise CommandError(f"{shown_as or path} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems),
                            Exit.INVALID) from None
@@ -120,10 +125,15 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expect
     try:
         lines = _progress_lines(command) if args.progress is None and not sys.stderr.isatty() else None
         sup = Supervisor(graph, host=args.host, progress=args.progress, on_progress=lines,
-                         expected_cycles=expected_cycles, launcher=launcher)
+                         expected_cycles=expected_cycles, launcher=launcher,
+                         on_warnings=lambda found: [print(f"carav {command}: warning: {w}", file=sys.stderr)
+                                                    for w in found])
     except RunRootError as exc:           # the run folder is not the user's own: nothing started
         raise CommandError(str(exc), Exit.FAILED) from None
     summary = with_radar_time(sup.run())
+    if sup.invalid:                       # a block's own checks, run while the nodes started: none was let go
+        raise CommandError(f"{graph.path} is not valid:\n" + "\n".join(f"  {p}" for p in sup.invalid),
+                           Exit.INVALID)
     print_summary(summary)
     if args.json:
         jsonout.write(args.json, summary, indent=2)

@@ -3,12 +3,13 @@ builds them from graph files (the file format and composition rules are describe
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from carav_stream.runtime import planes
-from carav_stream.runtime.block import Block
+from carav_stream.runtime.block import Block, BlockError
 from carav_stream.runtime.registry import Registry
 
 TOP_KEYS = {"include", "description", "connections", "remove_connections", "blocks", "run", "restart", "hosts",
@@ -79,6 +80,22 @@ class Graph:
     warnings: list[str] = field(default_factory=list)      # the blocks' param_warnings(), each once
     open_params: list[str] = field(default_factory=list)   # a template's `node.param`s still without a value
     composed: list[str] = field(default_factory=list)      # what composition replaced: connections, parameters
+    # the blocks' param_warnings() a loader left for later (load_graph's checks_later), each with its place
+    later_checks: list[tuple[str, Callable[[], list[str]]]] = field(default_factory=list, repr=False)
+
+    def run_later_checks(self) -> list[str]:
+        """Run the checks left for later: their warnings join `warnings` (each text once); returns their problems,
+        each located as validation locates them (an empty list: the graph is valid)."""
+        problems = []
+        for where, check in self.later_checks:
+            try:
+                found = check()
+            except (BlockError, ValueError, TypeError) as exc:
+                problems.append(f"{where}: {exc}")
+            else:
+                self.warnings += [w for w in found if w not in self.warnings]
+        self.later_checks = []
+        return problems
 
     def params_for(self, block_type: str, explicit: dict[str, Any]) -> dict[str, Any]:
         """A block's parameters: the graph-wide ones it declares, overridden by `explicit`."""

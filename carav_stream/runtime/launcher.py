@@ -151,6 +151,7 @@ class Zygote:
         # its command line leaves room for a node's, which a forked node writes over it (zygote.set_command_line)
         argv = [*NODE_ARGV, node_start.ZYGOTE_FLAG, str(theirs.fileno()), "." * ROOM, *preload]
         self.room = _length(argv)
+        self.unanswered = 0                      # requests to import blocks whose reply has not been read
         try:
             self.proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=self.out, stderr=self.out,
                                          pass_fds=[theirs.fileno()], env=self.env)
@@ -164,22 +165,36 @@ class Zygote:
         """Whether a node with this command line and environment can be forked from this zygote."""
         return _length(argv) <= self.room and _but_run_id(env) == _but_run_id(self.env)
 
-    def fork(self, argv: Sequence[str], log_fd: int, fds: Sequence[int], env: Mapping[str, str],
-             timeout_s: float, module: str | None = None) -> int:
-        """The pid of a new node process, forked with this command line, log, descriptors (at their own numbers)
-        and environment; ZygoteGone when the zygote cannot fork it. `module`: run instead of runtime.node (tests)."""
-        request = json.dumps({"argv": list(argv), "env": dict(env), "fds": list(fds),
-                              **({"module": module} if module else {})}).encode()
+    def import_blocks(self, types: Sequence[str]) -> None:
+        """Ask the zygote to import the built-in blocks of `types` now, without waiting for it (its reply is read
+        before the next fork's); ZygoteGone when its link broke."""
         try:
-            socket.send_fds(self.sock, [request], [log_fd, *fds])
+            self.sock.send(json.dumps({"blocks": list(types)}).encode())
+        except OSError as exc:
+            raise self.gone(f"its link failed: {exc}") from None
+        self.unanswered += 1
+
+    def fork(self, argv: Sequence[str], log_fd: int, fds: Sequence[int], env: Mapping[str, str],
+             timeout_s: float, module: str | None = None, block: str | None = None) -> int:
+        """The pid of a new node process, forked with this command line, log, descriptors (at their own numbers)
+        and environment, after the zygote imported its `block` type; ZygoteGone when the zygote cannot fork it.
+        `module`: run instead of runtime.node (tests)."""
+        request = json.dumps({"argv": list(argv), "env": dict(env), "fds": list(fds),
+                              **({"module": module} if module else {}), **({"blocks": [block]} if block else {})})
+        try:
+            socket.send_fds(self.sock, [request.encode()], [log_fd, *fds])
             deadline = time.monotonic() + timeout_s
-            while not select.select([self.sock], [], [], 0.1)[0]:
-                if self.proc.poll() is not None:
-                    raise self.gone()
-                if time.monotonic() > deadline:
-                    self.proc.kill()
-                    raise ZygoteGone(f"the zygote (pid {self.proc.pid}) did not answer within {timeout_s:g} s")
-            reply = json.loads(self.sock.recv(MAX_REPLY) or b"null")
+            while True:
+                while not select.select([self.sock], [], [], 0.1)[0]:
+                    if self.proc.poll() is not None:
+                        raise self.gone()
+                    if time.monotonic() > deadline:
+                        self.proc.kill()
+                        raise ZygoteGone(f"the zygote (pid {self.proc.pid}) did not answer within {timeout_s:g} s")
+                reply = json.loads(self.sock.recv(MAX_REPLY) or b"null")
+                if not self.unanswered or reply is None:
+                    break
+                self.unanswered -= 1             # the answer to import_blocks: its imports are done
         except OSError as exc:
             if self.proc.poll() is not None:     # it died: that is the reason, its link broke with it
                 raise self.gone() from None
@@ -230,15 +245,26 @@ class Launcher:
             except OSError as exc:
                 self.log(f"carav: no zygote ({exc}); every node starts as a fresh interpreter")
 
+    def import_blocks(self, types: Sequence[str]) -> None:
+        """Have the zygote import the built-in blocks of `types` while the caller goes on (the graph's, as soon as
+        they are read)."""
+        if self.zygote is not None:
+            try:
+                self.zygote.import_blocks(types)
+            except ZygoteGone as exc:
+                self.log(f"carav: {exc}; every node starts as a fresh interpreter from now on")
+                self.close()
+
     def launch(self, spec_path: Path, log_path: Path, fds: Sequence[int], env: Mapping[str, str],
-               timeout_s: float) -> subprocess.Popen | Forked:
-        """A new process running the node of `spec_path`, its log `log_path` (appended to), the descriptors `fds`
-        inherited at their numbers, the environment `env`; the zygote waited for at most `timeout_s`."""
+               timeout_s: float, block: str | None = None) -> subprocess.Popen | Forked:
+        """A new process running the node of `spec_path` (a block of type `block`), its log `log_path` (appended to),
+        the descriptors `fds` inherited at their numbers, the environment `env`; the zygote waited for at most
+        `timeout_s`."""
         argv = [*NODE_ARGV, str(spec_path)]
         with open(log_path, "ab") as logf:
             if self.zygote is not None and self.zygote.takes(argv, env):
                 try:
-                    proc = Forked(self.zygote.fork(argv, logf.fileno(), fds, env, timeout_s), argv)
+                    proc = Forked(self.zygote.fork(argv, logf.fileno(), fds, env, timeout_s, block=block), argv)
                     self.forked += 1
                     return proc
                 except ZygoteGone as exc:

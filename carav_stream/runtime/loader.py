@@ -44,6 +44,7 @@ then relative to the working directory, as are `--set` values and output files (
 from __future__ import annotations
 
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -197,15 +198,20 @@ def _compose(base: Source, own: Source, where: str, problems: list[str]) -> Sour
 
 
 def load_graph(path: str | Path, overrides: list[str] = (), extra_block_paths: list[str | Path] = (),
-               open_ok: bool = False) -> Graph:
+               open_ok: bool = False, on_types: Callable[[list[str]], None] | None = None,
+               checks_later: bool = False) -> Graph:
     """Read, compose and fully validate a graph file; raises GraphError listing every problem.
 
     `overrides`: `node.param=value` sets one node's parameter, `param=value` a graph-wide one (both are checked
     like the file's own values). `open_ok`: check a template as one, its listed parameters allowed to stay open
-    (Graph.open_params names those still without a value); a graph to run leaves none open."""
+    (Graph.open_params names those still without a value); a graph to run leaves none open. `on_types(types)`:
+    told the nodes' block types once they are read, before any block is imported (a run's zygote imports them
+    meanwhile). `checks_later`: the blocks' param_warnings() (which may import much: a detector's design laws) are
+    not called but left to Graph.run_later_checks; a run calls it while its nodes start, before any frame flows."""
     path = Path(path)
     problems: list[str] = []
     source = read_graph_file(path, problems)
     if source is None:
         raise GraphError(problems)
-    return build_graph(path, source, list(overrides), list(extra_block_paths), problems, open_ok)
+    return build_graph(path, source, list(overrides), list(extra_block_paths), problems, open_ok, on_types,
+                       checks_later)

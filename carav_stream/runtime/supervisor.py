@@ -21,6 +21,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -51,7 +52,7 @@ class Supervisor:
     def __init__(self, graph: Graph, *, host: str | None = None, cycles: int | None = None,
                  progress: bool | None = None, log: Callable[[str], None] | None = None,
                  on_progress: Callable[[int, int], None] | None = None, expected_cycles: int | None = None,
-                 launcher: Launcher | None = None) -> None:
+                 launcher: Launcher | None = None, on_warnings: Callable[[list[str]], None] | None = None) -> None:
         self.graph = graph
         self.host = host
         self.cycles = graph.run["cycles"] if cycles is None else cycles
@@ -70,6 +71,9 @@ class Supervisor:
         self.security: dict[str, Any] = {}          # how the run's tcp edges are protected (plan)
         self.control: ControlRouter | None = None   # the control socket's end (run)
         self.launcher = launcher                    # starts the node processes (run makes one if not given)
+        self.later: LaterChecks | None = None       # the graph's checks left for later, while the nodes start
+        self.on_warnings = on_warnings or (lambda found: [self.log(f"carav: warning: {w}") for w in found])
+        self.invalid: list[str] = []                # what those checks found wrong: the graph was not started
         self.report = RunReport(graph, self.nodes, run_id=self.run_id, host=host, cycles=self.cycles)
         self.admin = AdminServer(graph, self.nodes, self.report, send=self.send, request_stop=self.request_stop,
                                  log=self.log, run_dir=self.run_dir)
@@ -113,7 +117,7 @@ class Supervisor:
         spec_path = self.run_dir / f"{st.name}.spec"
         spec_path.write_bytes(st.spec.to_wire())
         st.proc = self.launcher.launch(spec_path, self.run_dir / f"{st.name}.log", st.spec.inherit_fds,
-                                       node_env(self.run_id), self.graph.run["ready_timeout_s"])
+                                       node_env(self.run_id), self.graph.run["ready_timeout_s"], block=st.spec.type)
         st.procs.append(st.proc)            # kept, not reaped, until the run ends: its pid stays its own
         st.start_ticks = start_ticks(st.proc.pid)
         self.control.started(st.name, st.proc.pid)
@@ -279,8 +283,11 @@ class Supervisor:
         (self.run_dir / "pid").write_text(str(os.getpid()))     # how a later run knows this one is gone
         old = {s: signal.signal(s, self.on_signal) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
         self.ctx = zmq.Context()
+        if self.graph.later_checks:     # a loader left the blocks' own checks: they run while the nodes start
+            self.later = LaterChecks(self.graph)
         if self.launcher is None:       # the zygote's imports run while the run is set up
             self.launcher = Launcher(zygote=self.graph.run["zygote"], log=self.log)
+            self.launcher.import_blocks(sorted({node.type for node in self.graph.nodes.values()}))
         elif not self.graph.run["zygote"]:
             self.launcher.close()
         try:
@@ -310,6 +317,8 @@ class Supervisor:
             for st in self.nodes.values():
                 st.reap_all()
             self.launcher.close()
+            if self.later is not None:
+                self.later.close()
             self.ctx.destroy(linger=0)
             if self.plane is not None:
                 self.plane.close()
@@ -326,10 +335,22 @@ class Supervisor:
                                    node_starts=self.launcher.counts() if self.launcher else {},
                                    security={**self.security, "refused_control": refused})
 
+    def checked_later(self) -> bool:
+        """The graph's later checks are done: their warnings told; False (and the graph not started) when they
+        found it invalid (`invalid`)."""
+        later, self.later = self.later, None
+        later.close()
+        warnings, self.invalid = later.result
+        if warnings:
+            self.on_warnings(warnings)
+        return not self.invalid
+
     def loop(self) -> None:
         poller = zmq.Poller()
         poller.register(self.router, zmq.POLLIN)
         poller.register(self.admin.sock, zmq.POLLIN)
+        if self.later is not None:
+            poller.register(self.later.done_fd, zmq.POLLIN)
         ready_deadline = time.monotonic() + self.graph.run["ready_timeout_s"]
         started = False
         next_progress = 0.0
@@ -337,13 +358,17 @@ class Supervisor:
             for sock, _ in poller.poll(100):
                 if sock is self.router:
                     self.drain_router()
-                else:
+                elif sock is self.admin.sock:
                     self.admin.receive()
             if self.signals and not self.stop_requested:
                 self.request_stop("signal")
             self.check_processes()
+            if self.later is not None and self.later.done():
+                poller.unregister(self.later.done_fd)
+                if not self.checked_later():
+                    break
             if not started:
-                if all(st.ready or st.failed for st in self.nodes.values()):
+                if self.later is None and all(st.ready or st.failed for st in self.nodes.values()):
                     started = True
                     self.report.t_go = time.monotonic()
                     for n in self.nodes:
@@ -390,6 +415,38 @@ class Supervisor:
             self.report.draw_progress(False, self.on_progress, self.expected_cycles)
         if self.progress:
             print(file=sys.stderr)
+
+
+class LaterChecks:
+    """Graph.run_later_checks in a thread of its own, beside the nodes' start: `done_fd` is readable once it is
+    done; `result` is then (the warnings it added, the problems it found)."""
+
+    def __init__(self, graph: Graph) -> None:
+        self.done_fd, self._done_w = os.pipe()
+        self.result: tuple[list[str], list[str]] | None = None
+        self.thread = threading.Thread(target=self._run, args=(graph,), name="later-checks", daemon=True)
+        self.thread.start()
+
+    def _run(self, graph: Graph) -> None:
+        known = len(graph.warnings)
+        try:
+            problems = graph.run_later_checks()
+        except Exception as exc:            # a check's own bug: the graph is not started, and the user told why
+            problems = [f"{graph.path.name}: the blocks' parameter checks failed: {type(exc).__name__}: {exc}"]
+        self.result = (graph.warnings[known:], problems)
+        os.write(self._done_w, b".")
+
+    def done(self) -> bool:
+        return self.result is not None
+
+    def close(self) -> None:
+        """Wait for the thread (a run that ends before the checks do), then close the pipe."""
+        self.thread.join()
+        for fd in (self.done_fd, self._done_w):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
 
 
 def _indent(text: str) -> str:

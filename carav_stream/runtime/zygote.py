@@ -5,8 +5,12 @@ not an interpreter importing numpy, scipy, ZeroMQ and its block. The supervisor'
     supervisor --request, the node's descriptors (SCM_RIGHTS)--> zygote --fork--> middle --fork--> node
     middle exits at once: the node is the supervisor's child (a child subreaper); the zygote answers its pid
 
-Imports. Once, what every node imports (`runtime.node`, the data planes, the built-in blocks, and through them
-numpy, scipy, ZeroMQ, msgpack), then `gc.freeze()` so that the nodes' collections leave the shared pages alone.
+Imports. Once, what every node imports (`runtime.node`, the data planes, and through them numpy, ZeroMQ,
+msgpack), then the built-in blocks the run names (a request `{"blocks": [type, ...]}`, which the supervisor sends as
+soon as the graph's node types are read: the zygote imports them while the command validates the graph) and, before
+it forks a node, that node's block if it has not imported it yet (a swap to another type, say), each once; after
+every import `gc.freeze()`, so that the nodes' collections leave the shared pages alone. A block's own import
+(scipy.signal for the waveform fidelity, say) is paid only by graphs that use it.
 The zygote makes no ZeroMQ context, no thread and opens no descriptor but its link to the supervisor: a fork
 copies none into a node (tests/runtime/test_zygote.py holds it to that). With more than one thread after its
 imports (a BLAS told to start threads) it exits, saying so, and the supervisor starts nodes as before.
@@ -62,8 +66,8 @@ MAX_FDS = 250                  # descriptors of one request: the log and the dat
 
 
 def preload(extra: Sequence[str] = ()) -> list[str]:
-    """Import the data planes and the built-in blocks (and `extra` modules); the problems, one line each (a module
-    that fails here fails again in the node that needs it, which reports it)."""
+    """Import the data planes (and `extra` modules); the problems, one line each (a module that fails here fails
+    again in the node that needs it, which reports it)."""
     problems = []
     folder = Path(planes.__file__).parent
     for name in [*(f"{planes.__name__}.{p.stem}" for p in sorted(folder.glob("[!_]*.py"))), *extra]:
@@ -71,12 +75,26 @@ def preload(extra: Sequence[str] = ()) -> list[str]:
             importlib.import_module(name)
         except Exception as exc:
             problems.append(f"{name}: {type(exc).__name__}: {exc}")
-    for path in sorted(builtin_dir().glob("[!_]*.py")):
+    return problems
+
+
+def import_blocks(types: Sequence[str]) -> list[str]:
+    """Import the built-in blocks of these types (each once; a type that is not a built-in block, a user's, is left to
+    its node); the problems, one line each (a block that fails here fails again in its node, which reports it)."""
+    problems = []
+    for name in types:
+        path = builtin_dir() / f"{name}.py"
+        if not (isinstance(name, str) and name.isidentifier() and path.is_file()) or name in _imported:
+            continue
+        _imported.add(name)
         try:
             load_block_file(path)
         except Exception as exc:
             problems.append(f"{path.name}: {exc}")
     return problems
+
+
+_imported: set[str] = set()         # the built-in block types this process imported (import_blocks)
 
 
 def threads() -> int:
@@ -203,17 +221,34 @@ def fork_node(request: dict, fds: list[int], link: socket.socket) -> tuple[int, 
     return int(text), go_w
 
 
+def warm(types: Sequence[str]) -> None:
+    """Import the blocks of `types` (import_blocks), then freeze what they made out of the collector; exits (status
+    3) when an import left a thread: a fork would copy only one of them."""
+    for problem in import_blocks(types):
+        print(f"carav zygote: not preloaded: {problem}", file=sys.stderr, flush=True)
+    if threads() > 1:
+        sys.exit(f"carav zygote: {threads()} threads after its imports; a fork copies only one of them, so nodes are "
+                 "not forked from it (is a BLAS told to start threads?)")
+    gc.freeze()
+
+
 def serve(link: socket.socket) -> None:
-    """Answer the supervisor's requests, one at a time, until it closes the link."""
+    """Answer the supervisor's requests, one at a time and each with one reply, until it closes the link: blocks to
+    import (`{"blocks": [...]}`), or a node to fork."""
     while True:
         msg, fds, _, _ = socket.recv_fds(link, MAX_REQUEST, MAX_FDS)
         if not msg:
             return
         go = -1
         try:
-            pid, go = fork_node(json.loads(msg), fds, link)
-            reply = {"pid": pid}
-        except (OSError, ValueError, KeyError) as exc:
+            request = json.loads(msg)
+            warm(request.get("blocks", ()))
+            if "argv" in request:
+                pid, go = fork_node(request, fds, link)
+                reply = {"pid": pid}
+            else:
+                reply = {"imported": sorted(_imported)}
+        except (OSError, ValueError, KeyError, AttributeError, TypeError) as exc:
             reply = {"error": f"{type(exc).__name__}: {exc}"}
         finally:
             for fd in fds:
@@ -233,11 +268,7 @@ def main(argv: Sequence[str]) -> int:
     link = socket.socket(fileno=int(argv[1]))
     for problem in preload(argv[3:]):
         print(f"carav zygote: not preloaded: {problem}", file=sys.stderr, flush=True)
-    if threads() > 1:
-        print(f"carav zygote: {threads()} threads after its imports; a fork copies only one of them, so nodes are "
-              "not forked from it (is a BLAS told to start threads?)", file=sys.stderr, flush=True)
-        return 3
-    gc.freeze()
+    warm(())
     set_command_line(argv_of_zygote(argv[1]))
     serve(link)
     return 0

@@ -35,13 +35,14 @@ def probe_zygote():
         z.close()
 
 
-def fork_probe(z: Zygote, tmp_path: Path, name: str, fds=()) -> tuple[dict, Forked]:
-    """Fork the probe as node `name`, with the descriptors `fds` at their numbers; what it found in its process, and
-    the process (ended)."""
+def fork_probe(z: Zygote, tmp_path: Path, name: str, fds=(), block: str | None = None) -> tuple[dict, Forked]:
+    """Fork the probe as node `name` (of type `block`), with the descriptors `fds` at their numbers; what it found in
+    its process, and the process (ended)."""
     out, log = tmp_path / f"{name}.json", tmp_path / f"{name}.log"
     argv = [*NODE_ARGV, str(out)]
     with open(log, "ab") as logf:
-        proc = Forked(z.fork(argv, logf.fileno(), list(fds), probe_env(PROBE_VALUE=name), TIMEOUT_S, PROBE), argv)
+        proc = Forked(z.fork(argv, logf.fileno(), list(fds), probe_env(PROBE_VALUE=name), TIMEOUT_S, PROBE, block),
+                      argv)
     assert proc.wait(TIMEOUT_S) == 0, log.read_text()
     return json.loads(out.read_text()), proc
 
@@ -107,14 +108,40 @@ def test_the_zygote_holds_no_descriptor_but_its_link_and_runs_one_thread(tmp_pat
 
 def test_the_zygote_loads_no_module_level_generator_but_the_two_each_fork_reseeds():
     """zygote.reseed draws numpy's legacy global generator and Python's afresh; a generator any other module kept
-    at its top level would be copied into every node: none of the modules the zygote imports may keep one."""
+    at its top level would be copied into every node: none of the modules the zygote imports (every built-in block
+    among them: it imports those a run names) may keep one."""
     scan = ("import random, sys\nimport numpy as np\nfrom carav_stream.runtime import zygote\n"
+            "from carav_stream.runtime.registry import builtin_dir\n"
             "assert not zygote.preload()\n"
+            "assert not zygote.import_blocks(sorted(p.stem for p in builtin_dir().glob('[!_]*.py')))\n"
             "kinds = (random.Random, np.random.RandomState, np.random.Generator, np.random.BitGenerator)\n"
             "print(sorted(f'{n}.{a}' for n, m in list(sys.modules.items()) if m for a, v in vars(m).items()\n"
             "             if isinstance(v, kinds) and not isinstance(v, random.SystemRandom)))")
     out = subprocess.run([sys.executable, "-c", scan], env=node_env(), capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["['numpy.random.mtrand._rand',", "'random._inst']"]
+
+
+def test_the_zygote_imports_the_blocks_it_is_told_of_and_a_nodes_own_before_its_fork_and_no_other(tmp_path):
+    with probe_zygote() as z:
+        assert fork_probe(z, tmp_path, "bare")[0]["blocks"] == []        # its start imports no block
+        z.import_blocks(["gate", "no_such_block", "../gate"])            # a run's types; not a built-in: left alone
+        assert fork_probe(z, tmp_path, "told")[0]["blocks"] == ["carav_blocks.gate"]
+        found = fork_probe(z, tmp_path, "own", block="tracker")[0]
+        assert found["blocks"] == ["carav_blocks.gate", "carav_blocks.tracker"]
+        assert found["threads"] == 1
+
+
+def test_a_zygote_left_with_a_thread_by_its_imports_forks_nothing_and_says_why(tmp_path):
+    """A fork copies the calling thread only: a zygote whose imports started one exits, and the launcher names it."""
+    module = tmp_path / "threaded_import.py"
+    module.write_text("import threading, time\nthreading.Thread(target=time.sleep, args=(600,), daemon=True).start()\n")
+    z = Zygote(probe_env(PYTHONPATH=os.pathsep.join([str(tmp_path), probe_env()["PYTHONPATH"]])),
+               preload=["threaded_import"])
+    try:
+        with pytest.raises(launcher.ZygoteGone, match="2 threads after its imports"):
+            fork_probe(z, tmp_path, "never")
+    finally:
+        z.close()
 
 
 def test_a_dead_zygote_is_named_once_and_nodes_start_fresh(tmp_path):

@@ -51,7 +51,8 @@ def what_a_fork_holds() -> dict:
             "numpy_default_rng": np.random.default_rng().random(4).tolist(),
             "activation": activation.astype(int).tolist(), "urandom_bytes_read": sum(reads),
             "cmdline": list(cmdline.decode().split("\0")), "env": os.environ.get("PROBE_VALUE"),
-            "threads": len(os.listdir("/proc/self/task")), "argv": sys.argv}
+            "threads": len(os.listdir("/proc/self/task")), "argv": sys.argv,
+            "blocks": sorted(m for m in sys.modules if m.startswith("carav_blocks."))}
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -18,10 +19,13 @@ from carav_stream.runtime.validate import security as secure
 
 
 def build_graph(path: Path, source: Source, overrides: list[str], extra_block_paths: list[str | Path],
-                problems: list[str], open_ok: bool = False) -> Graph:
+                problems: list[str], open_ok: bool = False,
+                on_types: Callable[[list[str]], None] | None = None, checks_later: bool = False) -> Graph:
     """The validated Graph of a composed graph file; raises GraphError listing every problem.
 
-    `open_ok`: a template's listed parameters may stay without a value (the package docstring)."""
+    `open_ok`: a template's listed parameters may stay without a value (the package docstring). `on_types`: told
+    the nodes' block types before the blocks are imported; `checks_later`: the blocks' param_warnings() left to
+    Graph.run_later_checks (both: loader.load_graph)."""
     data, where = source.data, path.name
     block_paths, registry = _block_folders(data, extra_block_paths, where, problems)
     blocks = data.get("blocks")
@@ -41,13 +45,16 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
     from_file = {n: dict(node.params) for n, node in nodes.items()}
     graph_from_file = dict(graph_params)
     tables.apply_overrides(nodes, graph_params, overrides, problems)
+    if on_types is not None:
+        on_types(sorted({node.type for node in nodes.values()}))
     classes = _block_classes(nodes, registry, where, problems)
     composed = [*source.composed, *tables.restart_variants(nodes, classes, source, from_file, overrides)]
     tables.resolve_files(source, nodes, classes, graph_params, from_file, graph_from_file)
     _apply_graph_params(nodes, classes, graph_params, where, problems)
     bad_wide = params.check_graph_wide(nodes, classes, where, problems)
     left_open = params.template(data.get("template", []), nodes, classes, where, problems)
-    warnings = params.check_nodes(nodes, classes, bad_wide, left_open, open_ok, where, problems)
+    later: list | None = [] if checks_later else None
+    warnings = params.check_nodes(nodes, classes, bad_wide, left_open, open_ok, where, problems, later)
     edges = ports.edges(data.get("connections", []), nodes, classes, where, problems)
     ports.check_inputs(nodes, classes, edges, where, problems)
     ports.check_cycles(nodes, edges, where, problems)
@@ -58,7 +65,7 @@ def build_graph(path: Path, source: Source, overrides: list[str], extra_block_pa
         raise GraphError(problems)
     still_open = [f"{n}.{p}" for n, names in left_open.items() for p in sorted(names) if p not in nodes[n].params]
     return Graph(path, str(data.get("description", "")), nodes, edges, run, hosts, security, block_paths, registry,
-                 graph_params, warnings, still_open, composed)
+                 graph_params, warnings, still_open, composed, later or [])
 
 
 def _block_folders(data: dict, extra_block_paths: list[str | Path], where: str,

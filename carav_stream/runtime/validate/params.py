@@ -77,14 +77,15 @@ def template(spec: Any, nodes: dict[str, Node], classes: dict[str, type[Block]],
 
 
 def check_nodes(nodes: dict[str, Node], classes: dict[str, type[Block]], bad_wide: set[str],
-                left_open: dict[str, set[str]], open_ok: bool, where: str, problems: list[str]) -> list[str]:
+                left_open: dict[str, set[str]], open_ok: bool, where: str, problems: list[str],
+                later: list | None = None) -> list[str]:
     """Adds every node's parameter and restart problems to `problems`; returns the warnings, each text once (a
-    scene shared by several blocks warns once), in the nodes' order."""
+    scene shared by several blocks warns once), in the nodes' order. `later`: see check_params."""
     warnings: dict[str, None] = {}
     for node in nodes.values():
         if node.name in classes:
             warnings.update(dict.fromkeys(check_params(node, classes[node.name], bad_wide, where, problems,
-                                                       left_open.get(node.name, set()), open_ok)))
+                                                       left_open.get(node.name, set()), open_ok, later)))
         if node.name in classes and classes[node.name].not_restartable and node.restart.policy != "never":
             problems.append(f"{where}: blocks.{node.name}.restart: a {node.type} cannot be restarted "
                             f"({classes[node.name].not_restartable}); give it restart = \"never\"")
@@ -92,10 +93,12 @@ def check_nodes(nodes: dict[str, Node], classes: dict[str, type[Block]], bad_wid
 
 
 def check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, problems: list[str],
-                 left_open: set[str] = frozenset(), open_ok: bool = False) -> list[str]:
+                 left_open: set[str] = frozenset(), open_ok: bool = False, later: list | None = None) -> list[str]:
     """Adds the node's parameter problems to `problems`; returns its warnings.
 
-    `left_open`: the node's parameters its template leaves open; with `open_ok` they may stay without a value."""
+    `left_open`: the node's parameters its template leaves open; with `open_ok` they may stay without a value.
+    `later`: the block is made (its cross-parameter checks run) but its param_warnings() is not called: it is
+    appended to `later` with its place, for Graph.run_later_checks."""
     wide = {p.name for p in cls.params if p.graph_wide}
     unset = {p for p in left_open if p not in node.params}
     found = [(p, t) for p, t in cls.param_problems(node.params) if p not in wide and not (open_ok and p in unset)]
@@ -112,7 +115,10 @@ def check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, p
             problems.append(f"{where}: blocks.{node.name}.{p.name}: {text}")
     if not found and not wide & bad_wide:
         try:
-            return cls(**node.params).param_warnings()   # cross-parameter checks; __init__ does no I/O by contract
+            block = cls(**node.params)          # cross-parameter checks; __init__ does no I/O by contract
+            if later is None:
+                return block.param_warnings()
+            later.append((f"{where}: blocks.{node.name}", block.param_warnings))
         except (BlockError, ValueError, TypeError) as exc:
             problems.append(f"{where}: blocks.{node.name}: {exc}")
     return []
