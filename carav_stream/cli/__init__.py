@@ -118,15 +118,18 @@ def main(argv: list[str] | None = None, **tables) -> int:
     keep_freed_memory()             # the studies' kernels allocate megabytes per call: reuse, do not fault in again
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
-    parser = build_parser(argv, **tables)
-    prog = parser.prog
-    if not argv:
-        parser.print_help(sys.stderr)
-        return Exit.USAGE
-    try:
+    try:                            # the command's module is imported here: a Ctrl-C may come meanwhile
+        parser = build_parser(argv, **tables)
+        if not argv:
+            parser.print_help(sys.stderr)
+            return Exit.USAGE
         args = parser.parse_args(argv)
     except SystemExit as exc:       # --help (0) or a bad command line (Exit.USAGE), already printed
         return int(exc.code or 0)
+    except KeyboardInterrupt:
+        print(f"{tables.get('prog', 'carav')}: interrupted", file=sys.stderr)
+        return Exit.INTERRUPTED
+    prog = parser.prog
     args.argv = argv                # the command as given, for records that say how they were made
     name = " ".join(w for w in (args.command, getattr(args, args.command, None)) if isinstance(w, str))
     try:

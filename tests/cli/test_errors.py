@@ -99,6 +99,17 @@ def test_an_unexpected_failure_is_one_line_and_debug_shows_the_traceback(capsys,
         carav(["status", "--debug"])
 
 
+def test_a_ctrl_c_while_the_command_is_still_importing_is_one_line_and_exit_130(capsys, monkeypatch):
+    import carav_stream.cli as cli
+
+    def interrupted(argv, **tables):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", interrupted)       # where the command's module is imported
+    assert carav(["run", DEMO]) == Exit.INTERRUPTED
+    assert error_of(capsys) == "carav: interrupted\n"
+
+
 @pytest.mark.parametrize("argv, max_speed", [
     ([DEMO, "--set", "scene=awr1642"], "0"),                         # an estimator that reads the alias
     ([str(ROOT / "graphs" / "awr1642_smart.toml"), "--set", "ranging.max_speed_mps=50"], "50"),    # short of 83.3
