@@ -223,7 +223,7 @@ def fork_node(request: dict, fds: list[int], link: socket.socket) -> tuple[int, 
 
 def warm(types: Sequence[str]) -> None:
     """Import the blocks of `types` (import_blocks), then freeze what they made out of the collector; exits (status
-    3) when an import left a thread: a fork would copy only one of them."""
+    1, saying why) when an import left a thread: a fork would copy only one of them."""
     for problem in import_blocks(types):
         print(f"carav zygote: not preloaded: {problem}", file=sys.stderr, flush=True)
     if threads() > 1:
