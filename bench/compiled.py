@@ -182,9 +182,10 @@ def zygote_start(mode: str, cache: str) -> dict[str, Any]:
         first = proc.stdout.readline()
         wall = time.perf_counter() - t0
         rest, err = proc.communicate()
-    if proc.returncode or not first:
-        raise RuntimeError(f"bench compiled: the zygote ({mode}) failed:\n{err.strip()}")
     lines = [first, *rest.splitlines()]
+    if proc.returncode or not first or (mode != "numpy" and len(lines) < 2):     # a numba zygote forks a node
+        raise RuntimeError(f"bench compiled: the zygote ({mode}) failed (status {proc.returncode}, its lines "
+                           f"{lines}):\n{err.strip()}")
     return {"ready": json.loads(lines[0]), "node": json.loads(lines[1]) if len(lines) > 1 else None,
             "ready_wall_s": wall}
 
