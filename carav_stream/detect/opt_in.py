@@ -60,6 +60,7 @@ from scipy import optimize, stats
 
 from carav_stream.detect.detector import _check_frames, check_rho
 from carav_stream.detect.rdmap import rd_power
+from carav_stream.detect.receivers import receiver_count
 
 __all__ = ["exact_bins", "gamma_threshold", "spectral_silent_test", "spectral_threshold", "SpectralResult",
            "integrated_silent_test", "integrated_threshold", "coherent_silent_test", "spill_test", "SpillResult",
@@ -299,8 +300,7 @@ def silent_power_z(rms, rho, sigma_n: float, dof: int, *, n_rx: int = 1) -> np.n
     (`chirp_rms(frames, receivers=True)`); dof  nu, real degrees of freedom per chirp of one receiver.
     Exactly standardised under white Gaussian noise (M n_rx nu u ~ chi2(M n_rx nu): the receivers' degrees of
     freedom add), ~N(0, 1)."""
-    if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
-        raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
+    receiver_count(n_rx)
     r = np.atleast_2d(np.asarray(rms, dtype=np.float64))
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, r.shape[1], r.shape[0])), r.shape)
     m = r.shape[1] // 2

@@ -42,7 +42,15 @@ from scipy import integrate, optimize, stats
 
 from carav_stream.detect.detector import PAPER_ETA, Detection, check_rho, chirp_rms, detect_from_rms
 
-__all__ = ["per_receiver_from_rms", "per_receiver_detect", "per_receiver_q", "steering_gains", "silent_log_cdf"]
+__all__ = ["receiver_count", "per_receiver_from_rms", "per_receiver_detect", "per_receiver_q", "steering_gains",
+           "silent_log_cdf"]
+
+
+def receiver_count(n_rx) -> int:
+    """`n_rx` as the int it must be (>= 1, not a bool); ValueError naming it otherwise."""
+    if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
+        raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
+    return int(n_rx)
 
 
 def per_receiver_from_rms(rms, rho, sigma_n, eta: float = PAPER_ETA) -> Detection:

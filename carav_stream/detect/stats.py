@@ -36,7 +36,7 @@ import scipy.special._ufuncs as _scipy_ufuncs
 from scipy import integrate, special, stats
 
 from carav_stream.detect.detector import detect_from_rms
-from carav_stream.detect.receivers import silent_log_cdf
+from carav_stream.detect.receivers import receiver_count, silent_log_cdf
 
 __all__ = ["clopper_pearson", "pf_pm_closed_form", "rms_moments", "cfar_eta_closed_form",
            "pf_importance_sampling"]
@@ -144,7 +144,7 @@ def pf_pm_closed_form(eta, *, n_chirps: int, dof: int, snr: float = 1.0, rarms: 
     """
     eta = np.asarray(eta, dtype=np.float64)
     m = _half(n_chirps)
-    n_rx = _receivers(n_rx)
+    n_rx = receiver_count(n_rx)
     nu = dof * n_rx
     t = 1.0 + rarms ** 2
     # log F^M with F = cdf; 1 - F^M = -expm1(M log F) keeps tiny PF accurate (log F = log1p(-sf))
@@ -157,12 +157,6 @@ def pf_pm_closed_form(eta, *, n_chirps: int, dof: int, snr: float = 1.0, rarms: 
             "p_alarm": np.maximum(-np.expm1(log_quiet), 0.0), "p_alarm_d0": p_alarm_d0}
 
 
-def _receivers(n_rx) -> int:
-    if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
-        raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
-    return int(n_rx)
-
-
 def cfar_eta_closed_form(target_pf: float, *, n_chirps: int, dof: int, n_rx: int = 1) -> float:
     """Threshold eta with PF = target_pf for the D0 part, exactly:  F_chi2(nu)(nu eta^2)^M = 1 - target_pf, with
     nu = n_rx dof for n_rx receivers.
@@ -172,7 +166,7 @@ def cfar_eta_closed_form(target_pf: float, *, n_chirps: int, dof: int, n_rx: int
     if not 0 < target_pf < 1:
         raise ValueError(f"target_pf: must be in (0, 1), got {target_pf!r}")
     m = _half(n_chirps)
-    nu = dof * _receivers(n_rx)
+    nu = dof * receiver_count(n_rx)
     per_chirp_sf = -np.expm1(np.log1p(-target_pf) / m)
     return float(np.sqrt(stats.chi2.isf(per_chirp_sf, nu) / nu))
 

@@ -34,6 +34,7 @@ import numpy as np
 from scipy import optimize
 
 from carav_stream.detect.quantised import quantised_energy_logsf
+from carav_stream.detect.receivers import receiver_count
 from carav_stream.detect.stats import pf_pm_closed_form
 from carav_stream.montecarlo.paper_model import PaperScene
 from carav_stream.montecarlo.radar_source import RadarSource
@@ -84,9 +85,7 @@ def scene_law(scene, n_rx: int | None = None) -> SceneLaw:
     """The law of a radar Scene (beat-fidelity echo, its ADC) or of a paper-model PaperScene (no ADC), for n_rx
     receivers (default the scene's own: `getattr(scene, "n_rx", 1)`)."""
 
-    n_rx = getattr(scene, "n_rx", 1) if n_rx is None else n_rx
-    if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
-        raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
+    n_rx = receiver_count(getattr(scene, "n_rx", 1) if n_rx is None else n_rx)
     if isinstance(scene, PaperScene):
         return SceneLaw(scene.name, scene.n_chirps, scene.dof, scene.echo_snr, scene.sigma_n, scene.sigma_n,
                         n_rx=int(n_rx))

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from carav_stream.detect.detector import chirp_rms, detect_from_rms
-from carav_stream.detect.receivers import steering_gains
+from carav_stream.detect.receivers import receiver_count, steering_gains
 from carav_stream.montecarlo import paper_model
 from carav_stream.radar.activation import balanced_rows
 
@@ -45,8 +45,7 @@ class ArraySource:
 
     def __init__(self, scene: paper_model.PaperScene, n_rx: int, *, rx_positions_wl=None,
                  attacker_azimuth_deg: float = 0.0):
-        if isinstance(n_rx, bool) or int(n_rx) != n_rx or n_rx < 1:
-            raise ValueError(f"n_rx: must be an integer >= 1, got {n_rx!r}")
+        receiver_count(n_rx)
         positions = ula_positions_wl(int(n_rx)) if rx_positions_wl is None else tuple(map(float, rx_positions_wl))
         if len(positions) != n_rx:
             raise ValueError(f"rx_positions_wl: {len(positions)} positions for n_rx = {n_rx} receivers")
