@@ -139,6 +139,11 @@ class Tracks:
         return np.array([t[7] for t in self.rows], float).reshape(-1, self.nis_window)
 
 
+def _listed(name: str, dtype: type, doc: str) -> property:
+    """A property of `CycleReport`: its list `name` as an array over tracks."""
+    return property(lambda self: np.array(self.lists[name], dtype), doc=doc)
+
+
 class CycleReport:
     """What one cycle did: the live tracks after it (in the order of `Tracks`) and the ids that were born or
     deleted in it. Held as plain lists (what a header takes); the properties give arrays over the tracks."""
@@ -150,15 +155,13 @@ class CycleReport:
         self.lists = lists    # the per-track values as plain lists by the properties' names; nis NaN if not updated
         self.status, self.born, self.deleted, self.measured = status, born, deleted, measured
 
-    id = property(lambda self: np.array(self.lists["id"], np.int64), doc="int64 (n,)")
-    range_m = property(lambda self: np.array(self.lists["range_m"], float), doc="float64 (n,)")
-    velocity_mps = property(lambda self: np.array(self.lists["velocity_mps"], float), doc="float64 (n,)")
-    var_range_m2 = property(lambda self: np.array(self.lists["var_range_m2"], float), doc="float64 (n,)")
-    var_velocity_m2ps2 = property(lambda self: np.array(self.lists["var_velocity_m2ps2"], float), doc="float64 (n,)")
-    updated = property(lambda self: np.array(self.lists["updated"], bool),
-                       doc="bool (n,): a measurement of this cycle updated the track")
-    nis = property(lambda self: np.array(self.lists["nis"], float),
-                   doc="float64 (n,): this cycle's NIS of an updated track, else NaN")
+    id = _listed("id", np.int64, "int64 (n,)")
+    range_m = _listed("range_m", float, "float64 (n,)")
+    velocity_mps = _listed("velocity_mps", float, "float64 (n,)")
+    var_range_m2 = _listed("var_range_m2", float, "float64 (n,)")
+    var_velocity_m2ps2 = _listed("var_velocity_m2ps2", float, "float64 (n,)")
+    updated = _listed("updated", bool, "bool (n,): a measurement of this cycle updated the track")
+    nis = _listed("nis", float, "float64 (n,): this cycle's NIS of an updated track, else NaN")
     nis_alarm = property(lambda self: None if self.lists["nis_alarm"] is None
                          else np.array(self.lists["nis_alarm"], bool), doc="bool (n,), None when the alarm is off")
 
