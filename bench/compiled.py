@@ -29,13 +29,14 @@ empty numba cache (compiles) and with a warm one (loads the machine code), media
 Break-even for such a node (the kernel records' break_even_cycles) = the warm cost / what the loop saves a cycle on
 the slower target.
 
-Start, the zygote: a process that does what the zygote does before it forks (zygote.preload, its one-thread check,
-gc.freeze), with the nodes' environment, and with numba imported and every loop called once after its imports
-(cache cold and warm) or without numba; the wall time from its interpreter's start to its line that it is ready,
-the CPU of each step, its threads; then it forks a node that calls every loop once: each call's time and whether
-it compiled anything again. --starts rounds, one zygote of each case a round, in turn; medians. Beside it, the start-up
-benchmark's yardsticks in the same sitting (bench startup's timed runs): the demo graph's run with the zygote and
-one interpreter's imports, whose ratio the target bounds.
+Start, the zygote: a process that does what the zygote does before it forks (zygote.preload, then the demo graph's
+blocks as a run of it has the zygote import them, its one-thread check, gc.freeze), with the nodes' environment,
+and with numba imported and every loop called once after its imports (cache cold and warm) or without numba; the
+wall time from its interpreter's start to its line that it is ready, the CPU of each step, its threads; then it
+forks a node that calls every loop once: each call's time and whether it compiled anything again. --starts
+rounds, one zygote of each case a round, in turn; medians. Beside it, the start-up benchmark's yardsticks in the same
+sitting (bench startup's timed runs): the demo graph's run with the zygote and one interpreter's imports, whose
+ratio the target bounds.
 
 The rule for the kernels numba is faster for on every target, together (they share numba's import): CPU = numba's
 import and their loops' first calls in the zygote (warm cache: the cold one is paid once per machine and numba
@@ -48,6 +49,7 @@ zygotes' readiness (some zygote without numba readier later than some with it) i
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import subprocess
@@ -170,11 +172,16 @@ def child_kernels(repeats: int) -> dict[str, Any]:
             "numpy_avx512": bool(features.get("AVX512_SKX")) and "X86_V4" not in off}
 
 
+@functools.cache
+def _demo_blocks() -> list[str]:
+    """The block types of the demo graph: what its run's zygote imports (read once per benchmark)."""
+    return sorted({node.type for node in load_graph(DEFAULT_GRAPH).nodes.values()})
+
+
 def zygote_start(mode: str, cache: str) -> dict[str, Any]:
     """One zygote of `mode` (child_zygote) with numba's cache in `cache`: its lines, and the wall seconds from its
     start (the interpreter's) to its line that it is ready."""
-    blocks = sorted({node.type for node in load_graph(DEFAULT_GRAPH).nodes.values()})   # what its zygote imports
-    code = f"from bench import compiled_loops as c; c.child_zygote({mode!r}, {blocks!r})"
+    code = f"from bench import compiled_loops as c; c.child_zygote({mode!r}, {_demo_blocks()!r})"
     t0 = time.perf_counter()
     env = {**node_env(), "NUMBA_CACHE_DIR": cache}             # a zygote's: the nodes' environment
     with subprocess.Popen([sys.executable, "-c", code], cwd=ROOT, env=env,
