@@ -50,7 +50,7 @@ def player_nodes(graph_file: Path) -> tuple[list[str], dict]:
     problems: list[str] = []
     source = read_graph_file(graph_file, problems)
     if source is None:
-        raise CommandError(f"{graph_file} is not valid:\n" + "\n".join(f"  {p}" for p in problems), Exit.INVALID)
+        raise run_command.invalid_graph(graph_file, problems)
     blocks = source.data.get("blocks") if isinstance(source.data.get("blocks"), dict) else {}
     players = [n for n, b in blocks.items() if isinstance(b, dict) and b.get("type") == "sigmf_source"]
     if len(players) != 1:

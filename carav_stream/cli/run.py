@@ -100,8 +100,12 @@ def load(path: Path, args: argparse.Namespace, overrides: list[str] = (), shown_
         return load_graph(path, [*overrides, *args.set, *cycles, *plane], args.blocks,
                           on_types=launcher.import_blocks if launcher is not None else None, checks_later=True)
     except GraphError as exc:
-        raise CommandError(f"{shown_as or path} is not valid:\n" + "\n".join(f"  {p}" for p in exc.problems),
-                           Exit.INVALID) from None
+        raise invalid_graph(shown_as or path, exc.problems) from None
+
+
+def invalid_graph(path: Path, problems: list[str]) -> CommandError:
+    """The refusal of an invalid graph file: its path, then every problem on a line of its own (exit code 3)."""
+    return CommandError(f"{path} is not valid:\n" + "\n".join(f"  {p}" for p in problems), Exit.INVALID)
 
 
 def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expected_cycles: int | None = None,
@@ -132,8 +136,7 @@ def execute(graph: Graph, args: argparse.Namespace, command: str = "run", expect
         raise CommandError(str(exc), Exit.FAILED) from None
     summary = with_radar_time(sup.run())
     if sup.invalid:                       # a block's own checks, run while the nodes started: none was let go
-        raise CommandError(f"{graph.path} is not valid:\n" + "\n".join(f"  {p}" for p in sup.invalid),
-                           Exit.INVALID)
+        raise invalid_graph(graph.path, sup.invalid)
     print_summary(summary)
     if args.json:
         jsonout.write(args.json, summary, indent=2)
