@@ -5,7 +5,8 @@ view send (admin.request), on a REP socket: one answer for every request, a bad 
              the swaps so far and the swaps refused
     stop     the supervisor stops the run in order (its request_stop), answered at once
     swap     checked like the graph file (validate.swap_problems), sent to the node once the node is ready, and
-             answered when the node confirms or refuses it, or after SWAP_TIMEOUT_S; one swap at a time
+             answered when the node confirms or refuses it, after SWAP_TIMEOUT_S, as soon as the node has ended
+             (its stream over, or failed), or when the run ends; one swap at a time
     ports    the output ports of this host's nodes (kind, dtypes, private, edges): what may be tapped
     tap      a port tap started, renewed or stopped (port_tap.py: checked here, answered at once with where its
              copies come from; the node starts it when it gets the message, from its first control connection on)
@@ -85,6 +86,8 @@ class AdminServer:
                 problems = swap_problems(self.graph, node, block, params)
             if not problems and node not in self.nodes:
                 problems = [f"node {node!r} does not run on this host"]
+            if not problems and self.ended(node):
+                problems = [self.ended(node)]
             if problems:
                 self.refuse(req, "; ".join(problems))
                 self.sock.send(pack("swap", ok=False, error="; ".join(problems)))
@@ -106,11 +109,21 @@ class AdminServer:
         else:
             self.sock.send(pack(str(cmd), ok=False, error=f"unknown command {cmd!r}"))
 
+    def ended(self, node: str) -> str | None:
+        """Why `node` can take no swap any more (its stream ended, or it failed for good), or None."""
+        st = self.nodes[node]
+        if st.done:
+            return f"node {node!r} has ended its stream"
+        return f"node {node!r} has failed" if st.failed else None
+
     def deliver_swap(self) -> None:
         """Send the pending swap to its node once the node is ready: a node still starting (or restarting) has no
-        control connection yet, and the router would drop the request unseen."""
+        control connection yet, and the router would drop the request unseen. A node that ended before it took
+        the swap (its stream over, or failed) refuses it: the request is answered at once, not at the deadline."""
         req = self.pending
-        if req is not None and not req["sent"] and self.nodes[req["node"]].ready:
+        if req is not None and self.ended(req["node"]):
+            self.reply_admin({"ok": False, "error": f"{self.ended(req['node'])} without taking the swap"})
+        elif req is not None and not req["sent"] and self.nodes[req["node"]].ready:
             req["sent"] = True
             self.send(req["node"], Control.SWAP, block=req["block"], params=req["params"], id=1)
 
@@ -119,6 +132,14 @@ class AdminServer:
         if self.pending and time.monotonic() > self.pending["deadline"]:
             up = "did not confirm the swap" if self.pending["sent"] else "was not ready for the swap"
             self.reply_admin({"ok": False, "error": f"the node {up} within {SWAP_TIMEOUT_S} s"})
+
+    def run_ended(self) -> None:
+        """The run is over: a swap still pending is refused, not left without an answer, and the socket closed
+        with a second to deliver that answer (the run's context is then destroyed without waiting)."""
+        if self.pending:
+            node = self.pending["node"]
+            self.reply_admin({"ok": False, "error": f"the run ended before node {node!r} took the swap"})
+            self.sock.close(linger=1000)
 
     def on_swap_report(self, st: NodeState, msg: dict[str, Any]) -> None:
         """A node's answer to the swap (Report.SWAPPED or SWAP_FAILED): a confirmed swap becomes the node's spec

@@ -411,6 +411,7 @@ class Supervisor:
                 next_progress = time.monotonic() + 0.5
                 self.report.draw_progress(self.progress, self.on_progress, self.expected_cycles)
         self.report.t_end = time.monotonic()
+        self.admin.run_ended()
         if started:
             self.report.draw_progress(False, self.on_progress, self.expected_cycles)
         if self.progress:

@@ -167,7 +167,8 @@ log = { type = "jsonl_sink", path = "out.jsonl" }
 
 def test_a_swap_asked_while_the_node_is_still_starting_waits_for_it_instead_of_being_dropped(carav):
     # the swap goes out as soon as the run exists, the swapped node listed last so it starts last: a request sent
-    # before its control connection is up must wait for it, not vanish (the swap would be refused after 30 s)
+    # before its control connection is up must wait for it, not vanish (the swap would be refused after 30 s).
+    # The run lasts until stopped, so that however slow the swap command, the stream has not ended before it.
     body = """
 connections = ["src.out -> t.inp", "t.out -> log.inp"]
 [blocks]
@@ -175,16 +176,50 @@ src = { type = "counter_source", n_values = 1 }
 log = { type = "jsonl_sink", path = "out.jsonl" }
 t = { type = "tagger", tag = "first", offset = 0.5 }
 """
-    run = carav.run(carav.graph(body), "--cycles", "2000")
+    run = carav.run(carav.graph(body))
     res = None
     for _ in range(200):
         res = carav.cli("swap", "t", "tagger_b", "--set", "factor=3.0")
         if "no running graph" not in res.stderr:
             break
     assert res.returncode == 0 and "now tagger_b" in res.stdout, res.stderr
+    assert carav.cli("stop").returncode == 0
     assert run.wait() == 0, run.stderr()
     s = run.summary()
     assert [sw["block"] for sw in s["swaps"]] == ["tagger_b"] and s["lost"] == 0
+
+
+
+def test_a_swap_of_a_node_whose_stream_has_ended_is_refused_at_once_and_the_run_goes_on(carav):
+    # one branch ends after 3 frames, the other runs until stopped: the ended node can take no swap, and the
+    # request is answered with why at once (not left to the 30 s deadline, and not hung when the run ends)
+    body = """
+connections = ["a.out -> t.inp", "t.out -> log.inp", "b.out -> u.inp", "u.out -> log2.inp"]
+[blocks]
+a = { type = "counter_source", n_values = 1, frames = 3 }
+t = { type = "tagger", tag = "ends" }
+log = { type = "jsonl_sink", path = "out.jsonl" }
+b = { type = "counter_source", n_values = 1 }
+u = { type = "tagger", tag = "goes on", delay_s = 0.001 }
+log2 = { type = "jsonl_sink", path = "out2.jsonl" }
+"""
+    run = carav.run(carav.graph(body))
+
+    def t_state():
+        st = carav.cli("status", "--json")
+        runs = json.loads(st.stdout) if st.returncode == 0 and st.stdout.strip().startswith("[") else []
+        return runs[0]["nodes"]["t"]["counters"].get("state", "") if runs else ""
+
+    wait_until(lambda: t_state().startswith("finished"), "node t to finish its 3 frames", run)
+    refused = carav.cli("swap", "t", "tagger_b", "--set", "factor=3.0")
+    assert refused.returncode == 3 and "node 't' has ended its stream" in refused.stderr, refused.stderr
+    before = len(read_jsonl(carav.workdir / "out2.jsonl"))
+    wait_until(lambda: len(read_jsonl(carav.workdir / "out2.jsonl")) > before + 50, "the other branch", run)
+    assert carav.cli("stop").returncode == 0
+    assert run.wait() == 0, run.stderr()
+    s = run.summary()
+    assert s["swaps"] == [] and [r["node"] for r in s["refused_swaps"]] == ["t"] and s["lost"] == 0
+    assert len(read_jsonl(carav.workdir / "out.jsonl")) == 3
 
 
 CRASH = """
