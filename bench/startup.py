@@ -14,10 +14,15 @@ pages the forked nodes share), the detector is SIGKILLed, and the time from the 
 successor's ready report, and to its first frame, is taken. The first frame's time is the successor's own
 (`first_frame_at` of its counters: time.monotonic() when its block took the frame, the clock the supervisor reads
 too), which its next heartbeat brings; target: within TARGET_RESTART_S of the death seen, forked.
+
+Every record says how many of the project's modules had current bytecode (`dev.py` compiles them before any
+command) and whether PYTHONDONTWRITEBYTECODE was set: without it, or with stale bytecode, every process compiles
+the modules it imports again at its start.
 """
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import signal
@@ -29,6 +34,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+import carav_blocks
+import carav_stream
 from bench import records as bench_records
 from carav_graphs import graph_file
 from carav_stream.console.options import count, output_file
@@ -136,8 +143,31 @@ def restart_round(zygote: bool, folder: Path) -> dict[str, Any]:
             **sup.memory, "node_starts": summary["node_starts"]}
 
 
+def bytecode() -> dict[str, Any]:
+    """The project's modules (carav_stream and the built-in blocks) and how many have bytecode as new as their source,
+    which Python reads instead of compiling the source again; and whether PYTHONDONTWRITEBYTECODE was set (Python
+    then writes none itself)."""
+    sources = [p for pkg in (carav_stream, carav_blocks) for p in Path(pkg.__file__).parent.rglob("*.py")]
+    return {"modules": len(sources), "current": sum(map(current_bytecode, sources)),
+            "dont_write_bytecode": bool(os.environ.get("PYTHONDONTWRITEBYTECODE"))}
+
+
+def current_bytecode(src: Path) -> bool:
+    """Whether `src` has bytecode Python would use: its cache file's header names this interpreter's magic number
+    and the source's modification time and size, as the import system checks them."""
+    try:
+        head = Path(importlib.util.cache_from_source(str(src))).read_bytes()[:16]
+    except OSError:
+        return False
+    st = src.stat()
+    return (len(head) == 16 and head[:4] == importlib.util.MAGIC_NUMBER and head[4:8] == bytes(4)
+            and int.from_bytes(head[8:12], "little") == int(st.st_mtime) & 0xFFFFFFFF
+            and int.from_bytes(head[12:16], "little") == st.st_size & 0xFFFFFFFF)
+
+
 def startup(runs: int, restarts: int, cycles: int) -> dict[str, Any]:
     load_before = [round(x, 2) for x in os.getloadavg()]
+    compiled = bytecode()
     with tempfile.TemporaryDirectory(prefix="cs", dir="/tmp") as tmp:    # ipc paths must stay short
         folder = Path(tmp)
         env = {**os.environ, "CARAV_RUN_DIR": tmp}
@@ -170,7 +200,7 @@ def startup(runs: int, restarts: int, cycles: int) -> dict[str, Any]:
             "first_frame_median_s": {m: _median(r, "seen_to_first_frame_s") for m, r in rounds.items()},
             "target_restart_s": TARGET_RESTART_S,
             "pss_median_mb": {m: _median(r, "pss_mb") for m, r in rounds.items()},
-            "load_average_at_start": load_before}
+            "load_average_at_start": load_before, "bytecode": compiled}
 
 
 def _median(rounds: list[dict[str, Any]], key: str) -> float | None:
@@ -212,8 +242,12 @@ def rows(doc: dict) -> list[tuple[str, str, str, str]]:
 def table(doc: dict) -> list[str]:
     """docs/bench/startup.md's tables."""
     r = doc["records"][0]
-    lines = [f"Load average when it started: {' / '.join(f'{x:g}' for x in r['load_average_at_start'])}.", "",
-             "| mode | median s | runs (s) | node starts |", "|---|---:|---|---|"]
+    lines = [f"Load average when it started: {' / '.join(f'{x:g}' for x in r['load_average_at_start'])}.", ""]
+    if "bytecode" in r:                       # records made before it was noted lack it
+        b = r["bytecode"]
+        lines += [f"The project's modules with current bytecode: {b['current']} of {b['modules']}; "
+                  f"PYTHONDONTWRITEBYTECODE {'set' if b['dont_write_bytecode'] else 'not set'}.", ""]
+    lines += ["| mode | median s | runs (s) | node starts |", "|---|---:|---|---|"]
     for mode, walls in r["wall_s"].items():
         starts = ", ".join(f"{k} {v}" for k, v in r["node_starts"].get(mode, {}).items()) or "-"
         lines.append(f"| {mode} | {r['median_s'][mode]:.2f} | {', '.join(f'{w:.2f}' for w in walls)} | {starts} |")

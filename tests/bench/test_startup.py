@@ -1,11 +1,12 @@
 """`python3 dev.py bench startup`: a graph's start with its nodes forked from the zygote and as fresh interpreters."""
 import json
 import os
+import py_compile
 
 import pytest
 
 from bench import main as run_bench
-from bench.startup import MODES, pss_mb, rows, table
+from bench.startup import MODES, bytecode, current_bytecode, pss_mb, rows, table
 
 
 def test_proportional_memory_comes_from_proc_and_is_at_most_the_resident():
@@ -44,6 +45,31 @@ def test_the_zygote_run_is_judged_against_the_imports_of_one_interpreter(ratio, 
         in "\n".join(lines)
 
 
+def test_bytecode_counts_as_current_only_when_its_header_matches_the_source(tmp_path):
+    src = tmp_path / "m.py"
+    src.write_text("x = 1\n")
+    assert not current_bytecode(src)                                         # none yet
+    py_compile.compile(str(src), doraise=True)
+    assert current_bytecode(src)
+    src.write_text("x = 22\n")                                               # edited: another size
+    assert not current_bytecode(src)
+    py_compile.compile(str(src), doraise=True)
+    st = src.stat()
+    os.utime(src, ns=(st.st_atime_ns, st.st_mtime_ns + 2 * 10**9))           # touched: another time
+    assert not current_bytecode(src)
+
+
+def test_the_record_says_how_many_modules_had_current_bytecode(monkeypatch):
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    found = bytecode()
+    assert found["modules"] > 100 and 0 <= found["current"] <= found["modules"] and found["dont_write_bytecode"]
+    monkeypatch.delenv("PYTHONDONTWRITEBYTECODE")
+    assert not bytecode()["dont_write_bytecode"]
+    doc = record(1.2)
+    doc["records"][0]["bytecode"] = {"modules": 250, "current": 249, "dont_write_bytecode": True}
+    assert "current bytecode: 249 of 250; PYTHONDONTWRITEBYTECODE set." in "\n".join(table(doc))
+
+
 @pytest.mark.parametrize("first_frame_s, met", [(0.08, "yes"), (0.12, "**no**")])
 def test_the_forked_successors_first_frame_is_judged_against_the_restart_target(first_frame_s, met):
     *_, ready, first, memory = rows(record(1.2, first_frame_s))
@@ -61,6 +87,7 @@ def test_a_short_startup_benchmark_forks_every_node_and_restarts_the_detector(tm
     assert run_bench(["startup", "--runs", "1", "--restarts", "1", "--cycles", "8", "--json", str(out)]) == 0
     rec = json.loads(out.read_text())["records"][0]
     assert set(rec["median_s"]) == set(MODES) and all(w > 0 for w in rec["median_s"].values())
+    assert 0 <= rec["bytecode"]["current"] <= rec["bytecode"]["modules"]
     assert rec["node_starts"]["zygote"] == {"forked": 8, "fresh": 0}
     assert rec["node_starts"]["fresh"] == {"forked": 0, "fresh": 8}
     zygote, fresh = rec["restart_rounds"]["zygote"][0], rec["restart_rounds"]["fresh"][0]
