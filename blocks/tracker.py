@@ -30,7 +30,17 @@ Graph   tracker = { type = "tracker", sigma_range_m = 0.0025, sigma_velocity_mps
 """
 from carav_stream.radar.streams import SCENE, scene_of
 from carav_stream.runtime import Block, Frame, In, Out, Param, cycle_indices, n_cycles, per_cycle
-from carav_stream.track import NEAR_M, NEAR_MPS, CycleReport, TrackerConfig, TrackFigures, Tracks, step
+from carav_stream.track import (
+    NEAR_M,
+    NEAR_MPS,
+    PLAIN_KEYS,
+    CycleReport,
+    TrackerConfig,
+    TrackFigures,
+    Tracks,
+    steady,
+    step,
+)
 
 
 class Tracker(Block):
@@ -86,7 +96,7 @@ class Tracker(Block):
         self.next_cycle: int | None = None     # None until the estimator's first frame (or a long wait)
         self.first_cycle: int | None = None
         self.newest = -1                         # the latest cycle received
-        self.rows: list[dict] = []              # cycles tracked, not sent yet
+        self.columns = _columns()               # cycles tracked, not sent yet: the output's per_cycle columns
         self.last_sent, self.last_seq = -1, -1
         self.counts = {"cycles": 0, "measured": 0, "late": 0, "born": 0, "deleted": 0, "nis_alarms": 0,
                        "unsent_cycles": 0}
@@ -99,17 +109,17 @@ class Tracker(Block):
         self._take(frame, from_estimator=estimates is not None)
         self._advance(flush=False)
         self.last_seq = frame.seq
-        if not self.rows or frame.seq <= self.last_sent:   # an output's seq must grow: wait for a later frame
+        if not self.columns["cycle_index"] or frame.seq <= self.last_sent:   # an output's seq must grow: wait
             return None
         self.last_sent = frame.seq
         return self._frame()
 
     def finish(self) -> Frame | None:
         self._advance(flush=True)
-        if not self.rows:
+        if not self.columns["cycle_index"]:
             return None
         if self.last_seq + 1 <= self.last_sent:    # the end's seq (the last handled + 1) was sent already
-            self.counts["unsent_cycles"] += len(self.rows)
+            self.counts["unsent_cycles"] += len(self.columns["cycle_index"])
             return None
         return self._frame()
 
@@ -142,6 +152,11 @@ class Tracker(Block):
             self.next_cycle = self.first_cycle
         while self.pending and self.next_cycle is not None:
             c = self.next_cycle
+            self.tracks, done = steady(self.tracks, self._measured_from(c), self.config)
+            if done:                             # the usual cycles: one confirmed track takes each one's measurement
+                self._record_steady(c, done)
+                self.next_cycle = c + len(done)
+                continue
             if c in self.pending:
                 z, reason, active = self.pending.pop(c)
             elif flush or self.newest - c >= self.max_hold_cycles:
@@ -149,11 +164,19 @@ class Tracker(Block):
             else:
                 return
             self.tracks, report = step(self.tracks, z, self.config)
-            self.rows.append(self._row(c, report, reason, active))
+            self._record(c, report, reason, active)
             self.next_cycle = c + 1
 
-    def _row(self, cycle: int, r: CycleReport, reason: str | None, active) -> dict:
-        tracks, lists, counts = r.plain(), r.lists, self.counts
+    def _measured_from(self, c: int):
+        """The measurements of the measured cycles c, c + 1, ... that have come, up to the first that has not."""
+        pending = self.pending
+        while (entry := pending.get(c)) is not None and entry[0] is not None:
+            yield entry[0]
+            c += 1
+
+    def _record(self, cycle: int, r: CycleReport, reason: str | None, active) -> None:
+        """Count the cycle, score it (figures) and add it to the output's columns."""
+        lists, counts = r.lists, self.counts
         counts["cycles"] += 1
         counts["measured"] += r.measured
         counts["born"] += len(r.born)
@@ -163,13 +186,43 @@ class Tracker(Block):
             self.reasons[reason] = self.reasons.get(reason, 0) + 1
         self.figures.add(cycle, lists["id"], r.status, lists["range_m"], lists["velocity_mps"], r.deleted, self.truth,
                          reason, active, lists["nis_alarm"])
-        return {"cycle_index": cycle, "measured": r.measured, "reason": reason, "attack_active": active,
-                "born": list(r.born), "deleted": list(r.deleted), **tracks}
+        for column, value in zip(self.columns.values(), (cycle, r.measured, reason, active, list(r.born),
+                                                         list(r.deleted), *r.plain().values())):
+            column.append(value)
+
+    def _record_steady(self, first: int, done: list[tuple]) -> None:
+        """_record of the cycles first, first + 1, ... that tracker.steady took, each as _record has it: measured,
+        its one confirmed track updated, none born or deleted (the track's values are finite: no NaN to write as
+        None)."""
+        (tid, *_), = self.tracks.rows
+        counts, cols, add, truth = self.counts, self.columns, self.figures.add, self.truth
+        counts["cycles"] += len(done)
+        counts["measured"] += len(done)
+        (c_cycle, c_measured, c_reason, c_active, c_born, c_deleted, c_id, c_status, c_r, c_v, c_var_r, c_var_v, c_nis,
+         c_alarm) = cols.values()
+        for cycle, ((r, v, var_r, _, var_v), d2, alarm) in enumerate(done, start=first):
+            active = self.pending.pop(cycle)[2]
+            alarms = None if alarm is None else [alarm]
+            counts["nis_alarms"] += alarm is True
+            add(cycle, (tid,), ("confirmed",), (r,), (v,), (), truth, None, active, alarms)
+            c_cycle.append(cycle)
+            c_measured.append(True)
+            c_reason.append(None)
+            c_active.append(active)
+            c_born.append([])
+            c_deleted.append([])
+            c_id.append([tid])
+            c_status.append(["confirmed"])
+            c_r.append([r])
+            c_v.append([v])
+            c_var_r.append([var_r])
+            c_var_v.append([var_v])
+            c_nis.append([d2])
+            c_alarm.append(alarms)
 
     def _frame(self) -> Frame:
-        rows, self.rows = self.rows, []
-        columns = {key: [row[key] for row in rows] for key in rows[0]}
-        return Frame.of(None, cycle=rows[0]["cycle_index"], cycles=len(rows), per_cycle=columns,
+        columns, self.columns = self.columns, _columns()
+        return Frame.of(None, cycle=columns["cycle_index"][0], cycles=len(columns["cycle_index"]), per_cycle=columns,
                         dt_s=self.config.dt_s)
 
     def summary(self) -> dict:
@@ -178,3 +231,9 @@ class Tracker(Block):
         # the run's track figures (carav_stream/track/figures.py) go to the run summary's "tracks"
         return {**counts, "run": {"tracks": {**counts, "dt_s": self.config.dt_s, "nis_alarm": self.nis_pfa > 0,
                                   **self.figures.figures(self.truth)}}}
+
+
+def _columns() -> dict[str, list]:
+    """The output's per_cycle columns, empty, in the order of the module docstring (the tracks' as CycleReport.plain
+    gives them)."""
+    return {key: [] for key in ("cycle_index", "measured", "reason", "attack_active", "born", "deleted", *PLAIN_KEYS)}

@@ -14,7 +14,7 @@ tracks), importing only numpy and scipy.
 from carav_stream.track.association import gate_threshold, gnn
 from carav_stream.track.figures import NEAR_M, NEAR_MPS, TrackFigures
 from carav_stream.track.kalman import cv_model, measurement_noise
-from carav_stream.track.tracker import STATUSES, CycleReport, TrackerConfig, Tracks, run, step
+from carav_stream.track.tracker import PLAIN_KEYS, STATUSES, CycleReport, TrackerConfig, Tracks, run, steady, step
 
-__all__ = ["NEAR_M", "NEAR_MPS", "STATUSES", "CycleReport", "TrackFigures", "TrackerConfig", "Tracks", "cv_model",
-           "gate_threshold", "gnn", "measurement_noise", "run", "step"]
+__all__ = ["NEAR_M", "NEAR_MPS", "PLAIN_KEYS", "STATUSES", "CycleReport", "TrackFigures", "TrackerConfig", "Tracks",
+           "cv_model", "gate_threshold", "gnn", "measurement_noise", "run", "steady", "step"]

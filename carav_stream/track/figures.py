@@ -136,6 +136,7 @@ class TrackFigures:
         }
 
 
-def _plain(values: Sequence) -> list:
-    """Python numbers from an array or a sequence (a number from an array is slow to compute with one at a time)."""
-    return values.tolist() if isinstance(values, np.ndarray) else list(values)
+def _plain(values: Sequence) -> Sequence:
+    """Python numbers from an array (a number from an array is slow to compute with one at a time); a sequence of
+    them as it is."""
+    return values.tolist() if isinstance(values, np.ndarray) else values

@@ -18,6 +18,8 @@ Association is association.gnn's wherever its answer is provably the pairing bel
                                    of another, so the unique optimum pairs them all
     otherwise                      gnn (scipy's linear_sum_assignment)
 
+One track and one measurement, a radar's usual cycle, is `track_one`: the same numbers without the lists.
+
 Why by hand: at a radar cycle's one to three tracks and measurements, each numpy call costs more in dispatch than
 its arithmetic, and a cycle of the array formulation is a few dozen such calls (measured with the tracker block on
 table1_following's estimates: the plain-float cycle costs a small fraction of the array one). tracker.step takes
@@ -46,6 +48,21 @@ def predict(states: list[State], dt: float, q: tuple[float, float, float]) -> li
     return out
 
 
+def track_one(state: State, z: tuple[float, float], dt: float, q: tuple[float, float, float],
+              r: tuple[float, float], gamma: float) -> tuple[State, float | None]:
+    """One track and one measurement (a radar's usual cycle): the state predicted and, when z lies within its gate,
+    updated, with z's d2 (None outside the gate: the prediction only). filter_cycle's numbers for n = m = 1."""
+    (rp, vp, a, b, c), = predict([state], dt, q)
+    zr, zv = z
+    r0, r1 = r
+    s00, s11 = a + r0, c + r1
+    det = s00 * s11 - b * b
+    d2 = ((zr - rp) * (s11 * (zr - rp) - b * (zv - vp)) + (zv - vp) * (s00 * (zv - vp) - b * (zr - rp))) / det
+    if d2 <= gamma:
+        return _update((rp, vp, a, b, c), (s00, b, s11, det), z, r0, r1), d2
+    return (rp, vp, a, b, c), None
+
+
 def filter_cycle(states: list[State], zs: list[tuple[float, float]], dt: float, q: tuple[float, float, float],
                  r: tuple[float, float], gamma: float) -> tuple[list[State], list[float | None], list[bool]]:
     """Predict every track, associate the measurements zs and update the paired tracks.
@@ -53,13 +70,16 @@ def filter_cycle(states: list[State], zs: list[tuple[float, float]], dt: float, 
     Returns the states after the cycle, each track's NIS (None when no measurement updated it) and, per measurement,
     whether a track took it.
     """
+    if len(states) == 1 and len(zs) == 1:
+        x, d2 = track_one(states[0], zs[0], dt, q, r, gamma)
+        return [x], [d2], [d2 is not None]
     pred = predict(states, dt, q)
     n, m = len(pred), len(zs)
+    r0, r1 = r
     nis: list[float | None] = [None] * n
     taken = [False] * m
     if not n or not m:
         return pred, nis, taken
-    r0, r1 = r
     gates = []                                   # per track: (S00, S01, S11, det) and its d2 to every measurement
     for rp, vp, a, b, c in pred:
         s00, s11 = a + r0, c + r1

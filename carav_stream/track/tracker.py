@@ -26,6 +26,9 @@ Status of a live track after its cycle: "tentative", "confirmed" (updated this c
 not updated this cycle). The tracks live in a `Tracks` value (one tuple per track, sorted by id, with array views);
 `step` returns the next one and what the cycle did, without changing its inputs.
 
+A run of a radar's usual cycles (one confirmed track, one measurement within its gate, nothing born or deleted)
+can also go through `steady`, which gives step's numbers for them without building a report per cycle.
+
 The filter and the association come in two formulations, chosen by size. For n tracks and m measurements with
 n (m + 1) <= SCALAR_MAX_PAIRS, scalar.py's plain Python floats: a radar's cycle holds one to three of each, where
 numpy's dispatch on tiny arrays costs more than the arithmetic. Above it, kalman.py's and association.py's arrays
@@ -51,7 +54,7 @@ from scipy.stats import chi2
 
 from carav_stream.track.association import distances, gate_threshold, gnn
 from carav_stream.track.kalman import cv_model, measurement_noise, predict, update
-from carav_stream.track.scalar import filter_cycle
+from carav_stream.track.scalar import filter_cycle, track_one
 
 STATUSES = ("tentative", "confirmed", "coasting")
 SCALAR_MAX_PAIRS = 512   # n tracks, m measurements: plain floats while n (m + 1) <= this, else arrays (docstring)
@@ -166,15 +169,20 @@ class CycleReport:
                          else np.array(self.lists["nis_alarm"], bool), doc="bool (n,), None when the alarm is off")
 
     def plain(self) -> dict[str, list | None]:
-        """The live tracks' fields as plain lists, one value per track (NaN as None), for a header or a JSON line."""
+        """The live tracks' fields as plain lists, one value per track (NaN as None), for a header or a JSON line;
+        keys PLAIN_KEYS, in that order."""
         lists = self.lists
+        out = {"track_id": list(lists["id"]), "status": list(self.status)}
+        for key in _FLOATS:
+            values = lists[key]
+            total = sum(values)      # finite: no NaN among them (nor an infinity), the usual case, copied at once
+            out[key] = values[:] if total - total == 0.0 else [None if v != v else v for v in values]
+        out["nis_alarm"] = None if lists["nis_alarm"] is None else list(lists["nis_alarm"])
+        return out
 
-        def floats(name: str) -> list:
-            return [None if v != v else v for v in lists[name]]
-        return {"track_id": list(lists["id"]), "status": list(self.status), "range_m": floats("range_m"),
-                "velocity_mps": floats("velocity_mps"), "var_range_m2": floats("var_range_m2"),
-                "var_velocity_m2ps2": floats("var_velocity_m2ps2"), "nis": floats("nis"),
-                "nis_alarm": None if lists["nis_alarm"] is None else list(lists["nis_alarm"])}
+
+_FLOATS = ("range_m", "velocity_mps", "var_range_m2", "var_velocity_m2ps2", "nis")
+PLAIN_KEYS = ("track_id", "status", *_FLOATS, "nis_alarm")     # CycleReport.plain's keys, in order
 
 
 def step(tracks: Tracks, z, config: TrackerConfig) -> tuple[Tracks, CycleReport]:
@@ -198,6 +206,7 @@ def step(tracks: Tracks, z, config: TrackerConfig) -> tuple[Tracks, CycleReport]
         cycle += [((i, (zr, zv, r0, 0.0, r1), False, 1, 1, 0, 0, blank), nan, True)
                   for i, (zr, zv) in enumerate((zz for zz, t in zip(zs, taken) if not t), start=next_id)]
     m_confirm, n_confirm, threshold = config.confirm_m, config.confirm_n, config.nis_threshold
+    max_misses, max_idle = config.delete_misses, config.coast_cycles
     after, status, born, deleted = [], [], [], []
     ids, r, v, var_r, var_v, updated, nis_out = [], [], [], [], [], [], []
     alarm = None if threshold is None else []
@@ -207,7 +216,7 @@ def step(tracks: Tracks, z, config: TrackerConfig) -> tuple[Tracks, CycleReport]
             confirmed = True
             t = (tid, x, True, hits, n_measured, misses, idle, window)
         if ((not confirmed and n_measured - hits > n_confirm - m_confirm)
-                or (confirmed and misses >= config.delete_misses) or idle > config.coast_cycles):
+                or (confirmed and misses >= max_misses) or idle > max_idle):
             deleted.append(tid)
             continue
         after.append(t)
@@ -227,6 +236,37 @@ def step(tracks: Tracks, z, config: TrackerConfig) -> tuple[Tracks, CycleReport]
              "updated": updated, "nis": nis_out, "nis_alarm": alarm}
     return (Tracks(tuple(after), next_id + len(cycle) - len(rows), config.nis_window),
             CycleReport(lists, tuple(status), tuple(born), tuple(deleted), measured))
+
+
+def steady(tracks: Tracks, cycles, config: TrackerConfig) -> tuple[Tracks, list[tuple]]:
+    """The measured cycles `cycles` (an iterable of each cycle's measurements, lists of (range, range rate) pairs of
+    Python floats), taken in order as long as each is a radar's usual cycle: one live track, confirmed, and one
+    measurement, which falls within its gate. Returns the tracks after the cycles taken and, per cycle taken, the
+    track's state (r, v, var r, cov, var v), its NIS and its NIS alarm (None when the alarm is off); the first cycle
+    it leaves (or the first of `cycles` when the tracks are not one confirmed track) is `step`'s to take.
+
+    Each cycle taken is the one `step` makes of it, to the bit (tests/track/test_steady.py): the track confirmed and
+    updated, no track born or deleted. What it saves is step's generality and its report, built for every cycle:
+    the tracker block takes its cycles this way whenever it can (`python3 dev.py bench pipeline --with tracker`:
+    what the tracker costs a graph)."""
+    rows, done = tracks.rows, []
+    if len(rows) != 1 or not rows[0][2]:
+        return tracks, done
+    tid, x, _, hits, n_measured, _, _, window = rows[0]
+    dt, q, r, gamma = config.plain
+    threshold = config.nis_threshold
+    for zs in cycles:
+        if len(zs) != 1:
+            break
+        updated, d2 = track_one(x, zs[0], dt, q, r, gamma)
+        if d2 is None:
+            break
+        x, window = updated, window[1:] + (d2,)
+        done.append((x, d2, None if threshold is None else sum(window) > threshold))
+    if not done:
+        return tracks, done
+    row = (tid, x, True, hits + len(done), n_measured + len(done), 0, 0, window)
+    return Tracks((row,), tracks.next_id, tracks.nis_window), done
 
 
 def _measurements(z) -> list[tuple[float, float]]:
