@@ -1,9 +1,12 @@
 """`python3 dev.py bench report`: the benchmark documents are rendered from records; the committed ones are current."""
 import argparse
 import json
+import statistics
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy import stats
 
 from bench import pages, report
 from bench import records as bench_records
@@ -188,18 +191,37 @@ def test_the_estimators_page_shows_both_frames_and_stars_only_the_front(tmp_path
     assert "| table1 | chain, beat |  | music | 700 | 1.2 |" in front
 
 
-@pytest.mark.parametrize("ratios, met", [([0.97, 0.95, 0.99], "yes"), ([0.90, 0.93, 0.92], "**no**")])
-def test_the_trackers_loss_of_cycles_per_second_is_judged_against_five_percent(tmp_path, ratios, met):
-    ratio = sorted(ratios)[1]
-    rec = {"preset": "table1", "fidelity": "beat", "batch": 32, "mode": "tracker", "transport": "zmq",
-           "cycles_per_s": 1000.0 * ratio, "runs_cycles_per_s": [1000.0 * r for r in ratios],
-           "real_time_factor": 1000.0 * ratio / 2131.0, "radar_cycles_per_s": 2131.0, "speedup_over_fused": 1.1,
-           "bottleneck_node": "channel", "busy_us_per_cycle": {"channel": 550.0, "tracker": 12.5},
-           "runs_ratio_to_pipeline": ratios, "ratio_to_pipeline": ratio, "cycles_per_s_loss": 1 - ratio,
-           "loss_target": 0.05}
-    summary, page = render_one(tmp_path, "pipeline", [rec])
+def _tracker_record(preset: str, batch: int, ratios: list[float]) -> dict:
+    ratio = statistics.median(ratios)
+    return {"preset": preset, "fidelity": "beat", "batch": batch, "mode": "tracker", "transport": "zmq",
+            "cycles_per_s": 1000.0 * ratio, "runs_cycles_per_s": [1000.0 * r for r in ratios],
+            "real_time_factor": 1000.0 * ratio / 2131.0, "radar_cycles_per_s": 2131.0, "speedup_over_fused": 1.1,
+            "bottleneck_node": "channel", "busy_us_per_cycle": {"channel": 550.0, "tracker": 12.5},
+            "runs_ratio_to_pipeline": ratios, "ratio_to_pipeline": ratio, "cycles_per_s_loss": 1 - ratio,
+            "loss_target": 0.05}
+
+
+@pytest.mark.parametrize("ratios, met", [([0.97, 0.95, 0.99, 0.98, 0.96, 0.97], "yes"),
+                                         ([0.97, 0.95, 0.99, 0.90, 0.93, 0.99], "**no**"),
+                                         ([0.90, 0.93, 0.92, 0.94, 0.91, 0.93], "**no**")])
+def test_the_trackers_loss_is_judged_on_the_table1_runs_pooled_by_the_upper_bound_of_their_mean(tmp_path, ratios,
+                                                                                                 met):
+    recs = [_tracker_record("table1", 16, ratios[:3]), _tracker_record("table1", 32, ratios[3:]),
+            _tracker_record("awr1642", 16, [0.8, 0.85, 0.9])]
+    summary, page = render_one(tmp_path, "pipeline", recs)
+    first = recs[0]["ratio_to_pipeline"]
     assert (f"| the tracker after the target list: cycles/s lost against the same graph without it, table1 beat, "
-            f"batch 32 | {1 - ratio:.1%} ({1000 * ratio:.0f} cycles/s, {ratio:.3f} x the graph without it, paired run "
-            f"by run; the tracker's block 12.5 us/cycle) | <= 5% | {met} |") in summary
-    assert (f"; {ratio:.3f} x the graph without it (runs {', '.join(f'{r:.3f}' for r in ratios)}), tracker 12.5 "
+            f"batch 16 | {1 - first:.1%} ({1000 * first:.0f} cycles/s, {first:.3f} x the graph without it, median of "
+            f"3 runs paired run by run; the tracker's block 12.5 us/cycle) | (reported: judged pooled, below) | - |"
+            ) in summary
+    losses = [1 - r for r in ratios]
+    mean, se = np.mean(losses), np.std(losses, ddof=1) / np.sqrt(len(losses))
+    upper = stats.t.interval(0.90, len(losses) - 1, loc=mean, scale=se)[1]     # the one-sided 95 % bound
+    assert (met == "yes") == (upper <= 0.05)
+    assert (f"| the tracker after the target list on the table1 graph: cycles/s lost, every paired run of its cases "
+            f"pooled (6 runs) | {mean:.1%} mean (a run's spread {np.std(losses, ddof=1):.1%}, standard error "
+            f"{se:.1%}; one-sided 95 % upper bound {upper:.1%}) | <= 5% (the upper bound) | {met} |") in summary
+    assert ("| the tracker after the target list on the awr1642 graph: cycles/s lost, every paired run of its cases "
+            "pooled (3 runs) | 15.0% mean") in summary and summary.count("(the upper bound)") == 1
+    assert (f"; {first:.3f} x the graph without it (runs {', '.join(f'{r:.3f}' for r in ratios[:3])}), tracker 12.5 "
             "us/cycle |") in page
