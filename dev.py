@@ -50,7 +50,7 @@ def compile_sources() -> None:
     """Byte-compile the project's own modules, those changed since the last time only. pip compiles a regular
     install's modules but not an editable install's, and Python writes no bytecode itself where
     PYTHONDONTWRITEBYTECODE is set (as on this project's CI machines): every process of every graph would then
-    compile them again at its start (`docs/bench/startup.md`: what that costs)."""
+    compile them again at its start (`python3 dev.py bench startup` records how many had current bytecode)."""
     folders = [str(ROOT / f) for f in ("carav_stream", "blocks", "bench", "tests/toy_blocks")]
     subprocess.run([str(BIN / "python"), "-m", "compileall", "-qq", *folders], check=True)   # the venv's tag
 
