@@ -67,6 +67,11 @@ class BlockError(ValueError):
         self.retry = retry
 
 
+# what a block's constructor or its param_warnings() raise about its parameters: a problem of the graph, told at its
+# place (validation, a swap, the checks a run makes later), never a crash
+PARAM_ERRORS = (BlockError, ValueError, TypeError)
+
+
 # errno values of a failed write that a restart does not cure: no space, no quota, a read-only file system, no
 # permission, a file grown beyond its limit
 _LASTING_WRITE_ERRORS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG})

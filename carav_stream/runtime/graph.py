@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from carav_stream.runtime import planes
-from carav_stream.runtime.block import Block, BlockError
+from carav_stream.runtime.block import PARAM_ERRORS, Block
 from carav_stream.runtime.registry import Registry
 
 TOP_KEYS = {"include", "description", "connections", "remove_connections", "blocks", "run", "restart", "hosts",
@@ -90,7 +90,7 @@ class Graph:
         for where, check in self.later_checks:
             try:
                 found = check()
-            except (BlockError, ValueError, TypeError) as exc:
+            except PARAM_ERRORS as exc:
                 problems.append(f"{where}: {exc}")
             else:
                 self.warnings += [w for w in found if w not in self.warnings]

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from carav_stream.core.params import REQUIRED, Param
-from carav_stream.runtime.block import Block, BlockError
+from carav_stream.runtime.block import PARAM_ERRORS, Block
 from carav_stream.runtime.graph import Node
 from carav_stream.runtime.validate.tables import list_of_str
 
@@ -119,7 +119,7 @@ def check_params(node: Node, cls: type[Block], bad_wide: set[str], where: str, p
             if later is None:
                 return block.param_warnings()
             later.append((f"{where}: blocks.{node.name}", block.param_warnings))
-        except (BlockError, ValueError, TypeError) as exc:
+        except PARAM_ERRORS as exc:
             problems.append(f"{where}: blocks.{node.name}: {exc}")
     return []
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from carav_stream.runtime.block import BlockError
+from carav_stream.runtime.block import PARAM_ERRORS
 from carav_stream.runtime.graph import Graph
 from carav_stream.runtime.registry import RegistryError
 from carav_stream.runtime.validate.ports import port_mismatch
@@ -45,6 +45,6 @@ def swap_problems(graph: Graph, node: str, block_type: str, params: dict[str, An
     if not problems:
         try:
             new(**params)
-        except (BlockError, ValueError, TypeError) as exc:
+        except PARAM_ERRORS as exc:
             problems.append(f"{block_type}: {exc}")
     return problems
