@@ -300,12 +300,12 @@ def silent_power_z(rms, rho, sigma_n: float, dof: int, *, n_rx: int = 1) -> np.n
     (`chirp_rms(frames, receivers=True)`); dof  nu, real degrees of freedom per chirp of one receiver.
     Exactly standardised under white Gaussian noise (M n_rx nu u ~ chi2(M n_rx nu): the receivers' degrees of
     freedom add), ~N(0, 1)."""
-    receiver_count(n_rx)
+    n_rx = receiver_count(n_rx)
     r = np.atleast_2d(np.asarray(rms, dtype=np.float64))
     active = np.broadcast_to(np.atleast_2d(check_rho(rho, r.shape[1], r.shape[0])), r.shape)
     m = r.shape[1] // 2
     u = np.sum(np.where(active, 0.0, r ** 2), axis=1) / m / sigma_n ** 2
-    return (u - 1.0) * np.sqrt(m * dof * int(n_rx) / 2.0)
+    return (u - 1.0) * np.sqrt(m * dof * n_rx / 2.0)
 
 
 def cusum_threshold(arl0_cycles: float, k: float = 0.5) -> float:

@@ -88,12 +88,12 @@ def scene_law(scene, n_rx: int | None = None) -> SceneLaw:
     n_rx = receiver_count(getattr(scene, "n_rx", 1) if n_rx is None else n_rx)
     if isinstance(scene, PaperScene):
         return SceneLaw(scene.name, scene.n_chirps, scene.dof, scene.echo_snr, scene.sigma_n, scene.sigma_n,
-                        n_rx=int(n_rx))
+                        n_rx=n_rx)
     pm = RadarSource(scene).paper_equivalent()      # the echo template and nu, as the closed form sees them
     sigma_eff = output_noise_rms(scene)
     snr = pm.echo_snr * (scene.sigma_n / sigma_eff) ** 2
     return SceneLaw(scene.name, scene.n_chirps, pm.dof, float(snr), float(scene.sigma_n), sigma_eff,
-                    float(adc_step(scene) or 0.0), bool(scene.iq), int(n_rx))
+                    float(adc_step(scene) or 0.0), bool(scene.iq), n_rx)
 
 
 def _gauss(law: SceneLaw, eta, sigma_det: float | None, rarms: float = 0.0) -> dict:

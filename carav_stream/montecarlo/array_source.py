@@ -45,8 +45,8 @@ class ArraySource:
 
     def __init__(self, scene: paper_model.PaperScene, n_rx: int, *, rx_positions_wl=None,
                  attacker_azimuth_deg: float = 0.0):
-        receiver_count(n_rx)
-        positions = ula_positions_wl(int(n_rx)) if rx_positions_wl is None else tuple(map(float, rx_positions_wl))
+        n_rx = receiver_count(n_rx)
+        positions = ula_positions_wl(n_rx) if rx_positions_wl is None else tuple(map(float, rx_positions_wl))
         if len(positions) != n_rx:
             raise ValueError(f"rx_positions_wl: {len(positions)} positions for n_rx = {n_rx} receivers")
         if not np.isfinite(attacker_azimuth_deg) or abs(attacker_azimuth_deg) > 90:
@@ -54,7 +54,7 @@ class ArraySource:
         self.scene = scene
         self.name = scene.name
         self.n_chirps, self.n_samples, self.iq, self.sigma_n = scene.n_chirps, scene.n_samples, scene.iq, scene.sigma_n
-        self.n_rx = int(n_rx)
+        self.n_rx = n_rx
         self.rx_positions_wl = positions
         self.attacker_azimuth_deg = float(attacker_azimuth_deg)
         self.phases = 2 * np.pi * np.asarray(positions) * np.sin(np.radians(self.attacker_azimuth_deg))
