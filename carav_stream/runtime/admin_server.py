@@ -86,8 +86,8 @@ class AdminServer:
                 problems = swap_problems(self.graph, node, block, params)
             if not problems and node not in self.nodes:
                 problems = [f"node {node!r} does not run on this host"]
-            if not problems and self.ended(node):
-                problems = [self.ended(node)]
+            if not problems and (why := self.ended(node)):
+                problems = [why]
             if problems:
                 self.refuse(req, "; ".join(problems))
                 self.sock.send(pack("swap", ok=False, error="; ".join(problems)))
@@ -121,9 +121,11 @@ class AdminServer:
         control connection yet, and the router would drop the request unseen. A node that ended before it took
         the swap (its stream over, or failed) refuses it: the request is answered at once, not at the deadline."""
         req = self.pending
-        if req is not None and self.ended(req["node"]):
-            self.reply_admin({"ok": False, "error": f"{self.ended(req['node'])} without taking the swap"})
-        elif req is not None and not req["sent"] and self.nodes[req["node"]].ready:
+        if req is None:
+            return
+        if why := self.ended(req["node"]):
+            self.reply_admin({"ok": False, "error": f"{why} without taking the swap"})
+        elif not req["sent"] and self.nodes[req["node"]].ready:
             req["sent"] = True
             self.send(req["node"], Control.SWAP, block=req["block"], params=req["params"], id=1)
 
