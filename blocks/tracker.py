@@ -152,8 +152,8 @@ class Tracker(Block):
             self.next_cycle = self.first_cycle
         while self.pending and self.next_cycle is not None:
             c = self.next_cycle
-            self.tracks, done = steady(self.tracks, self._measured_from(c), self.config)
-            if done:                             # the usual cycles: one confirmed track takes each one's measurement
+            self.tracks, done = steady(self.tracks, self._pending_from(c), self.config)
+            if done:                             # the usual cycles: one confirmed track updated or coasting, or none
                 self._record_steady(c, done)
                 self.next_cycle = c + len(done)
                 continue
@@ -167,10 +167,11 @@ class Tracker(Block):
             self._record(c, report, reason, active)
             self.next_cycle = c + 1
 
-    def _measured_from(self, c: int):
-        """The measurements of the measured cycles c, c + 1, ... that have come, up to the first that has not."""
+    def _pending_from(self, c: int):
+        """The measurements (None: unmeasured) of the cycles c, c + 1, ... that have come, up to the first that has
+        not."""
         pending = self.pending
-        while (entry := pending.get(c)) is not None and entry[0] is not None:
+        while (entry := pending.get(c)) is not None:
             yield entry[0]
             c += 1
 
@@ -191,28 +192,42 @@ class Tracker(Block):
             column.append(value)
 
     def _record_steady(self, first: int, done: list[tuple]) -> None:
-        """_record of the cycles first, first + 1, ... that tracker.steady took, each as _record has it: measured,
-        its one confirmed track updated, none born or deleted (the track's values are finite: no NaN to write as
-        None)."""
-        (tid, *_), = self.tracks.rows
-        counts, cols, add, truth = self.counts, self.columns, self.figures.add, self.truth
+        """_record of the cycles first, first + 1, ... that tracker.steady took, each as _record has it: its one
+        confirmed track updated (measured) or coasting (unmeasured), or no track (unmeasured); none born or deleted
+        (the track's values are finite: no NaN to write as None)."""
+        tid = self.tracks.rows[0][0] if self.tracks.rows else None
+        counts, reasons, cols, add = self.counts, self.reasons, self.columns, self.figures.add_one
+        targets = list(zip(*self.truth))
+        no_alarms = None if self.nis_pfa == 0 else []
         counts["cycles"] += len(done)
-        counts["measured"] += len(done)
         (c_cycle, c_measured, c_reason, c_active, c_born, c_deleted, c_id, c_status, c_r, c_v, c_var_r, c_var_v, c_nis,
          c_alarm) = cols.values()
-        for cycle, ((r, v, var_r, _, var_v), d2, alarm) in enumerate(done, start=first):
-            active = self.pending.pop(cycle)[2]
-            alarms = None if alarm is None else [alarm]
-            counts["nis_alarms"] += alarm is True
-            add(cycle, (tid,), ("confirmed",), (r,), (v,), (), truth, None, active, alarms)
+        for cycle, (x, d2, alarm) in enumerate(done, start=first):
+            _, reason, active = self.pending.pop(cycle)
             c_cycle.append(cycle)
-            c_measured.append(True)
-            c_reason.append(None)
-            c_active.append(active)
             c_born.append([])
             c_deleted.append([])
+            c_active.append(active)
+            c_reason.append(reason)
+            if reason is not None:
+                reasons[reason] = reasons.get(reason, 0) + 1
+            if x is None:                    # no track, no measurement
+                add(cycle, None, False, 0.0, 0.0, targets, reason, active, no_alarms)
+                c_measured.append(False)
+                for column in (c_id, c_status, c_r, c_v, c_var_r, c_var_v, c_nis):
+                    column.append([])
+                c_alarm.append(None if no_alarms is None else [])
+                continue
+            r, v, var_r, _, var_v = x
+            alarms = None if alarm is None else [alarm]
+            updated = d2 is not None
+            status = "confirmed" if updated else "coasting"
+            counts["measured"] += updated
+            counts["nis_alarms"] += alarm is True
+            add(cycle, tid, updated, r, v, targets, reason, active, alarms)
+            c_measured.append(updated)
             c_id.append([tid])
-            c_status.append(["confirmed"])
+            c_status.append([status])
             c_r.append([r])
             c_v.append([v])
             c_var_r.append([var_r])

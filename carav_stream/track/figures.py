@@ -76,19 +76,38 @@ class TrackFigures:
         for i in deleted:
             for j in self.on_last.pop(int(i), ()):
                 self.targets[j].deleted += 1
-        g_r, g_v = self.gate
         targets = list(zip(_plain(truth[0]), _plain(truth[1])))
         best = [""] * len(targets)           # per target: "confirmed" if an updated track is on it, else "coasting"
         for i, s, r, v in zip(_plain(ids), status, _plain(range_m), _plain(velocity_mps)):
-            if s == "tentative":
-                continue
-            self.confirmed.add(i)
-            self.on_last[i] = on = [j for j, (tr, tv) in enumerate(targets) if abs(r - tr) <= g_r
-                                    and abs(v - tv) <= g_v]
-            (self.was_on if on else self.false).add(i)
-            for j in on:
-                self.targets[j].track_ids.add(i)
-                best[j] = "confirmed" if s == "confirmed" else best[j] or s
+            if s != "tentative":
+                self._on(i, s, r, v, targets, best)
+        self._count(cycle, best)
+        self._alarms(cycle, reason, attack_active, nis_alarm)
+
+    def add_one(self, cycle: int, track_id: int | None, updated: bool, range_m: float, velocity_mps: float,
+                targets: list[tuple[float, float]], reason: str | None, attack_active: bool | None,
+                nis_alarm: list[bool] | None) -> None:
+        """`add` for a cycle with one live track, confirmed (updated or coasting), or none (track_id None), and
+        nothing deleted: a radar's usual cycle, without add's lists. targets: the truth as (R(c), V(c)) pairs of
+        Python floats."""
+        best = [""] * len(targets)
+        if track_id is not None:
+            self._on(track_id, "confirmed" if updated else "coasting", range_m, velocity_mps, targets, best)
+        self._count(cycle, best)
+        self._alarms(cycle, reason, attack_active, nis_alarm)
+
+    def _on(self, i: int, s: str, r: float, v: float, targets: list[tuple[float, float]], best: list[str]) -> None:
+        """Confirmed track i (status s) at (r, v) this cycle: the targets it is on, and their best status."""
+        g_r, g_v = self.gate
+        self.confirmed.add(i)
+        self.on_last[i] = on = [j for j, (tr, tv) in enumerate(targets) if abs(r - tr) <= g_r and abs(v - tv) <= g_v]
+        (self.was_on if on else self.false).add(i)
+        for j in on:
+            self.targets[j].track_ids.add(i)
+            best[j] = "confirmed" if s == "confirmed" else best[j] or s
+
+    def _count(self, cycle: int, best: list[str]) -> None:
+        """Each target's held, coasted or lost cycle, from the best status of a track on it ("" for none)."""
         for t, b in zip(self.targets, best):
             if t.first_held is None and not b:
                 continue
@@ -99,7 +118,6 @@ class TrackFigures:
                 t.coasted += 1
             else:
                 t.lost += 1
-        self._alarms(cycle, reason, attack_active, nis_alarm)
 
     def _alarms(self, cycle: int, reason: str | None, attack_active: bool | None,
                 nis_alarm: Sequence[bool] | None) -> None:

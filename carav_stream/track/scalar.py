@@ -40,19 +40,21 @@ EDGE = 1e-9        # relative margin below gamma that makes a conflict-free pair
 
 def predict(states: list[State], dt: float, q: tuple[float, float, float]) -> list[State]:
     """Every state one cycle ahead (module docstring); q = (Q00, Q01, Q11)."""
-    q00, q01, q11 = q
-    out = []
-    for r, v, a, b, c in states:
-        t = b + dt * c
-        out.append((r + dt * v, v, (a + dt * b) + dt * t + q00, t + q01, c + q11))
-    return out
+    return [predict_one(x, dt, q) for x in states]
+
+
+def predict_one(state: State, dt: float, q: tuple[float, float, float]) -> State:
+    """One state one cycle ahead."""
+    r, v, a, b, c = state
+    t = b + dt * c
+    return (r + dt * v, v, (a + dt * b) + dt * t + q[0], t + q[1], c + q[2])
 
 
 def track_one(state: State, z: tuple[float, float], dt: float, q: tuple[float, float, float],
               r: tuple[float, float], gamma: float) -> tuple[State, float | None]:
     """One track and one measurement (a radar's usual cycle): the state predicted and, when z lies within its gate,
     updated, with z's d2 (None outside the gate: the prediction only). filter_cycle's numbers for n = m = 1."""
-    (rp, vp, a, b, c), = predict([state], dt, q)
+    rp, vp, a, b, c = predict_one(state, dt, q)
     zr, zv = z
     r0, r1 = r
     s00, s11 = a + r0, c + r1

@@ -26,8 +26,9 @@ Status of a live track after its cycle: "tentative", "confirmed" (updated this c
 not updated this cycle). The tracks live in a `Tracks` value (one tuple per track, sorted by id, with array views);
 `step` returns the next one and what the cycle did, without changing its inputs.
 
-A run of a radar's usual cycles (one confirmed track, one measurement within its gate, nothing born or deleted)
-can also go through `steady`, which gives step's numbers for them without building a report per cycle.
+A run of a radar's usual cycles (one confirmed track updated by the one measurement in its gate or coasting
+through an unmeasured cycle, or no track and no measurement: nothing born or deleted) can also go through `steady`,
+which gives step's numbers for them without building a report per cycle.
 
 The filter and the association come in two formulations, chosen by size. For n tracks and m measurements with
 n (m + 1) <= SCALAR_MAX_PAIRS, scalar.py's plain Python floats: a radar's cycle holds one to three of each, where
@@ -54,7 +55,7 @@ from scipy.stats import chi2
 
 from carav_stream.track.association import distances, gate_threshold, gnn
 from carav_stream.track.kalman import cv_model, measurement_noise, predict, update
-from carav_stream.track.scalar import filter_cycle, track_one
+from carav_stream.track.scalar import filter_cycle, predict_one, track_one
 
 STATUSES = ("tentative", "confirmed", "coasting")
 SCALAR_MAX_PAIRS = 512   # n tracks, m measurements: plain floats while n (m + 1) <= this, else arrays (docstring)
@@ -239,34 +240,56 @@ def step(tracks: Tracks, z, config: TrackerConfig) -> tuple[Tracks, CycleReport]
 
 
 def steady(tracks: Tracks, cycles, config: TrackerConfig) -> tuple[Tracks, list[tuple]]:
-    """The measured cycles `cycles` (an iterable of each cycle's measurements, lists of (range, range rate) pairs of
-    Python floats), taken in order as long as each is a radar's usual cycle: one live track, confirmed, and one
-    measurement, which falls within its gate. Returns the tracks after the cycles taken and, per cycle taken, the
-    track's state (r, v, var r, cov, var v), its NIS and its NIS alarm (None when the alarm is off); the first cycle
-    it leaves (or the first of `cycles` when the tracks are not one confirmed track) is `step`'s to take.
+    """The cycles `cycles` (an iterable of each cycle's measurements: a list of (range, range rate) pairs of Python
+    floats, None for an unmeasured cycle), taken in order as long as each is one of a radar's usual cycles, in which
+    nothing is born or deleted:
 
-    Each cycle taken is the one `step` makes of it, to the bit (tests/track/test_steady.py): the track confirmed and
-    updated, no track born or deleted. What it saves is step's generality and its report, built for every cycle:
-    the tracker block takes its cycles this way whenever it can (`python3 dev.py bench pipeline --with tracker`:
-    what the tracker costs a graph)."""
+        updated    one live track, confirmed, and one measurement, which falls within its gate
+        coasted    one live track, confirmed, an unmeasured cycle, after which the track is within its coast limit
+        empty      no live track and an unmeasured cycle
+
+    Returns the tracks after the cycles taken and, per cycle taken, (state, NIS, NIS alarm): the track's state
+    (r, v, var r, cov, var v) after the cycle (None: no track), its NIS (None: not updated) and its NIS alarm (None
+    when the alarm is off; False on a cycle that did not update it). The first cycle it leaves (or the first of
+    `cycles` when the tracks are neither one confirmed track nor none) is `step`'s to take.
+
+    Each cycle taken is the one `step` makes of it, to the bit (tests/track/test_steady.py). What it saves is step's
+    generality and its report, built for every cycle: the tracker block takes its cycles this way whenever it can
+    (`python3 dev.py bench pipeline --with tracker`: what the tracker costs a graph)."""
     rows, done = tracks.rows, []
+    if not rows:
+        for zs in cycles:
+            if zs is not None:
+                break
+            done.append(_EMPTY)
+        return tracks, done
     if len(rows) != 1 or not rows[0][2]:
         return tracks, done
-    tid, x, _, hits, n_measured, _, _, window = rows[0]
+    tid, x, _, hits, n_measured, misses, idle, window = rows[0]
     dt, q, r, gamma = config.plain
-    threshold = config.nis_threshold
+    threshold, max_idle = config.nis_threshold, config.coast_cycles
+    not_updated = None if threshold is None else False
     for zs in cycles:
+        if zs is None:
+            if idle >= max_idle:         # the coast limit: step deletes the track
+                break
+            x, idle = predict_one(x, dt, q), idle + 1
+            done.append((x, None, not_updated))
+            continue
         if len(zs) != 1:
             break
         updated, d2 = track_one(x, zs[0], dt, q, r, gamma)
         if d2 is None:
             break
-        x, window = updated, window[1:] + (d2,)
+        x, window, hits, n_measured, misses, idle = updated, window[1:] + (d2,), hits + 1, n_measured + 1, 0, 0
         done.append((x, d2, None if threshold is None else sum(window) > threshold))
     if not done:
         return tracks, done
-    row = (tid, x, True, hits + len(done), n_measured + len(done), 0, 0, window)
+    row = (tid, x, True, hits, n_measured, misses, idle, window)
     return Tracks((row,), tracks.next_id, tracks.nis_window), done
+
+
+_EMPTY = (None, None, None)     # steady's entry for a cycle without a track
 
 
 def _measurements(z) -> list[tuple[float, float]]:

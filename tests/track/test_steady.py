@@ -4,7 +4,6 @@ cycles, it takes exactly the cycles it should and gives, to the bit, the tracks 
 tracker block, which takes that path whenever it can, writes the same frames and summary as when it cannot."""
 import json
 import random
-from itertools import takewhile
 from unittest import mock
 
 import numpy as np
@@ -23,11 +22,12 @@ def _config(**kw) -> TrackerConfig:
                             "sigma_velocity_mps": 0.01, **kw})
 
 
-def _stream(seed: int, n: int) -> list:
-    """Measured cycles (lists of pairs) and refused ones (None): a car at 43 m, sometimes a second at 20 m, clutter,
-    outliers far out of the gate, missed detections."""
+def _stream(seed: int, n: int, speed: float = 1.5) -> list:
+    """Measured cycles (lists of pairs) and refused ones (None): a car at 43 m (at `speed`), sometimes a second at
+    20 m, clutter, outliers far out of the gate, missed detections; for odd seeds an attack refused from cycle 200
+    on, for 30 cycles or for 60."""
     rng = random.Random(seed)
-    cars = [(43.0, 1.5)] + ([(20.0, -2.0)] if seed % 3 == 0 else [])
+    cars = [(43.0, speed)] + ([(20.0, -2.0)] if seed % 3 == 0 else [])
     out = []
     for k in range(n):
         if rng.random() < 0.1:
@@ -38,16 +38,22 @@ def _stream(seed: int, n: int) -> list:
         if rng.random() < 0.05:
             z.append((rng.uniform(5.0, 80.0), rng.uniform(-5.0, 5.0)))
         out.append(z)
+    if seed % 2:
+        outage = 30 if seed % 4 == 1 else 60
+        out[200:200 + outage] = [None] * outage
     return out
 
 
 def _usual(tracks: Tracks, z, config: TrackerConfig) -> bool:
-    """Whether the cycle is one `steady` must take: measured, one measurement, one confirmed track whose gate holds
-    it (step's own verdict: the track updated, and nothing else)."""
-    if z is None or len(z) != 1 or len(tracks) != 1 or not tracks.rows[0][2]:
+    """Whether the cycle is one `steady` must take (step's own verdict): nothing born or deleted, and either one
+    confirmed track updated by the cycle's one measurement or coasting through an unmeasured cycle, or no track and
+    no measurement."""
+    if not len(tracks):
+        return z is None
+    if len(tracks) != 1 or not tracks.rows[0][2] or z is not None and len(z) != 1:
         return False
     after, report = step(tracks, z, config)
-    return bool(report.updated.all()) and len(after) == 1
+    return len(after) == 1 and not report.born and not report.deleted and bool(report.updated.all()) == (z is not None)
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -55,28 +61,37 @@ def _usual(tracks: Tracks, z, config: TrackerConfig) -> bool:
 def test_steady_takes_exactly_the_usual_cycles_and_gives_steps_numbers_to_the_bit(seed, nis):
     config = _config(nis_pfa=nis[0], nis_window=nis[1], confirm_m=2, confirm_n=3, coast_cycles=8)
     stream = _stream(seed, 400)
-    ref, mixed, k, taken = Tracks.empty(config), Tracks.empty(config), 0, 0
+    ref, mixed, k, taken = Tracks.empty(config), Tracks.empty(config), 0, [0, 0, 0]
     while k < len(stream):
         # what step makes of the cycles steady should take, one by one
         expected = []
         probe = ref
         while k + len(expected) < len(stream) and _usual(probe, stream[k + len(expected)], config):
             probe, report = step(probe, stream[k + len(expected)], config)
+            if not len(probe):
+                expected.append((None, None, None))
+                continue
             alarm = None if report.nis_alarm is None else bool(report.nis_alarm[0])
-            expected.append((probe.rows[0][1], float(report.nis[0]), alarm))
-        mixed, done = steady(mixed, takewhile(lambda z: z is not None, stream[k:]), config)   # measured ones
+            nis = None if report.lists["nis"][0] != report.lists["nis"][0] else report.lists["nis"][0]
+            expected.append((probe.rows[0][1], nis, alarm))
+        mixed, done = steady(mixed, iter(stream[k:]), config)
         assert repr(done) == repr(expected), k
         if done:
-            ref, k, taken = probe, k + len(done), taken + len(done)
+            ref, k = probe, k + len(done)
+            taken[0] += sum(x is not None and nis is not None for x, nis, _ in done)     # updated
+            taken[1] += sum(x is not None and nis is None for x, nis, _ in done)         # coasting
+            taken[2] += sum(x is None for x, _, _ in done)                               # no track
         else:                                   # the cycle is step's: both take it
             ref, _ = step(ref, stream[k], config)
             mixed, _ = step(mixed, stream[k], config)
             k += 1
         assert repr(mixed.rows) == repr(ref.rows) and mixed.next_id == ref.next_id, k
-    if seed % 3:                                   # one car: both kinds of cycle met
-        assert 0.25 * len(stream) < taken < len(stream)
-    else:                                          # two cars: two tracks, never the usual cycle
-        assert taken == 0
+    if seed % 3:                                   # one car: updated and coasting cycles met
+        assert 0.2 * len(stream) < taken[0] < len(stream) and taken[1] > 10
+    else:                                          # two cars: two tracks, never a cycle with one
+        assert taken[:2] == [0, 0]
+    if seed % 2:                                   # the attack outlasts the coast limit: cycles without a track
+        assert taken[2] >= 10
 
 
 def test_steady_leaves_a_tentative_track_two_tracks_two_measurements_and_an_outlier_to_step():
@@ -96,9 +111,10 @@ def test_steady_leaves_a_tentative_track_two_tracks_two_measurements_and_an_outl
 
 
 def _frames(seed: int) -> list:
-    """The estimator's and the gate's frames of a random run, in arrival order."""
+    """The estimator's and the gate's frames of a random run, in arrival order: the car on table1_following's target
+    (43 m, at rest), so that the run's figures score a track on it."""
     rng = np.random.default_rng(seed)
-    stream, batch, out = _stream(seed, 700), int(rng.choice([4, 8, 32])), []
+    stream, batch, out = _stream(seed, 700, speed=0.0), int(rng.choice([4, 8, 32])), []
     for seq, c0 in enumerate(range(0, len(stream), batch)):
         cycles = range(c0, min(c0 + batch, len(stream)))
         clean = [c for c in cycles if stream[c] is not None]
@@ -134,3 +150,5 @@ def test_the_tracker_block_writes_the_same_frames_and_summary_with_and_without_t
         every_cycle_by_step = _run_block(seed)
     assert fast == every_cycle_by_step
     assert sum(f.count('"confirmed"') for f in fast) > 300        # the steady path had cycles to take
+    target, = json.loads(fast[-1])["run"]["tracks"]["targets"]    # and the figures scored a track on the car
+    assert target["held_cycles"] > 300 and target["coasted_cycles"] > 20
