@@ -13,6 +13,7 @@ from what the records give (a document edited by hand, or records updated withou
 from __future__ import annotations
 
 import argparse
+import statistics
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -390,8 +391,8 @@ def tracker_pooled_rows(doc: dict) -> list[Row]:
     """The tracker's loss per scene, every paired run of its cases pooled (bench.pipeline.tracker_pooled)."""
     rows = []
     for p in tracker_pooled(doc["records"]):
-        rows.append((f"the tracker after the target list on the {p['preset']} graph: cycles/s lost, every paired run "
-                     f"of its cases pooled ({p['runs']} runs)",
+        rows.append((f"the tracker after the target list on the {p['preset']} graph (scene {p['scene']}): cycles/s "
+                     f"lost, every paired run of its cases pooled ({p['runs']} runs)",
                      f"{p['mean_loss']:.1%} mean (a run's spread {p['sd']:.1%}, standard error {p['se']:.1%}; "
                      f"one-sided 95 % upper bound {p['upper_95']:.1%})",
                      f"<= {p['target']:.0%} (the upper bound)" if p["judged"] else "(reported)",
@@ -411,8 +412,9 @@ def pipeline_rows(doc: dict) -> list[Row]:
                          f"{r['ratio_to_pipeline']:.2f} x the live graph, {r['bytes_per_cycle'] / 1e3:.1f} kB/cycle",
                          f">= 1 x ({r['radar_cycles_per_s']:.0f} cycles/s)", _met(r["real_time_factor"] >= 1)))
         if r["mode"] == "tracker":
+            born = statistics.median(t["born"] for t in r["runs_tracks"])
             rows.append((f"the tracker after the target list: cycles/s lost against the same graph without it, "
-                         f"{case}",
+                         f"{case} (scene {r['tracker_scene']}; tracks born {born:g} a run)",
                          f"{r['cycles_per_s_loss']:.1%} ({r['cycles_per_s']:.0f} cycles/s, "
                          f"{r['ratio_to_pipeline']:.3f} x the graph without it, median of "
                          f"{len(r['runs_cycles_per_s'])} runs paired run by run; the tracker's block "

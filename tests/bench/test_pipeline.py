@@ -7,6 +7,7 @@ import statistics
 import pytest
 
 from bench import main as run_bench
+from bench import pipeline
 from bench.pipeline import _modes, ceiling, pipeline_overrides, tracker_graph
 from carav_graphs import graph_file
 from carav_stream.runtime.loader import load_graph
@@ -34,6 +35,35 @@ def test_the_tracker_mode_adds_the_tracks_graphs_tracker_after_the_target_list_a
     own = {k: v for k, v in g.nodes["tracker"].params.items() if k not in g.params}
     assert own == {k: v for k, v in tracks.nodes["tracker"].params.items() if k not in tracks.params}
     assert g.nodes["tracker"].params["scene"] == "table1"       # the case's scene, not the tracks graph's
+
+
+def test_on_table1_the_tracker_and_the_pipeline_it_is_paired_with_run_on_table1_following(monkeypatch):
+    """table1's car has a range rate its frozen geometry never follows (validation warns): the tracker's paired runs
+    take the scene of graphs/table1_tracks.toml, both of them; awr1642 keeps its own, paired with the case's run."""
+    calls = []
+
+    def fake(preset, fidelity, n, method, batch, transport, record_to=None, tracker=False):
+        calls.append((preset, tracker))
+        rate = {("table1", False): 1000.0, ("table1_following", False): 900.0, ("awr1642", False): 50.0}.get(
+            (preset, tracker), 800.0 if preset == "table1_following" else 40.0)
+        return rate, {"channel": 1.0}, {"tracks": {"born": 1, "deleted": 0}}
+
+    monkeypatch.setattr(pipeline, "_pipeline", fake)
+    monkeypatch.setattr(pipeline, "_fused", lambda *a: (500.0, 10.0))
+    monkeypatch.setattr(pipeline, "outside_blocks", lambda summary, n: {"channel": 0.0})
+    args = argparse.Namespace(transport=["zmq"], method="fft_peak")
+    for preset, pairs, ratio in (("table1", [("table1", False), ("table1_following", False),
+                                             ("table1_following", True)], 800 / 900),
+                                 ("awr1642", [("awr1642", False), ("awr1642", True)], 40 / 50)):
+        calls.clear()
+        runs = pipeline._Runs({("pipeline", "zmq"): [], ("tracker", "zmq"): [], ("fused", "none"): []})
+        pipeline._repeat(runs, (preset, "beat", 100), args, 8)
+        assert calls == pairs
+        base = {"preset": preset, "fidelity": "beat", "batch": 8, "cycles": 100, "repeats": 1,
+                "method": "fft_peak", "radar_cycles_per_s": 2131.0}
+        rec, _ = pipeline._record(runs, "tracker", "zmq", base, 1)
+        assert rec["tracker_scene"] == pipeline.TRACKER_SCENES.get(preset, preset)
+        assert rec["runs_ratio_to_pipeline"] == [ratio] and rec["runs_tracks"] == [{"born": 1, "deleted": 0}]
 
 
 def test_the_extra_modes_are_any_of_record_replay_and_tracker_and_replay_needs_record():
@@ -94,6 +124,8 @@ def test_bench_pipeline_writes_a_record_per_case_mode_and_batch(tmp_path, capsys
                                                                        pipeline["runs_cycles_per_s"])]
     assert tracked["cycles_per_s_loss"] == 1 - statistics.median(tracked["runs_ratio_to_pipeline"])
     assert tracked["loss_target"] == 0.05 and tracked["busy_us_per_cycle"]["tracker"] > 0
+    assert tracked["tracker_scene"] == "awr1642" and tracked["runs_paired_pipeline_cycles_per_s"] == \
+        pipeline["runs_cycles_per_s"] and all(t["born"] >= 1 for t in tracked["runs_tracks"])
     assert "tracker" not in pipeline["busy_us_per_cycle"]
     # on disk: awr1642's 128 chirps x 256 real int16 codes per cycle, nothing else
     assert all(r["bytes_per_cycle"] == 128 * 256 * 2 for r in records if r["mode"] in ("record", "replay"))
