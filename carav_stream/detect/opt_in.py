@@ -63,8 +63,8 @@ from carav_stream.detect.rdmap import rd_power
 from carav_stream.detect.receivers import receiver_count
 
 __all__ = ["exact_bins", "gamma_threshold", "spectral_silent_test", "spectral_threshold", "SpectralResult",
-           "integrated_silent_test", "integrated_threshold", "coherent_silent_test", "spill_test", "SpillResult",
-           "calibrate_threshold", "cusum_silent_power", "cusum_threshold", "silent_power_z"]
+           "integrated_silent_test", "integrated_threshold", "coherent_silent_test", "spill_test", "spill_tests",
+           "SpillResult", "calibrate_threshold", "cusum_silent_power", "cusum_threshold", "silent_power_z"]
 
 
 @dataclass(frozen=True)
@@ -259,29 +259,48 @@ def spill_test(frames, rho, sigma_n: float, first_sample: int, *, pf: float = 1e
     Slot k (k >= 1) is used iff rho[k - 1] and not rho[k]; the chirp before chirp 0 belongs to another cycle. A bin's
     powers are summed over the used slots and the receivers.
     """
+    return spill_tests(frames, rho, sigma_n, first_sample, [pf], receivers=receivers)[0]
+
+
+def spill_tests(frames, rho, sigma_n: float, first_sample: int, pfs, *, receivers: bool = False
+                ) -> list[SpillResult]:
+    """`spill_test` at each false-alarm probability of `pfs`, from one pass over the frames. Only the used slots
+    are transformed (about a quarter of the chirps with a balanced activation), and each cycle's are added in chirp
+    order: the numbers of a sum over all its chirps with the others at zero, to the bit."""
     x, active = _cycles(frames, rho, receivers)
     if not sigma_n > 0:
         raise ValueError(f"sigma_n: must be > 0 for the spill test, got {sigma_n!r}")
     if not 0 <= first_sample <= x.shape[-1] - 4:
         raise ValueError(f"first_sample: must be in 0..{x.shape[-1] - 4}, got {first_sample}")
-    if not 0 < pf < 1:
-        raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
+    for pf in pfs:
+        if not 0 < pf < 1:
+            raise ValueError(f"pf: must be in (0, 1), got {pf!r}")
     n_rx = x.shape[1]
     used = np.zeros(active.shape, dtype=bool)
     used[:, 1:] = active[:, :-1] & ~active[:, 1:]
     n_w = x.shape[-1] - first_sample
-    power = _bin_powers(x[..., first_sample:]) / (n_w * sigma_n ** 2)         # (cycles, receivers, chirps, bins)
-    power = _over_receivers(power, 1)
-    summed = np.sum(np.where(used[:, :, None], power, 0.0), axis=1)           # per cycle: batch-independent
+    cycle, slot = np.nonzero(used)                                           # cycle by cycle, in chirp order
+    slots = np.swapaxes(x, 1, 2)[cycle, slot, :, first_sample:]             # (used slots, receivers, window)
+    power = _over_receivers(_bin_powers(slots) / (n_w * sigma_n ** 2), 1)    # (used slots, bins)
     n_slots = used.sum(axis=1)
-    thr = np.full(x.shape[0], np.inf)
-    for m in np.unique(n_slots[n_slots > 0]).tolist():
-        thr[n_slots == m] = integrated_threshold(pf, power.shape[-1], n_rx * m)
+    # per cycle (batch-independent), the k-th used slot of every cycle at once: each cycle's sum in chirp order
+    rank = np.arange(len(cycle)) - np.repeat(np.cumsum(n_slots) - n_slots, n_slots)
+    summed = np.zeros((x.shape[0], power.shape[-1]))
+    for k in range(int(n_slots.max(initial=0))):
+        taken = rank == k
+        summed[cycle[taken]] += power[taken]
     peak = summed.max(axis=1)
     peak = np.where(np.isnan(peak), np.inf, peak)
-    with np.errstate(invalid="ignore"):
-        stat = np.where(n_slots > 0, peak / thr, 0.0)
-    return SpillResult(stat, thr, n_slots, int(first_sample), stat >= 1.0, n_rx)
+    some = n_slots > 0
+    out = []
+    for pf in pfs:
+        thr = np.full(x.shape[0], np.inf)
+        for m in np.unique(n_slots[some]).tolist():
+            thr[n_slots == m] = integrated_threshold(pf, power.shape[-1], n_rx * m)
+        with np.errstate(invalid="ignore"):
+            stat = np.where(some, peak / thr, 0.0)
+        out.append(SpillResult(stat, thr, n_slots, int(first_sample), stat >= 1.0, n_rx))
+    return out
 
 
 def calibrate_threshold(null_stats, pf: float) -> float:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scipy.fft
 
 from carav_stream.detect.detector import detect
 from carav_stream.detect.opt_in import (
@@ -15,6 +16,7 @@ from carav_stream.detect.opt_in import (
     spectral_silent_test,
     spectral_threshold,
     spill_test,
+    spill_tests,
 )
 from carav_stream.detect.stats import clopper_pearson
 from carav_stream.radar.activation import balanced_rows
@@ -118,6 +120,32 @@ def test_spill_test_batches_equal_single_cycles():
     for i in range(7):
         one = spill_test(x[i: i + 1], rho[i: i + 1], 1.0, 20)
         assert one.stat.tobytes() == res.stat[i: i + 1].tobytes()
+
+
+@pytest.mark.parametrize("iq, n_rx", [(False, 1), (True, 1), (False, 4), (True, 3)])
+def test_the_spill_test_transforms_only_its_used_slots_and_gives_the_sum_over_every_chirp_to_the_bit(iq, n_rx):
+    """Its definition written out: every chirp's window transformed, the chirps that are no used slot set to zero, the
+    sum over all the chirps of a cycle and its receivers; at two false-alarm rates from one pass, each as its own
+    spill_test gives it."""
+    rng = np.random.default_rng(11 + n_rx)
+    n, n_c, n_s, first, sigma = 9, 16, 100, 37, 1.7
+    rho = balanced_rows(rng, n, n_c)
+    x = rng.standard_normal((n, n_rx, n_c, n_s)).astype(np.float32)
+    if iq:
+        x = (x + 1j * rng.standard_normal(x.shape)).astype(np.complex64)
+    x[2, ..., first + 5] += 40.0                        # a loud spill in one cycle's every slot
+    spec = (scipy.fft.fft if iq else scipy.fft.rfft)(x[..., first:], axis=-1)      # in float32, as the test does
+    spec = spec if iq else spec[..., 1: (n_s - first - 1) // 2 + 1]
+    power = (spec.real.astype(np.float64) ** 2 + spec.imag.astype(np.float64) ** 2) / ((n_s - first) * sigma ** 2)
+    used = np.zeros_like(rho)
+    used[:, 1:] = rho[:, :-1] & ~rho[:, 1:]
+    peak = np.sum(np.where(used[:, None, :, None], power, 0.0), axis=(1, 2)).max(axis=1)
+    results = spill_tests(x if n_rx > 1 else x[:, 0], rho, sigma, first, [0.05, 1e-6], receivers=n_rx > 1)
+    for pf, res in zip([0.05, 1e-6], results):
+        np.testing.assert_allclose(res.stat * res.threshold, peak, rtol=1e-12)
+        alone = spill_test(x if n_rx > 1 else x[:, 0], rho, sigma, first, pf=pf, receivers=n_rx > 1)
+        assert res.stat.tobytes() == alone.stat.tobytes() and np.array_equal(res.alarm, alone.alarm)
+        assert np.array_equal(res.n_slots, used.sum(axis=1)) and res.alarm[2]
 
 
 def test_spill_test_names_a_window_outside_the_chirp():
