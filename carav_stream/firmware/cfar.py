@@ -121,10 +121,13 @@ def cfar_threshold(power: np.ndarray, *, pfa: float, gap: int = 3, train: int = 
         take, valid = np.where(idx[cols] >= 0, idx[cols], 0), idx[cols] >= 0
         k = max(1, int(np.ceil(os_rank * n)))
         alpha = os_alpha(pfa, int(n), k)
+        whole = valid.all()                           # the cells away from the edges: every window full
         for r0 in range(0, flat.shape[0], rows):
-            cells = flat[r0: r0 + rows][:, take]                           # (rows, len(cols), 2 train)
-            stat = np.partition(np.where(valid, cells, np.inf), k - 1, axis=-1)[..., k - 1]
-            out[r0: r0 + rows, cols] = alpha * stat
+            cells = flat[r0: r0 + rows][:, take]                           # (rows, len(cols), 2 train): a copy
+            if not whole:
+                cells[:, ~valid] = np.inf
+            cells.partition(k - 1, axis=-1)                                # in place: the copy is ours
+            out[r0: r0 + rows, cols] = alpha * cells[..., k - 1]
     return out.reshape(p.shape)
 
 

@@ -59,6 +59,23 @@ def test_design_false_alarm_rate_holds_on_maps_and_at_the_range_edges(kind):
     assert np.mean(p[..., edges] > t[..., edges]) == pytest.approx(1e-2, rel=0.25)
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_the_os_threshold_is_the_kth_smallest_training_cell_times_its_multiplier_cell_by_cell(dtype):
+    """Written out from the definition, one cell at a time: the training cells every third bin from `gap` on, `train`
+    per side and none beyond the axis; the k-th smallest of the n there, k = ceil(0.75 n); times os_alpha(pfa, n, k)."""
+    rng = np.random.default_rng(7)
+    p = rng.exponential(size=(5, 4, 90)).astype(dtype)
+    p[1, 2, 40] = 300.0                                             # a target among the training cells
+    t = cfar_threshold(p, pfa=1e-4, gap=6, train=8, kind="os")
+    assert t.dtype == dtype and t.shape == p.shape
+    for j in range(p.shape[-1]):
+        cells = [j + s * (6 + 3 * i) for s in (-1, 1) for i in range(8)]
+        cells = [c for c in cells if 0 <= c < p.shape[-1]]
+        k = int(np.ceil(0.75 * len(cells)))
+        expected = os_alpha(1e-4, len(cells), k) * np.sort(p[..., cells], axis=-1)[..., k - 1]
+        np.testing.assert_array_equal(t[..., j], expected.astype(dtype), err_msg=str(j))
+
+
 def test_pd_of_a_swerling_1_cell_follows_the_textbook_ca_cfar_curve():
     """Exponential training cells and a cell under test of mean 1 + SNR: Pd = (1 + alpha / (n (1 + SNR)))^-n."""
     rng = np.random.default_rng(3)
