@@ -10,6 +10,7 @@ from bench import main as run_bench
 from bench import pipeline
 from bench.pipeline import _modes, ceiling, pipeline_overrides, tracker_graph
 from carav_graphs import graph_file
+from carav_stream.radar.streams import scene_of
 from carav_stream.runtime.loader import load_graph
 
 
@@ -64,6 +65,17 @@ def test_on_table1_the_tracker_and_the_pipeline_it_is_paired_with_run_on_table1_
         rec, _ = pipeline._record(runs, "tracker", "zmq", base, 1)
         assert rec["tracker_scene"] == pipeline.TRACKER_SCENES.get(preset, preset)
         assert rec["runs_ratio_to_pipeline"] == [ratio] and rec["runs_tracks"] == [{"born": 1, "deleted": 0}]
+
+
+def test_the_trackers_scene_on_table1_is_the_tracks_graphs_and_its_car_keeps_its_range():
+    """The scene the tracker's paired runs take on table1 is the one graphs/table1_tracks.toml tracks on: Table I's
+    radar, and a car with no range rate (the frozen geometry holds it where a constant-velocity track puts it)."""
+    scene = pipeline.TRACKER_SCENES["table1"]
+    assert scene == load_graph(graph_file("table1_tracks")).params["scene"]
+    following, table1 = scene_of(scene), scene_of("table1")
+    assert following.frame_shape(1) == table1.frame_shape(1) and following.t_cycle_s == table1.t_cycle_s
+    assert [following.range_rate_mps(t) for t in following.targets] == [0.0]
+    assert [round(table1.range_rate_mps(t), 3) for t in table1.targets] == [-1.111]
 
 
 def test_the_extra_modes_are_any_of_record_replay_and_tracker_and_replay_needs_record():
