@@ -62,6 +62,11 @@ TRACKER_JUDGED = "table1"      # ... judged on this scene's graph, every paired 
 TRACKER_SCENES = {"table1": "table1_following"}   # the tracker's paired runs: a scene its motion model holds on
 
 
+def tracker_scene(preset: str) -> str:
+    """The scene of the tracker's paired runs for a case of `preset` (TRACKER_SCENES, else the preset's own)."""
+    return TRACKER_SCENES.get(preset, preset)
+
+
 def _modes(text: str) -> list[str]:
     wanted = [] if text == "none" else text.split(",")
     if set(wanted) - set(EXTRA_MODES) or "replay" in wanted and "record" not in wanted:
@@ -219,7 +224,7 @@ def _repeat(runs: _Runs, case: tuple[str, str, int], args: argparse.Namespace, b
         runs.add(("pipeline", transport), rate, busy)
         runs.outside.setdefault(transport, []).append(outside_blocks(summary, n))
         if transport == first and ("tracker", first) in runs.rates:
-            scene = TRACKER_SCENES.get(preset, preset)
+            scene = tracker_scene(preset)
             runs.tracker_base.append(rate if scene == preset else
                                      _pipeline(scene, fidelity, n, args.method, batch, first)[0])
             rate, busy, summary = _pipeline(scene, fidelity, n, args.method, batch, first, tracker=True)
@@ -270,7 +275,7 @@ def _record(runs: _Runs, mode: str, transport: str, base: dict, samples: int) ->
         note += f"  {runs.bytes_per_cycle} B/cycle on disk, x{rec['ratio_to_pipeline']:.2f} live graph"
     if mode == "tracker":
         # against a pipeline of the same repeat, plane and scene, run just before it: paired, like the fused ratio
-        rec["tracker_scene"] = TRACKER_SCENES.get(base["preset"], base["preset"])
+        rec["tracker_scene"] = tracker_scene(base["preset"])
         rec["runs_paired_pipeline_cycles_per_s"] = runs.tracker_base
         rec["runs_tracks"] = runs.tracker_tracks
         rec["runs_ratio_to_pipeline"] = ratios = [t / p for t, p in zip(rates, runs.tracker_base)]
